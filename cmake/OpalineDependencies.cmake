@@ -1,0 +1,40 @@
+# Finds every third-party library opaline uses. A missing one stops configure with the Debian
+# package that provides it; scripts/install-deps.sh installs them all.
+find_package(PkgConfig)
+if(NOT PKG_CONFIG_FOUND)
+  message(FATAL_ERROR "pkg-config not found: install the Debian package 'pkg-config'")
+endif()
+
+function(opaline_require_pkg target module debian_package)
+  pkg_check_modules(${target} QUIET IMPORTED_TARGET GLOBAL ${module})
+  if(NOT ${target}_FOUND)
+    message(FATAL_ERROR "opaline needs ${module}: install the Debian package '${debian_package}' "
+                        "(or run scripts/install-deps.sh)")
+  endif()
+endfunction()
+
+opaline_require_pkg(OP_LAPACKE lapacke liblapacke-dev)
+opaline_require_pkg(OP_OPENBLAS openblas libopenblas-dev)
+opaline_require_pkg(OP_LIBXML2 libxml-2.0 libxml2-dev)
+# Only OpenEXR's C API (OpenEXRCore) is used, not its C++ libraries.
+find_path(OP_OPENEXR_INCLUDE_DIR openexr.h PATH_SUFFIXES OpenEXR)
+find_library(OP_OPENEXR_CORE_LIBRARY NAMES OpenEXRCore OpenEXRCore-3_1)
+if(NOT OP_OPENEXR_INCLUDE_DIR OR NOT OP_OPENEXR_CORE_LIBRARY)
+  message(FATAL_ERROR "opaline needs OpenEXR's C API: install the Debian package 'libopenexr-dev'")
+endif()
+add_library(op_openexr_core INTERFACE)
+target_include_directories(op_openexr_core INTERFACE ${OP_OPENEXR_INCLUDE_DIR})
+target_link_libraries(op_openexr_core INTERFACE ${OP_OPENEXR_CORE_LIBRARY})
+opaline_require_pkg(OP_LIBPNG libpng libpng-dev)
+opaline_require_pkg(OP_ZLIB zlib zlib1g-dev)
+if(OPALINE_BUILD_TESTS)
+  opaline_require_pkg(OP_CMOCKA cmocka libcmocka-dev)
+endif()
+
+find_package(embree 3.13 QUIET CONFIG)
+if(NOT embree_FOUND)
+  message(FATAL_ERROR "opaline needs Embree 3: install the Debian package 'libembree-dev'")
+endif()
+
+find_package(Threads REQUIRED)
+find_library(OP_LIBM m REQUIRED)

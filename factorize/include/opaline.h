@@ -1,0 +1,197 @@
+/*
+ * opaline.h - the opaline library.
+ *
+ * Reads, writes and evaluates factored heterogeneous subsurface-scattering materials
+ * (".opm" files), and holds the support that every opaline program shares: error reporting,
+ * logging, progress reporting, crash-safe output files and image files.
+ *
+ * Conventions
+ *  - Every fallible function returns an op_status and, when it fails, fills the caller's
+ *    op_error (which may be NULL) with a message that names the file, line or index at fault.
+ *  - Objects are opaque; whoever opens or creates one closes it. Pointers returned by getters
+ *    stay valid until the owning object is closed.
+ *  - A material is read-only once open and may be evaluated from any number of threads.
+ *  - Units: a material's physical size is in centimetres; Rd values are dimensionless (the
+ *    fraction of the power entering through one incident pixel that leaves through one exit
+ *    pixel). docs/formats.md is the one place that defines them.
+ */
+#ifndef OPALINE_H
+#define OPALINE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---------------------------------------------------------------- errors */
+
+typedef enum op_status {
+    OP_OK = 0,
+    OP_ERR_INPUT,    /* bad user input: arguments, scene, dataset values (exit code 2) */
+    OP_ERR_FORMAT,   /* a file that is truncated, corrupt, hostile or of the wrong kind */
+    OP_ERR_IO,       /* the operating system refused a read or write */
+    OP_ERR_NOMEM,    /* an allocation failed */
+    OP_ERR_NUMERIC,  /* a computation produced no finite result */
+    OP_ERR_CANCELLED,/* the user interrupted the work */
+    OP_ERR_INTERNAL  /* a broken invariant: a bug in opaline */
+} op_status;
+
+typedef struct op_error {
+    op_status status;
+    char message[1024];
+} op_error;
+
+/* Records status and a printf-style message in err (if err is not NULL); returns status. */
+op_status op_error_set(op_error *err, op_status status, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+/* Prepends context ("scene.xml:12: ") to the message already in err; returns err->status. */
+op_status op_error_prefix(op_error *err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* The process exit code for a status: 0 for OP_OK, 2 for input and format errors, 130 for a
+ * cancellation, 1 otherwise. */
+int op_exit_code(op_status status);
+const char *op_status_name(op_status status);
+
+/* ---------------------------------------------------------------- logging */
+
+typedef enum op_log_level { OP_LOG_ERROR, OP_LOG_WARN, OP_LOG_INFO, OP_LOG_DEBUG } op_log_level;
+
+/* Sets the most verbose level printed (default OP_LOG_INFO). Call before starting threads. */
+void op_log_set_level(op_log_level level);
+op_log_level op_log_get_level(void);
+/* Writes one line "opaline: <level>: <message>" to stderr; safe from any thread. */
+void op_log(op_log_level level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* ---------------------------------------------------------------- progress */
+
+/* Called at most a few times per second with the fraction done in [0, 1]. */
+typedef void (*op_progress_fn)(void *user, const char *label, double fraction, double eta_seconds);
+
+typedef struct op_progress op_progress;
+
+/* Starts reporting a task of `total` units. With fn NULL the report goes to stderr: a bar with
+ * an ETA when stderr is a terminal, plain lines every few seconds otherwise, nothing when the
+ * log level is below OP_LOG_INFO. Returns NULL only when out of memory (reporting is then
+ * silently off; every other function accepts NULL). */
+op_progress *op_progress_begin(const char *label, uint64_t total, op_progress_fn fn, void *user);
+/* Adds n finished units; safe from any thread. */
+void op_progress_advance(op_progress *p, uint64_t n);
+/* Prints the final report and frees p. */
+void op_progress_end(op_progress *p);
+
+/* ---------------------------------------------------------------- output files */
+
+/* A file written under a temporary name in the destination folder and renamed over the
+ * destination only by op_output_commit, so readers never see half-written output. */
+typedef struct op_output op_output;
+
+op_status op_output_open(const char *path, op_output **out, op_error *err);
+FILE *op_output_stream(op_output *out);
+/* Writes n bytes; the first failure is remembered and reported by commit. */
+void op_output_write(op_output *out, const void *data, size_t n);
+/* Flushes, syncs and renames into place; frees out whatever the result. */
+op_status op_output_commit(op_output *out, op_error *err);
+/* Removes the temporary file and frees out. Accepts NULL. */
+void op_output_abort(op_output *out);
+
+/* ---------------------------------------------------------------- images */
+
+/* Pixels are linear-light floats, row-major from the top row, `channels` interleaved per pixel
+ * (1 = grey, 3 = RGB, 4 = RGBA). */
+typedef struct op_image {
+    int width, height, channels;
+    float *pixels;
+} op_image;
+
+op_status op_image_alloc(op_image *img, int width, int height, int channels, op_error *err);
+void op_image_free(op_image *img);
+/* 8-bit sRGB PNG after multiplying by 2^exposure_stops; values are clamped to [0, 1]. */
+op_status op_image_write_png(const char *path, const op_image *img, float exposure_stops,
+                             op_error *err);
+/* OpenEXR (via its C API), half floats when half_float != 0, else 32-bit floats. */
+op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err);
+/* Portable float map, little-endian. */
+op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
+/* Reads an OpenEXR or PNG file (chosen by content) into linear floats. */
+op_status op_image_read(const char *path, op_image *img, op_error *err);
+
+/* ---------------------------------------------------------------- materials */
+
+typedef enum op_method {
+    OP_METHOD_RAW = 0, /* the dataset itself: the reference */
+    OP_METHOD_SVD,     /* log-transformed truncated SVD per channel (Onel, Kurt, Ozturk) */
+    OP_METHOD_TUCKER,  /* Tucker of the channel mean + per-row polynomial colour regression */
+    OP_METHOD_KCTA,    /* K-clustered tensor approximation (Tsai and Shih 2012) */
+    OP_METHOD_NMF,     /* non-negative matrix factorization baseline (Peers et al. 2006) */
+    OP_METHOD_COUNT
+} op_method;
+
+const char *op_method_name(op_method m);
+/* Returns OP_METHOD_COUNT for an unknown name. */
+op_method op_method_from_name(const char *name);
+
+/* What a material is. Rows are incident pixels (row index y * width + x), columns are kernel
+ * offsets (column index (dy + kernel/2) * kernel + (dx + kernel/2)). */
+typedef struct op_material_info {
+    op_method method;
+    int width, height;         /* incident pixels */
+    int kernel;                /* odd kernel side K: offsets range over [-K/2, K/2] */
+    int channels;              /* 1 or 3 (R, G, B) */
+    double size_x_cm, size_y_cm; /* physical size of the sample */
+    int terms;                 /* T (svd, tucker, kcta, nmf), 0 for raw */
+    int degree;                /* P (tucker), 0 otherwise */
+    int clusters;              /* C (kcta), 0 otherwise */
+    int shifted;               /* rows were shifted and normalized (paper section 4.1) */
+    double log_a, log_b;       /* svd: R''' = ln(R'/A + B) */
+    uint32_t dataset_crc;      /* CRC-32 of the source dataset's Rd values */
+    char name[128];            /* e.g. "Chess4x4" */
+    char generator[128];       /* how the source data was made, free text */
+    char tool_version[32];
+} op_material_info;
+
+typedef struct op_material op_material;
+
+/* Opens and fully validates a material file (header, section table, checksums, dimensions,
+ * method-specific invariants). A truncated, corrupt or hostile file gives OP_ERR_FORMAT. */
+op_status op_material_open(const char *path, op_material **out, op_error *err);
+void op_material_close(op_material *m);
+const op_material_info *op_material_get_info(const op_material *m);
+/* Bytes the material occupies on disk. */
+uint64_t op_material_file_size(const op_material *m);
+
+/* Rd for `channel` at incident pixel (x, y) and offset (dx, dy); 0 outside the kernel.
+ * Coordinates must be in range (checked only by assertions). Never negative or NaN. */
+float op_material_eval(const op_material *m, int channel, int x, int y, int dx, int dy);
+/* The whole kernel row of incident pixel (x, y): K*K values in column order. */
+void op_material_eval_row(const op_material *m, int channel, int x, int y, float *out);
+/* Albedo map: for every channel and incident pixel the row sum, as channels*width*height
+ * floats, channel-major. */
+op_status op_material_albedo_map(const op_material *m, float *out, op_error *err);
+
+/* A named section's bytes (e.g. "RD.R" of a raw material), or NULL when absent. Sections are
+ * aligned to 64 bytes in the file and in memory. */
+const void *op_material_section(const op_material *m, const char *tag, uint64_t *bytes);
+
+/* Writing: open, add each section once, commit. Section tags are 1 to 8 printable characters;
+ * "META" is written by the library from info. */
+typedef struct op_material_writer op_material_writer;
+
+op_status op_material_writer_open(const char *path, const op_material_info *info,
+                                  op_material_writer **out, op_error *err);
+op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
+                                 uint64_t bytes, op_error *err);
+/* Writes the section table and renames the file into place; frees w whatever the result. */
+op_status op_material_writer_commit(op_material_writer *w, op_error *err);
+void op_material_writer_abort(op_material_writer *w);
+
+/* CRC-32 (zlib's) of a buffer, continuing from crc (start with 0). */
+uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
+
+const char *op_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

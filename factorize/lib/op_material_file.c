@@ -1,0 +1,556 @@
+/* op_material_file.c - the one module that reads and writes ".opm" material files.
+ *
+ * Layout (all integers little-endian; docs/formats.md is the specification):
+ *   header, 64 bytes: magic "OPALINEM", u32 version, u32 section count, u64 file size,
+ *                     u64 table offset, u32 table CRC-32, u32 header CRC-32 (of bytes 0..35)
+ *   sections, each starting at a multiple of 64 bytes
+ *   section table: per section tag[8], u64 offset, u64 size, u32 CRC-32, u32 reserved (0)
+ * Section "META" is UTF-8 text, one "key=value" per line, describing the material. */
+#include "op_material_internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "opaline maps little-endian float sections directly; port op_material_file.c first"
+#endif
+
+#define OPM_MAGIC "OPALINEM"
+#define OPM_VERSION 1u
+#define OPM_HEADER_SIZE 64u
+#define OPM_ENTRY_SIZE 32u
+#define OPM_ALIGN 64u
+#define OPM_MAX_SECTIONS 4096u
+
+#ifndef OPALINE_VERSION_STRING
+#define OPALINE_VERSION_STRING "unknown"
+#endif
+
+const char *op_version(void)
+{
+    return OPALINE_VERSION_STRING;
+}
+
+uint32_t op_crc32(uint32_t crc, const void *data, size_t n)
+{
+    return (uint32_t)crc32_z(crc, data, n);
+}
+
+static const char *const method_names[OP_METHOD_COUNT] = {"raw", "svd", "tucker", "kcta", "nmf"};
+
+const char *op_method_name(op_method m)
+{
+    return (unsigned)m < OP_METHOD_COUNT ? method_names[m] : "unknown";
+}
+
+op_method op_method_from_name(const char *name)
+{
+    for (int i = 0; i < OP_METHOD_COUNT; i++)
+        if (strcmp(name, method_names[i]) == 0)
+            return (op_method)i;
+    return OP_METHOD_COUNT;
+}
+
+static const op_method_ops *method_ops(op_method m)
+{
+    switch (m) {
+    case OP_METHOD_RAW: return &op_method_raw_ops;
+    default: return NULL;
+    }
+}
+
+/* ------------------------------------------------------------ little-endian helpers */
+
+static uint32_t get_u32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static uint64_t get_u64(const unsigned char *p)
+{
+    return (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
+}
+
+static void put_u32(unsigned char *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void put_u64(unsigned char *p, uint64_t v)
+{
+    put_u32(p, (uint32_t)v);
+    put_u32(p + 4, (uint32_t)(v >> 32));
+}
+
+static int valid_tag(const char *tag)
+{
+    size_t n = strnlen(tag, 9);
+    if (n < 1 || n > 8)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        if (tag[i] <= ' ' || tag[i] > '~')
+            return 0;
+    return 1;
+}
+
+/* ------------------------------------------------------------ helpers for methods */
+
+int64_t op_material_rows(const op_material *m)
+{
+    return (int64_t)m->info.width * m->info.height;
+}
+
+int op_material_cols(const op_material *m)
+{
+    return m->info.kernel * m->info.kernel;
+}
+
+void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_info *info, int c)
+{
+    static const char rgb[] = "RGB";
+    snprintf(tag, n, "%s%c", prefix, info->channels == 1 ? 'Y' : rgb[c]);
+}
+
+const void *op_material_section(const op_material *m, const char *tag, uint64_t *bytes)
+{
+    for (uint32_t i = 0; i < m->nsections; i++) {
+        const unsigned char *e = m->table + (size_t)i * OPM_ENTRY_SIZE;
+        if (strncmp((const char *)e, tag, 8) == 0) {
+            if (bytes)
+                *bytes = get_u64(e + 16);
+            return m->base + get_u64(e + 8);
+        }
+    }
+    return NULL;
+}
+
+op_status op_material_float_section(const op_material *m, const char *tag, uint64_t count,
+                                    int nonneg, const float **out, op_error *err)
+{
+    uint64_t bytes = 0;
+    const float *v = op_material_section(m, tag, &bytes);
+    if (!v)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
+    if (bytes != count * sizeof(float))
+        return op_error_set(err, OP_ERR_FORMAT,
+                            "%s: section '%s' holds %llu bytes, expected %llu", m->path, tag,
+                            (unsigned long long)bytes, (unsigned long long)(count * sizeof(float)));
+    for (uint64_t i = 0; i < count; i++) {
+        if (!isfinite(v[i]) || (nonneg && v[i] < 0.0f))
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' value %llu is %g", m->path,
+                                tag, (unsigned long long)i, (double)v[i]);
+    }
+    *out = v;
+    return OP_OK;
+}
+
+/* ------------------------------------------------------------ META text */
+
+static op_status parse_int(const char *path, const char *key, const char *val, int lo, int hi,
+                           int *out, op_error *err)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(val, &end, 10);
+    if (errno || end == val || *end || v < lo || v > hi)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: META '%s' = '%s' is not an integer in [%d, %d]",
+                            path, key, val, lo, hi);
+    *out = (int)v;
+    return OP_OK;
+}
+
+static op_status parse_double(const char *path, const char *key, const char *val, double *out,
+                              op_error *err)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(val, &end);
+    if (errno || end == val || *end || !isfinite(v))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: META '%s' = '%s' is not a finite number",
+                            path, key, val);
+    *out = v;
+    return OP_OK;
+}
+
+static op_status parse_meta(const char *path, const char *text, uint64_t n, op_material_info *info,
+                            op_error *err)
+{
+    memset(info, 0, sizeof *info);
+    info->method = OP_METHOD_COUNT;
+    char line[512];
+    uint64_t pos = 0;
+    int lineno = 0, have_dims = 0;
+    op_status st = OP_OK;
+    while (pos < n && st == OP_OK) {
+        uint64_t end = pos;
+        while (end < n && text[end] != '\n')
+            end++;
+        lineno++;
+        if (end - pos >= sizeof line)
+            return op_error_set(err, OP_ERR_FORMAT, "%s: META line %d is too long", path, lineno);
+        memcpy(line, text + pos, end - pos);
+        line[end - pos] = '\0';
+        pos = end + 1;
+        if (!line[0])
+            continue;
+        char *eq = strchr(line, '=');
+        if (!eq)
+            return op_error_set(err, OP_ERR_FORMAT, "%s: META line %d has no '='", path, lineno);
+        *eq = '\0';
+        const char *k = line, *v = eq + 1;
+        if (!strcmp(k, "method")) {
+            info->method = op_method_from_name(v);
+            if (info->method == OP_METHOD_COUNT)
+                st = op_error_set(err, OP_ERR_FORMAT, "%s: unknown method '%s'", path, v);
+        } else if (!strcmp(k, "width")) {
+            st = parse_int(path, k, v, 1, 1 << 20, &info->width, err);
+            have_dims |= 1;
+        } else if (!strcmp(k, "height")) {
+            st = parse_int(path, k, v, 1, 1 << 20, &info->height, err);
+            have_dims |= 2;
+        } else if (!strcmp(k, "kernel")) {
+            st = parse_int(path, k, v, 1, 4095, &info->kernel, err);
+            have_dims |= 4;
+        } else if (!strcmp(k, "channels")) {
+            st = parse_int(path, k, v, 1, 3, &info->channels, err);
+            have_dims |= 8;
+        } else if (!strcmp(k, "size_x_cm")) {
+            st = parse_double(path, k, v, &info->size_x_cm, err);
+        } else if (!strcmp(k, "size_y_cm")) {
+            st = parse_double(path, k, v, &info->size_y_cm, err);
+        } else if (!strcmp(k, "terms")) {
+            st = parse_int(path, k, v, 0, 1 << 16, &info->terms, err);
+        } else if (!strcmp(k, "degree")) {
+            st = parse_int(path, k, v, 0, 64, &info->degree, err);
+        } else if (!strcmp(k, "clusters")) {
+            st = parse_int(path, k, v, 0, 1 << 20, &info->clusters, err);
+        } else if (!strcmp(k, "shifted")) {
+            st = parse_int(path, k, v, 0, 1, &info->shifted, err);
+        } else if (!strcmp(k, "log_a")) {
+            st = parse_double(path, k, v, &info->log_a, err);
+        } else if (!strcmp(k, "log_b")) {
+            st = parse_double(path, k, v, &info->log_b, err);
+        } else if (!strcmp(k, "dataset_crc")) {
+            char *e;
+            errno = 0;
+            unsigned long long c = strtoull(v, &e, 16);
+            if (errno || e == v || *e || c > 0xffffffffull)
+                st = op_error_set(err, OP_ERR_FORMAT, "%s: META dataset_crc '%s' is invalid", path, v);
+            info->dataset_crc = (uint32_t)c;
+        } else if (!strcmp(k, "name")) {
+            snprintf(info->name, sizeof info->name, "%s", v);
+        } else if (!strcmp(k, "generator")) {
+            snprintf(info->generator, sizeof info->generator, "%s", v);
+        } else if (!strcmp(k, "tool_version")) {
+            snprintf(info->tool_version, sizeof info->tool_version, "%s", v);
+        }
+        /* Unknown keys are allowed: newer writers may add descriptive fields. */
+    }
+    if (st != OP_OK)
+        return st;
+    if (info->method == OP_METHOD_COUNT || have_dims != 15)
+        return op_error_set(err, OP_ERR_FORMAT,
+                            "%s: META lacks method, width, height, kernel or channels", path);
+    if (info->kernel % 2 == 0)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: kernel %d is not odd", path, info->kernel);
+    if (info->channels != 1 && info->channels != 3)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: %d channels (need 1 or 3)", path,
+                            info->channels);
+    if (!(info->size_x_cm > 0) || !(info->size_y_cm > 0))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: physical size must be positive", path);
+    if ((int64_t)info->width * info->height > ((int64_t)1 << 32))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: %d x %d pixels is too many", path,
+                            info->width, info->height);
+    return OP_OK;
+}
+
+static size_t format_meta(const op_material_info *info, char *buf, size_t n)
+{
+    return (size_t)snprintf(
+        buf, n,
+        "method=%s\nwidth=%d\nheight=%d\nkernel=%d\nchannels=%d\nsize_x_cm=%.17g\n"
+        "size_y_cm=%.17g\nterms=%d\ndegree=%d\nclusters=%d\nshifted=%d\nlog_a=%.17g\n"
+        "log_b=%.17g\ndataset_crc=%08x\nname=%s\ngenerator=%s\ntool_version=%s\n",
+        op_method_name(info->method), info->width, info->height, info->kernel, info->channels,
+        info->size_x_cm, info->size_y_cm, info->terms, info->degree, info->clusters,
+        info->shifted, info->log_a, info->log_b, (unsigned)info->dataset_crc, info->name,
+        info->generator, op_version());
+}
+
+/* ------------------------------------------------------------ reading */
+
+static op_status check_container(op_material *m, op_error *err)
+{
+    const unsigned char *b = m->base;
+    const char *path = m->path;
+    if (m->size < OPM_HEADER_SIZE || memcmp(b, OPM_MAGIC, 8) != 0)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: not an opaline material file", path);
+    if (get_u32(b + 36) != op_crc32(0, b, 36))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: header checksum mismatch (corrupt file)",
+                            path);
+    uint32_t version = get_u32(b + 8);
+    if (version != OPM_VERSION)
+        return op_error_set(err, OP_ERR_FORMAT,
+                            "%s: format version %u, this opaline reads version %u", path, version,
+                            OPM_VERSION);
+    uint32_t count = get_u32(b + 12);
+    uint64_t declared = get_u64(b + 16), table = get_u64(b + 24);
+    if (declared != m->size)
+        return op_error_set(err, OP_ERR_FORMAT,
+                            "%s: file is %llu bytes but its header says %llu (truncated?)", path,
+                            (unsigned long long)m->size, (unsigned long long)declared);
+    if (count == 0 || count > OPM_MAX_SECTIONS || table < OPM_HEADER_SIZE ||
+        table > m->size || (m->size - table) / OPM_ENTRY_SIZE < count)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section table out of bounds", path);
+    if (get_u32(b + 32) != op_crc32(0, b + table, (size_t)count * OPM_ENTRY_SIZE))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section table checksum mismatch", path);
+    m->table = b + table;
+    m->nsections = count;
+    for (uint32_t i = 0; i < count; i++) {
+        const unsigned char *e = m->table + (size_t)i * OPM_ENTRY_SIZE;
+        char tag[9];
+        memcpy(tag, e, 8);
+        tag[8] = '\0';
+        uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
+        if (!valid_tag(tag) || off % OPM_ALIGN || off < OPM_HEADER_SIZE || off > table ||
+            size > table - off)
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section %u ('%.8s') out of bounds", path,
+                                i, tag);
+        for (uint32_t j = 0; j < i; j++)
+            if (!memcmp(e, m->table + (size_t)j * OPM_ENTRY_SIZE, 8))
+                return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' appears twice", path,
+                                    tag);
+        if (get_u32(e + 24) != op_crc32(0, b + off, size))
+            return op_error_set(err, OP_ERR_FORMAT,
+                                "%s: section '%s' checksum mismatch (corrupt file)", path, tag);
+    }
+    return OP_OK;
+}
+
+op_status op_material_open(const char *path, op_material **out, op_error *err)
+{
+    *out = NULL;
+    op_material *m = calloc(1, sizeof *m);
+    if (!m)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    snprintf(m->path, sizeof m->path, "%s", path);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    struct stat stbuf;
+    if (fd < 0 || fstat(fd, &stbuf) != 0) {
+        int e = errno;
+        if (fd >= 0)
+            close(fd);
+        free(m);
+        return op_error_set(err, e == ENOENT ? OP_ERR_INPUT : OP_ERR_IO, "%s: cannot open: %s",
+                            path, strerror(e));
+    }
+    if (!S_ISREG(stbuf.st_mode) || stbuf.st_size < (off_t)OPM_HEADER_SIZE) {
+        close(fd);
+        free(m);
+        return op_error_set(err, OP_ERR_FORMAT, "%s: not an opaline material file", path);
+    }
+    m->size = (uint64_t)stbuf.st_size;
+    void *map = mmap(NULL, (size_t)m->size, PROT_READ, MAP_PRIVATE, fd, 0);
+    close(fd);
+    if (map == MAP_FAILED) {
+        int e = errno;
+        free(m);
+        return op_error_set(err, OP_ERR_IO, "%s: cannot map: %s", path, strerror(e));
+    }
+    m->base = map;
+    op_status st = check_container(m, err);
+    uint64_t meta_n = 0;
+    const char *meta = st == OP_OK ? op_material_section(m, "META", &meta_n) : NULL;
+    if (st == OP_OK && !meta)
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'META' is missing", path);
+    if (st == OP_OK)
+        st = parse_meta(path, meta, meta_n, &m->info, err);
+    if (st == OP_OK && !(m->ops = method_ops(m->info.method)))
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: method '%s' is not supported by this build",
+                          path, op_method_name(m->info.method));
+    if (st == OP_OK)
+        st = m->ops->prepare(m, err);
+    if (st != OP_OK) {
+        m->ops = NULL; /* prepare cleans up after itself on failure */
+        op_material_close(m);
+        return st;
+    }
+    *out = m;
+    return OP_OK;
+}
+
+void op_material_close(op_material *m)
+{
+    if (!m)
+        return;
+    if (m->ops && m->ops->destroy)
+        m->ops->destroy(m);
+    if (m->base)
+        munmap((void *)m->base, (size_t)m->size);
+    free(m);
+}
+
+const op_material_info *op_material_get_info(const op_material *m)
+{
+    return &m->info;
+}
+
+uint64_t op_material_file_size(const op_material *m)
+{
+    return m->size;
+}
+
+float op_material_eval(const op_material *m, int channel, int x, int y, int dx, int dy)
+{
+    int h = m->info.kernel / 2;
+    if (dx < -h || dx > h || dy < -h || dy > h)
+        return 0.0f;
+    int64_t row = (int64_t)y * m->info.width + x;
+    return m->ops->eval(m, channel, row, (dy + h) * m->info.kernel + (dx + h));
+}
+
+void op_material_eval_row(const op_material *m, int channel, int x, int y, float *out)
+{
+    m->ops->eval_row(m, channel, (int64_t)y * m->info.width + x, out);
+}
+
+op_status op_material_albedo_map(const op_material *m, float *out, op_error *err)
+{
+    if (m->ops->albedo)
+        return m->ops->albedo(m, out, err);
+    int64_t rows = op_material_rows(m);
+    int cols = op_material_cols(m);
+    float *row = malloc((size_t)cols * sizeof *row);
+    if (!row)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    for (int c = 0; c < m->info.channels; c++) {
+        for (int64_t r = 0; r < rows; r++) {
+            m->ops->eval_row(m, c, r, row);
+            double s = 0;
+            for (int j = 0; j < cols; j++)
+                s += row[j];
+            out[c * rows + r] = (float)s;
+        }
+    }
+    free(row);
+    return OP_OK;
+}
+
+/* ------------------------------------------------------------ writing */
+
+struct op_material_writer {
+    op_output *out;
+    uint64_t pos;
+    unsigned char *table;
+    uint32_t count, capacity;
+};
+
+static void pad_to_alignment(op_material_writer *w)
+{
+    static const unsigned char zeros[OPM_ALIGN];
+    uint64_t pad = (OPM_ALIGN - w->pos % OPM_ALIGN) % OPM_ALIGN;
+    op_output_write(w->out, zeros, (size_t)pad);
+    w->pos += pad;
+}
+
+op_status op_material_writer_open(const char *path, const op_material_info *info,
+                                  op_material_writer **out, op_error *err)
+{
+    *out = NULL;
+    op_material_writer *w = calloc(1, sizeof *w);
+    if (!w)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    op_status st = op_output_open(path, &w->out, err);
+    if (st != OP_OK) {
+        free(w);
+        return st;
+    }
+    unsigned char header[OPM_HEADER_SIZE] = {0}; /* rewritten by commit */
+    op_output_write(w->out, header, sizeof header);
+    w->pos = OPM_HEADER_SIZE;
+    char meta[4096];
+    size_t n = format_meta(info, meta, sizeof meta);
+    *out = w;
+    st = op_material_writer_add(w, "META", meta, n, err);
+    if (st != OP_OK) {
+        op_material_writer_abort(w);
+        *out = NULL;
+    }
+    return st;
+}
+
+op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
+                                 uint64_t bytes, op_error *err)
+{
+    if (!valid_tag(tag))
+        return op_error_set(err, OP_ERR_INTERNAL, "invalid section tag '%s'", tag);
+    for (uint32_t j = 0; j < w->count; j++)
+        if (!strncmp((const char *)w->table + (size_t)j * OPM_ENTRY_SIZE, tag, 8))
+            return op_error_set(err, OP_ERR_INTERNAL, "section '%s' added twice", tag);
+    if (w->count == w->capacity) {
+        uint32_t cap = w->capacity ? 2 * w->capacity : 16;
+        if (cap > OPM_MAX_SECTIONS)
+            return op_error_set(err, OP_ERR_INTERNAL, "too many sections");
+        unsigned char *t = realloc(w->table, (size_t)cap * OPM_ENTRY_SIZE);
+        if (!t)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        w->table = t;
+        w->capacity = cap;
+    }
+    pad_to_alignment(w);
+    unsigned char *e = w->table + (size_t)w->count++ * OPM_ENTRY_SIZE;
+    memset(e, 0, OPM_ENTRY_SIZE);
+    memcpy(e, tag, strnlen(tag, 8));
+    put_u64(e + 8, w->pos);
+    put_u64(e + 16, bytes);
+    put_u32(e + 24, op_crc32(0, data, (size_t)bytes));
+    op_output_write(w->out, data, (size_t)bytes);
+    w->pos += bytes;
+    return OP_OK;
+}
+
+op_status op_material_writer_commit(op_material_writer *w, op_error *err)
+{
+    pad_to_alignment(w);
+    uint64_t table = w->pos;
+    size_t table_bytes = (size_t)w->count * OPM_ENTRY_SIZE;
+    op_output_write(w->out, w->table, table_bytes);
+    uint64_t total = table + table_bytes;
+    unsigned char header[OPM_HEADER_SIZE] = {0};
+    memcpy(header, OPM_MAGIC, 8);
+    put_u32(header + 8, OPM_VERSION);
+    put_u32(header + 12, w->count);
+    put_u64(header + 16, total);
+    put_u64(header + 24, table);
+    put_u32(header + 32, op_crc32(0, w->table, table_bytes));
+    put_u32(header + 36, op_crc32(0, header, 36));
+    FILE *f = op_output_stream(w->out);
+    op_status st;
+    if (fflush(f) != 0 || fseek(f, 0, SEEK_SET) != 0) {
+        op_output_abort(w->out);
+        st = op_error_set(err, OP_ERR_IO, "cannot write material header: %s", strerror(errno));
+    } else {
+        op_output_write(w->out, header, sizeof header);
+        st = op_output_commit(w->out, err);
+    }
+    free(w->table);
+    free(w);
+    return st;
+}
+
+void op_material_writer_abort(op_material_writer *w)
+{
+    if (!w)
+        return;
+    op_output_abort(w->out);
+    free(w->table);
+    free(w);
+}

@@ -1,0 +1,48 @@
+/* opaline-factor: makes datasets and turns them into factored materials. */
+#include "commands.h"
+#include "opaline.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static const struct {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} commands[] = {
+    {"dataset", op_cmd_dataset, "make a synthetic heterogeneous subsurface dataset"},
+    {"import", op_cmd_import, "convert a NumPy .npy dataset (3, H, W, K, K) to opaline's format"},
+    {"factor", op_cmd_factor, "factor a dataset into a material (svd, tucker, raw)"},
+    {"preset", op_cmd_preset, "build a material preset from its recipe file"},
+    {"info", op_cmd_info, "describe a material or dataset file"},
+};
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: opaline-factor COMMAND [OPTIONS]\n\ncommands:\n");
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        fprintf(f, "  %-8s %s\n", commands[i].name, commands[i].summary);
+    fprintf(f, "\n'opaline-factor COMMAND --help' describes a command's options.\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return 2;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        usage(stdout);
+        return 0;
+    }
+    if (!strcmp(argv[1], "--version")) {
+        printf("opaline-factor %s\n", op_version());
+        return 0;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (!strcmp(argv[1], commands[i].name))
+            return commands[i].run(argc - 1, argv + 1);
+    op_log(OP_LOG_ERROR, "unknown command '%s'", argv[1]);
+    usage(stderr);
+    return 2;
+}
