@@ -7,7 +7,6 @@
 int op_cmd_dataset(int argc, char **argv); /* make a synthetic dataset (dataset_cmd.c) */
 int op_cmd_import(int argc, char **argv);  /* bring in a NumPy .npy dataset (import_cmd.c) */
 int op_cmd_factor(int argc, char **argv);  /* factor a dataset into a material (factor_cmd.c) */
-int op_cmd_preset(int argc, char **argv);  /* build a preset from its recipe (preset_cmd.c) */
 int op_cmd_info(int argc, char **argv);    /* describe a material file (info_cmd.c) */
 
 #endif

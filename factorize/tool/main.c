@@ -13,7 +13,6 @@ static const struct {
     {"dataset", op_cmd_dataset, "make a synthetic heterogeneous subsurface dataset"},
     {"import", op_cmd_import, "convert a NumPy .npy dataset (3, H, W, K, K) to opaline's format"},
     {"factor", op_cmd_factor, "factor a dataset into a material (svd, tucker, raw)"},
-    {"preset", op_cmd_preset, "build a material preset from its recipe file"},
     {"info", op_cmd_info, "describe a material or dataset file"},
 };
 
