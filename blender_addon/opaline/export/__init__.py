@@ -1,0 +1,1 @@
+"""Scene export: Blender depsgraph -> opaline scene XML + PLY meshes (see scene.py)."""

@@ -1,0 +1,205 @@
+"""Blender materials -> opaline BSDFs, subsurface and mesh emitters.
+
+Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-addon.md):
+- Diffuse BSDF                -> diffuse (reflectance = Color)
+- Glass BSDF                  -> dielectric (intIOR = IOR; opaline has no rough dielectric, so
+                                 roughness is dropped with a warning)
+- Principled BSDF             -> transmission >= 0.5: dielectric (IOR);
+                                 metallic >= 0.5: conductor, material "none" (a mirror tinted by
+                                 specularReflectance = Base Color; roughness dropped, warned);
+                                 otherwise roughplastic (diffuseReflectance = Base Color,
+                                 alpha = roughness^2, intIOR from Specular: F0 = 0.08 specular)
+- Emission                    -> an area emitter on the shape (radiance = Color * Strength;
+                                 Cycles' emission strength is radiance) over a black diffuse
+- anything else / no nodes    -> diffuse with the material's viewport colour (with a warning)
+- no material                 -> diffuse 0.8 (Cycles' default surface)
+Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
+Linked colour inputs are not followed (textures are not exported); the default value is used
+and a warning names the socket.
+"""
+
+import math
+import os
+
+from .xml_writer import Element
+from ..errors import OpalineError
+
+DEFAULT_GREY = (0.8, 0.8, 0.8)
+
+
+def _rgb(v):
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _input(node, names, warn, label):
+    """The default value of the first existing input among `names`."""
+    for n in names:
+        s = node.inputs.get(n)
+        if s is not None:
+            if s.is_linked:
+                warn("%s: input '%s' is linked; its texture is not exported, the default "
+                     "value is used" % (label, n))
+            return s.default_value
+    return None
+
+
+def _surface_node(mat):
+    if not mat.use_nodes or mat.node_tree is None:
+        return None
+    out = None
+    for n in mat.node_tree.nodes:
+        if n.bl_idname == "ShaderNodeOutputMaterial" and n.is_active_output:
+            out = n
+            if n.target in ('ALL', 'CYCLES'):
+                break
+    if out is None:
+        return None
+    sock = out.inputs.get("Surface")
+    if sock is None or not sock.is_linked:
+        return None
+    node = sock.links[0].from_node
+    # Pass through reroutes.
+    while node.bl_idname == "NodeReroute" and node.inputs[0].is_linked:
+        node = node.inputs[0].links[0].from_node
+    return node
+
+
+def ior_from_specular(specular):
+    """Principled 'Specular' (F0 = 0.08 * specular at normal incidence) -> index of refraction."""
+    f0 = min(max(0.08 * specular, 0.0), 0.999)
+    s = math.sqrt(f0)
+    return (1.0 + s) / (1.0 - s)
+
+
+def _dielectric(ior, roughness, warn, label):
+    if roughness >= 0.02:
+        warn("%s: rough glass is rendered smooth (opaline has no rough dielectric)" % label)
+    b = Element("bsdf", {"type": "dielectric"})
+    b.float("intIOR", max(ior, 1.0001))
+    b.float("extIOR", 1.0)
+    return b
+
+
+def _twosided(b):
+    t = Element("bsdf", {"type": "twosided"})
+    t.add(b)
+    return t
+
+
+def bsdf_for(mat, warn):
+    """(bsdf Element, emitter Element or None) for Blender material `mat` (may be None)."""
+    if mat is None:
+        b = Element("bsdf", {"type": "diffuse"})
+        b.rgb("reflectance", DEFAULT_GREY)
+        return _twosided(b), None
+    label = "material %s" % mat.name
+    node = _surface_node(mat)
+    kind = node.bl_idname if node is not None else None
+    if kind == "ShaderNodeBsdfDiffuse":
+        b = Element("bsdf", {"type": "diffuse"})
+        b.rgb("reflectance", _rgb(_input(node, ["Color"], warn, label)))
+        return _twosided(b), None
+    if kind == "ShaderNodeBsdfGlass":
+        ior = float(_input(node, ["IOR"], warn, label))
+        rough = float(_input(node, ["Roughness"], warn, label))
+        return _dielectric(ior, rough, warn, label), None
+    if kind == "ShaderNodeBsdfPrincipled":
+        base = _rgb(_input(node, ["Base Color"], warn, label))
+        metallic = float(_input(node, ["Metallic"], warn, label))
+        rough = float(_input(node, ["Roughness"], warn, label))
+        trans = float(_input(node, ["Transmission", "Transmission Weight"], warn, label) or 0.0)
+        ior = float(_input(node, ["IOR"], warn, label) or 1.45)
+        spec = _input(node, ["Specular", "Specular IOR Level"], warn, label)
+        spec = 0.5 if spec is None else float(spec)
+        if trans >= 0.5:
+            return _dielectric(ior, rough, warn, label), None
+        if metallic >= 0.5:
+            if rough >= 0.02:
+                warn("%s: rough metal is rendered as a smooth mirror (opaline has no rough "
+                     "conductor)" % label)
+            b = Element("bsdf", {"type": "conductor"})
+            b.string("material", "none")
+            b.rgb("specularReflectance", base)
+            return _twosided(b), None
+        if spec <= 1e-4:
+            b = Element("bsdf", {"type": "diffuse"})
+            b.rgb("reflectance", base)
+            return _twosided(b), None
+        b = Element("bsdf", {"type": "roughplastic"})
+        b.string("distribution", "ggx")
+        b.float("alpha", max(rough * rough, 1e-4))
+        b.float("intIOR", ior_from_specular(spec))
+        b.rgb("diffuseReflectance", base)
+        return _twosided(b), None
+    if kind == "ShaderNodeEmission":
+        col = _rgb(_input(node, ["Color"], warn, label))
+        strength = float(_input(node, ["Strength"], warn, label))
+        e = Element("emitter", {"type": "area"})
+        e.rgb("radiance", tuple(strength * c for c in col))
+        b = Element("bsdf", {"type": "diffuse"})
+        b.rgb("reflectance", (0.0, 0.0, 0.0))
+        return b, e
+    if kind is not None:
+        warn("%s: shader node '%s' is not mapped; exported as diffuse with its viewport colour"
+             % (label, node.bl_idname))
+    b = Element("bsdf", {"type": "diffuse"})
+    b.rgb("reflectance", _rgb(mat.diffuse_color))
+    return _twosided(b), None
+
+
+def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn):
+    """The <subsurface> element of a material with opaline subsurface enabled, else None.
+
+    find_preset(name) -> presets.Preset or None; renderer_knows(folder) -> whether
+    opaline-render finds presets of that folder by name (else the .opm path is written)."""
+    if mat is None:
+        return None
+    s = getattr(mat, "opaline", None)
+    if s is None or not s.enabled:
+        return None
+    label = "material %s" % mat.name
+    if s.kind == 'PRESET':
+        if not s.preset:
+            raise OpalineError("%s: opaline subsurface is enabled but no preset is chosen"
+                               % label)
+        p = find_preset(s.preset)
+        if p is None:
+            raise OpalineError("%s: unknown opaline preset '%s' (not in any preset folder; "
+                               "see Preferences > Add-ons > opaline)" % (label, s.preset))
+        typ = p.method
+        value = p.name if renderer_knows(p.folder) else p.opm
+    elif s.kind == 'DIPOLE':
+        typ = "dipole"
+        value = s.dipole_material
+    else:
+        import bpy
+        path = bpy.path.abspath(s.filepath) if s.filepath else ""
+        if not path or not os.path.isfile(path):
+            raise OpalineError("%s: opaline material file '%s' does not exist" % (label, path))
+        typ = s.file_method
+        if typ == 'AUTO':
+            typ = _method_of_file(path)
+        value = os.path.abspath(path)
+    e = Element("subsurface", {"type": typ})
+    e.string("material", value)
+    e.float("scale", s.scale)
+    e.float("intIOR", s.ior)
+    return e
+
+
+def _method_of_file(path):
+    import json
+    jp = os.path.splitext(path)[0] + ".json"
+    if os.path.isfile(jp):
+        try:
+            with open(jp, "r", encoding="utf-8") as fh:
+                m = str(json.load(fh).get("method", "")).lower()
+            if m in ("svd", "tucker", "raw"):
+                return m
+        except (OSError, ValueError, AttributeError):
+            pass
+    up = os.path.basename(path).upper()
+    for p in ("SVD", "TUCKER"):
+        if up.startswith(p):
+            return p.lower()
+    return "raw"

@@ -1,0 +1,258 @@
+"""Exports an evaluated Blender scene to opaline scene XML.
+
+`export_scene(depsgraph, xml_path)` writes XML_PATH and the meshes into a `meshes/` folder beside
+it, and returns an ExportResult (counts and warnings). Problems the user can fix raise
+OpalineError with a readable message (no camera, unknown preset, ...).
+
+What is exported: the scene camera; every object instance of the depsgraph that renders (not
+hidden for render, not in a collection hidden for render, instancers only when they show
+themselves); lights (lights.py); meshes, curves, surfaces, text and metaballs as triangle
+meshes with modifiers applied (meshes.py), shared between instances of one data block; each
+material slot's BSDF or opaline subsurface (materials.py); the world background as a constant
+emitter; samples and bounces from the Cycles render settings.
+"""
+
+import os
+
+import bpy
+
+from . import camera as camera_mod
+from . import lights as lights_mod
+from . import materials as materials_mod
+from . import meshes as meshes_mod
+from .xml_writer import Element, scene_element, serialize, transform_matrix, write_file
+from ..errors import OpalineError
+
+GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
+MESH_FOLDER = "meshes"
+
+
+class ExportResult:
+    def __init__(self):
+        self.xml_path = None
+        self.shapes = 0
+        self.lights = 0
+        self.meshes_written = 0
+        self.meshes_reused = 0
+        self.warnings = []
+        self.width = 0
+        self.height = 0
+
+    def __repr__(self):
+        return ("ExportResult(%s: %d shapes, %d lights, meshes written %d reused %d, "
+                "%d warnings)" % (self.xml_path, self.shapes, self.lights, self.meshes_written,
+                                  self.meshes_reused, len(self.warnings)))
+
+
+def _rows(m):
+    return [[float(m[r][c]) for c in range(4)] for r in range(4)]
+
+
+def _hidden_collections(scene, view_layer):
+    """Names of collections hidden for rendering (hide_render, or excluded in the view layer),
+    including everything below them."""
+    hidden = set()
+
+    def walk(lc, parent_hidden):
+        h = parent_hidden or lc.exclude or lc.collection.hide_render
+        if h:
+            hidden.add(lc.collection.name)
+        for c in lc.children:
+            walk(c, h)
+    if view_layer is not None:
+        walk(view_layer.layer_collection, False)
+    return hidden
+
+
+def _renders(inst, hidden_cols):
+    """Whether a depsgraph object instance appears in a render."""
+    ob = inst.object
+    orig = ob.original
+    if inst.is_instance:
+        parent = inst.parent.original if inst.parent is not None else None
+        return parent is None or not parent.hide_render
+    if not getattr(inst, "show_self", True):
+        return False
+    if orig.hide_render:
+        return False
+    cols = orig.users_collection
+    if cols and all(c.name in hidden_cols for c in cols):
+        return False
+    return True
+
+
+def world_radiance(world, warn):
+    """(r, g, b) constant radiance of the world background, or None when black/absent."""
+    if world is None:
+        return None
+    col, strength = (world.color[0], world.color[1], world.color[2]), 1.0
+    if world.use_nodes and world.node_tree is not None:
+        out = None
+        for n in world.node_tree.nodes:
+            if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output:
+                out = n
+        if out is None or not out.inputs["Surface"].is_linked:
+            return None
+        node = out.inputs["Surface"].links[0].from_node
+        if node.bl_idname != "ShaderNodeBackground":
+            warn("world: shader node '%s' is not supported; the world is exported black" %
+                 node.bl_idname)
+            return None
+        c = node.inputs["Color"]
+        if c.is_linked:
+            warn("world: the background colour is linked (sky or environment texture); only "
+                 "its default colour is exported")
+        col = (c.default_value[0], c.default_value[1], c.default_value[2])
+        s = node.inputs["Strength"]
+        if s.is_linked:
+            warn("world: the background strength is linked; its default value is used")
+        strength = s.default_value
+    rad = lights_mod.world_radiance(col, strength)
+    if max(rad) <= 0.0:
+        return None
+    return rad
+
+
+def render_samples(scene):
+    cy = getattr(scene, "cycles", None)
+    if cy is not None:
+        return max(1, int(cy.samples)), int(cy.max_bounces)
+    return 64, 8
+
+
+def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=None):
+    """Writes the scene of `depsgraph` to `xml_path`; returns an ExportResult.
+
+    renderer_path: the opaline-render the file is meant for (decides whether presets are
+    written by name or by path); samples: overrides the scene's sample count."""
+    from .. import presets
+    res = ExportResult()
+    res.xml_path = os.path.abspath(xml_path)
+    warn = res.warnings.append
+    scene = depsgraph.scene_eval if hasattr(depsgraph, "scene_eval") else depsgraph.scene
+    scene_orig = scene.original if hasattr(scene, "original") else scene
+    cam_obj = scene.camera
+    if cam_obj is None or cam_obj.type != 'CAMERA':
+        raise OpalineError("scene '%s' has no camera: add one and make it the active camera "
+                           "(Scene properties > Camera)" % scene_orig.name)
+    xml_dir = os.path.dirname(res.xml_path)
+    mesh_dir = os.path.join(xml_dir, MESH_FOLDER)
+    bversion = tuple(bpy.app.version)
+
+    spp, bounces = render_samples(scene_orig)
+    if samples is not None:
+        spp = int(samples)
+    root = scene_element()
+    integ = root.add(Element("integrator", {"type": "path"},
+                             comment="Cycles max bounces %d" % bounces))
+    integ.integer("maxDepth", camera_mod.max_depth_from_bounces(bounces))
+    cam_eval = cam_obj.evaluated_get(depsgraph) if hasattr(cam_obj, "evaluated_get") else cam_obj
+    root.add(camera_mod.export_camera(scene_orig, cam_eval, _rows(cam_eval.matrix_world), spp,
+                                      warn))
+    r = scene_orig.render
+    res.width, res.height = camera_mod.render_size(r.resolution_x, r.resolution_y,
+                                                   r.resolution_percentage)
+
+    rad = world_radiance(scene.world, warn)
+    if rad is not None:
+        e = root.add(Element("emitter", {"type": "constant"}, comment="world background"))
+        e.rgb("radiance", rad)
+
+    # Preset lookups are shared by every material of the export.
+    pcache = {}
+
+    def find_preset(name):
+        if name not in pcache:
+            pcache[name] = presets.find(name, context)
+        return pcache[name]
+
+    def knows(folder):
+        return presets.renderer_knows(folder, renderer_path)
+
+    hidden_cols = _hidden_collections(scene_orig, getattr(depsgraph, "view_layer", None))
+    mesh_cache = {}     # key -> {material_index: file name}
+    bsdf_ids = {}       # material name -> id of its shared <bsdf>
+    shapes = []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type not in GEOMETRY_TYPES and ob.type != 'LIGHT':
+            continue
+        if not _renders(inst, hidden_cols):
+            continue
+        mw = _rows(inst.matrix_world)
+        if ob.type == 'LIGHT':
+            el = lights_mod.export_light(ob.data, mw, bversion, warn)
+            if el is not None:
+                root.add(el)
+                res.lights += 1
+            continue
+        orig = ob.original
+        has_mods = ob.type != 'MESH' or any(m.show_render for m in orig.modifiers)
+        key = ("OB_" + orig.name) if (has_mods and not inst.is_instance) else (
+            "ME_" + (orig.data.name if orig.data is not None else orig.name))
+        if inst.is_instance and has_mods:
+            key = "OB_" + orig.name
+        parts = mesh_cache.get(key)
+        if parts is None:
+            parts = {}
+            try:
+                me = ob.to_mesh()
+            except RuntimeError:
+                me = None
+            if me is not None:
+                try:
+                    for mi, (verts, faces) in sorted(meshes_mod.mesh_parts(me).items()):
+                        fname, written = meshes_mod.write_ply(
+                            mesh_dir, "%s_m%d" % (key[3:], mi), verts, faces)
+                        parts[mi] = fname
+                        if written:
+                            res.meshes_written += 1
+                        else:
+                            res.meshes_reused += 1
+                finally:
+                    ob.to_mesh_clear()
+            mesh_cache[key] = parts
+            if not parts:
+                warn("object %s has no faces; skipped" % orig.name)
+        slots = ob.material_slots
+        for mi, fname in sorted(parts.items()):
+            mat = None
+            if len(slots):
+                mat = slots[min(mi, len(slots) - 1)].material
+            mat = mat.original if (mat is not None and hasattr(mat, "original")) else mat
+            s = Element("shape", {"type": "ply"}, comment="object %s%s" % (
+                orig.name, (", slot %d" % mi) if len(parts) > 1 else ""))
+            s.string("filename", MESH_FOLDER + "/" + fname)
+            s.add(transform_matrix("toWorld", mw))
+            sub = materials_mod.subsurface_for(mat, find_preset, knows, xml_dir, warn)
+            if sub is not None:
+                s.add(sub)
+            else:
+                mname = mat.name if mat is not None else None
+                if mname not in bsdf_ids:
+                    bsdf, emitter = materials_mod.bsdf_for(mat, warn)
+                    if emitter is not None:
+                        bsdf_ids[mname] = (None, bsdf, emitter)
+                    else:
+                        bid = "bsdf%d" % len(bsdf_ids)
+                        bsdf.attrs.append(("id", bid))
+                        bsdf.comment = "material %s" % (mname or "(none)")
+                        root.add(bsdf)
+                        bsdf_ids[mname] = (bid, None, None)
+                bid, bsdf, emitter = bsdf_ids[mname]
+                if bid is not None:
+                    s.add(Element("ref", {"id": bid}))
+                else:
+                    s.add(bsdf)
+                    s.add(emitter)
+            shapes.append(s)
+    for s in shapes:
+        root.add(s)
+    res.shapes = len(shapes)
+    if res.shapes == 0 and res.lights == 0 and rad is None:
+        warn("nothing to render: no visible shapes, lights or world light")
+    text = serialize(root, "opaline scene exported from Blender %s, file %s, frame %d" % (
+        bpy.app.version_string, os.path.basename(bpy.data.filepath) or "(unsaved)",
+        scene_orig.frame_current))
+    write_file(res.xml_path, text)
+    return res

@@ -1,0 +1,83 @@
+"""Per-material opaline settings (Material.opaline) and per-scene render settings
+(Scene.opaline)."""
+
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+from . import presets
+
+# Jensen et al. 2001 media, as named by Mitsuba's dipole `material` parameter.
+DIPOLE_MATERIALS = ("Apple", "Chicken1", "Chicken2", "Cream", "Ketchup", "Marble", "Potato",
+                    "Skimmilk", "Skin1", "Skin2", "Spectralon", "Wholemilk")
+
+
+def _preset_get(self):
+    items = presets.enum_items(self, bpy.context)
+    for it in items:
+        if it[0] == self.preset:
+            return it[4]
+    return 0 if not self.preset else -1
+
+
+def _preset_set(self, value):
+    items = presets.enum_items(self, bpy.context)
+    for it in items:
+        if it[4] == value and it[0] != "NONE":
+            self.preset = it[0]
+            return
+
+
+class OPALINE_PG_material(bpy.types.PropertyGroup):
+    enabled: BoolProperty(name="opaline subsurface", default=False,
+                          description="Render this material as a measured translucent material")
+    kind: EnumProperty(
+        name="Kind",
+        items=[('PRESET', "Factored preset", "A factored measured material from the preset "
+                "folders (svd, tucker or raw)", 'MATERIAL', 0),
+               ('DIPOLE', "Dipole material type", "A homogeneous medium from the Jensen et al. "
+                "2001 table, rendered with the dipole model", 'SHADING_RENDERED', 1),
+               ('FILE', "Material file", "An .opm material file", 'FILE', 2)],
+        default='PRESET')
+    preset: StringProperty(name="Preset", description="Preset name (NAME.opm in a preset folder)")
+    preset_enum: EnumProperty(name="Preset", items=presets.enum_items, get=_preset_get,
+                              set=_preset_set, description="The measured material preset")
+    dipole_material: EnumProperty(
+        name="Material type",
+        items=[(n, n, "Jensen et al. 2001 measured medium '%s'" % n) for n in DIPOLE_MATERIALS],
+        default="Skin1")
+    filepath: StringProperty(name="Material file", subtype='FILE_PATH',
+                             description="An .opm file written by opaline-factor")
+    file_method: EnumProperty(
+        name="Method",
+        items=[('AUTO', "Auto", "From the file's report (NAME.json beside it) or its name"),
+               ('svd', "SVD", ""), ('tucker', "Tucker", ""), ('raw', "Raw", "")],
+        default='AUTO')
+    scale: FloatProperty(name="Physical scale", default=1.0, min=1e-6, soft_min=0.01,
+                         soft_max=100.0,
+                         description="Multiplies the material sample's physical size when it "
+                                     "is laid over the surface (10: a 12.6 cm sample covers "
+                                     "1.26 m)")
+    ior: FloatProperty(name="Interior IOR", default=1.3, min=1.0, soft_max=3.0,
+                       description="Index of refraction inside the material")
+
+
+class OPALINE_PG_scene(bpy.types.PropertyGroup):
+    threads: IntProperty(name="Threads", default=0, min=0,
+                         description="Worker threads for opaline-render (0: all cores)")
+    keep_temp: BoolProperty(name="Keep exported files", default=False,
+                            description="Keep the temporary export of each F12 render (its "
+                                        "folder is printed in the report)")
+
+
+classes = (OPALINE_PG_material, OPALINE_PG_scene)
+
+
+def register_props():
+    bpy.types.Material.opaline = PointerProperty(type=OPALINE_PG_material)
+    bpy.types.Scene.opaline = PointerProperty(type=OPALINE_PG_scene)
+
+
+def unregister_props():
+    del bpy.types.Material.opaline
+    del bpy.types.Scene.opaline

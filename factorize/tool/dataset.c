@@ -1,0 +1,245 @@
+/* dataset.c - dataset specifications, the paper presets, energy checks and writing. */
+#include "dataset.h"
+
+#include "dataset_diffusion.h"
+#include "dataset_montecarlo.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+static const struct {
+    const char *key, *name;
+    op_dataset_kind kind;
+    int w, h, k;
+    double sx, sy;
+    const char *a, *b;
+} presets[] = {
+    {"chess4x4", "Chess4x4", OP_DS_CHESS4X4, 277, 277, 29, 12.6, 12.6, "Marble", "Skin1"},
+    {"chess8x8", "Chess8x8", OP_DS_CHESS8X8, 222, 222, 39, 25.1, 25.1, "Skimmilk", "Potato"},
+    {"marble-closeup", "MarbleCloseup", OP_DS_MARBLE_CLOSEUP, 128, 128, 39, 2.6, 2.6, "Marble",
+     "Vein"},
+    {"veined-marble", "VeinedMarble", OP_DS_VEINED_MARBLE, 213, 211, 29, 13.0, 13.0, "Marble",
+     "Vein"},
+    {"homogeneous", "Homogeneous", OP_DS_HOMOGENEOUS, 64, 64, 29, 5.0, 5.0, "Marble", "Marble"},
+};
+
+op_status op_dataset_spec_defaults(const char *name, op_dataset_spec *spec, op_error *err)
+{
+    for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++) {
+        if (strcasecmp(name, presets[i].key))
+            continue;
+        memset(spec, 0, sizeof *spec);
+        spec->kind = presets[i].kind;
+        snprintf(spec->name, sizeof spec->name, "%s", presets[i].name);
+        spec->width = presets[i].w;
+        spec->height = presets[i].h;
+        spec->kernel = presets[i].k;
+        spec->size_x_cm = presets[i].sx;
+        spec->size_y_cm = presets[i].sy;
+        spec->media[0] = op_medium_find(presets[i].a);
+        spec->media[1] = op_medium_find(presets[i].b);
+        spec->generator = OP_GEN_DIFFUSION;
+        spec->photons = 1000;
+        spec->seed = 1;
+        spec->threads = 1;
+        return OP_OK;
+    }
+    return op_error_set(err, OP_ERR_INPUT,
+                        "unknown dataset '%s' (known: chess4x4, chess8x8, marble-closeup, "
+                        "veined-marble, homogeneous)", name);
+}
+
+op_status op_dataset_spec_check(const op_dataset_spec *s, op_error *err)
+{
+    if (s->width <= 0 || s->height <= 0)
+        return op_error_set(err, OP_ERR_INPUT, "pixels %d x %d: both must be >= 1", s->width,
+                            s->height);
+    if ((uint64_t)s->width * (uint64_t)s->height > (1u << 26))
+        return op_error_set(err, OP_ERR_INPUT, "pixels %d x %d: too many", s->width, s->height);
+    if (s->kernel < 1 || s->kernel % 2 == 0 || s->kernel > 1023)
+        return op_error_set(err, OP_ERR_INPUT, "kernel %d: must be odd, from 1 to 1023",
+                            s->kernel);
+    if (!(s->size_x_cm > 0) || !(s->size_y_cm > 0) || !isfinite(s->size_x_cm) ||
+        !isfinite(s->size_y_cm))
+        return op_error_set(err, OP_ERR_INPUT, "size %g x %g cm: both must be positive",
+                            s->size_x_cm, s->size_y_cm);
+    if (!s->media[0] || !s->media[1])
+        return op_error_set(err, OP_ERR_INPUT, "dataset without media");
+    if (s->threads < 1 || s->threads > 1024)
+        return op_error_set(err, OP_ERR_INPUT, "threads %d: must be 1 to 1024", s->threads);
+    if (s->generator == OP_GEN_MONTECARLO && s->photons < 1)
+        return op_error_set(err, OP_ERR_INPUT, "photons must be >= 1");
+    return OP_OK;
+}
+
+op_status op_dataset_layout(const op_dataset_spec *s, op_layout *l, op_error *err)
+{
+    const op_medium *a = s->media[0], *b = s->media[1];
+    switch (s->kind) {
+    case OP_DS_CHESS4X4:
+        return op_layout_chessboard(l, s->width, s->height, s->size_x_cm, s->size_y_cm, 4, a, b,
+                                    err);
+    case OP_DS_CHESS8X8:
+        return op_layout_chessboard(l, s->width, s->height, s->size_x_cm, s->size_y_cm, 8, a, b,
+                                    err);
+    case OP_DS_MARBLE_CLOSEUP: /* a close-up: a few veins, 0.5 mm wide */
+        return op_layout_veins(l, s->width, s->height, s->size_x_cm, s->size_y_cm, 2, 0.5,
+                               s->seed, a, b, err);
+    case OP_DS_VEINED_MARBLE: /* densely veined: many thin veins, 0.8 mm wide */
+        return op_layout_veins(l, s->width, s->height, s->size_x_cm, s->size_y_cm, 9, 0.8,
+                               s->seed, a, b, err);
+    case OP_DS_HOMOGENEOUS:
+        return op_layout_homogeneous(l, s->width, s->height, s->size_x_cm, s->size_y_cm, a, err);
+    }
+    return op_error_set(err, OP_ERR_INTERNAL, "unknown dataset kind %d", (int)s->kind);
+}
+
+op_status op_dataset_alloc(op_dataset *d, int w, int h, int k, int with_se, op_error *err)
+{
+    memset(d, 0, sizeof *d);
+    d->width = w;
+    d->height = h;
+    d->kernel = k;
+    size_t n = (size_t)w * (size_t)h * (size_t)k * (size_t)k;
+    for (int c = 0; c < 3; c++) {
+        d->rd[c] = calloc(n, sizeof(float));
+        if (with_se)
+            d->se[c] = calloc(n, sizeof(float));
+        if (!d->rd[c] || (with_se && !d->se[c])) {
+            op_dataset_free(d);
+            return op_error_set(err, OP_ERR_NOMEM,
+                                "out of memory for a %d x %d x %d x %d dataset (%.1f GB)", w, h,
+                                k, k, n * 4.0 * 3 * (with_se ? 2 : 1) / 1e9);
+        }
+    }
+    return OP_OK;
+}
+
+void op_dataset_free(op_dataset *d)
+{
+    for (int c = 0; c < 3; c++) {
+        free(d->rd[c]);
+        free(d->se[c]);
+        d->rd[c] = d->se[c] = NULL;
+    }
+}
+
+op_status op_dataset_check(const op_dataset *d, op_error *err)
+{
+    static const char rgb[] = "RGB";
+    int cols = d->kernel * d->kernel;
+    for (int c = 0; c < 3; c++)
+        for (uint64_t r = 0; r < op_dataset_rows(d); r++) {
+            const float *row = d->rd[c] + r * (uint64_t)cols;
+            double sum = 0;
+            for (int j = 0; j < cols; j++) {
+                if (!isfinite(row[j]) || row[j] < 0)
+                    return op_error_set(err, OP_ERR_INPUT,
+                                        "channel %c, pixel (%d, %d), offset (%d, %d): value %g is "
+                                        "negative or not finite", rgb[c],
+                                        (int)(r % (uint64_t)d->width), (int)(r / (uint64_t)d->width),
+                                        j % d->kernel - d->kernel / 2,
+                                        j / d->kernel - d->kernel / 2, (double)row[j]);
+                sum += row[j];
+            }
+            if (sum > 1.0 + 1e-6)
+                return op_error_set(err, OP_ERR_INPUT,
+                                    "channel %c, pixel (%d, %d): albedo (row sum) %.6g exceeds 1",
+                                    rgb[c], (int)(r % (uint64_t)d->width),
+                                    (int)(r / (uint64_t)d->width), sum);
+        }
+    return OP_OK;
+}
+
+/* Rd values as little-endian float32 bytes: on a big-endian host they would need swapping,
+ * which opaline does not support (the container assumes little-endian throughout). */
+uint32_t op_dataset_crc(const op_dataset *d)
+{
+    uint32_t crc = 0;
+    size_t n = (size_t)op_dataset_rows(d) * (size_t)d->kernel * (size_t)d->kernel;
+    for (int c = 0; c < 3; c++)
+        crc = op_crc32(crc, d->rd[c], n * sizeof(float));
+    return crc;
+}
+
+op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err)
+{
+    op_material_info info;
+    memset(&info, 0, sizeof info);
+    info.method = OP_METHOD_RAW;
+    info.width = d->width;
+    info.height = d->height;
+    info.kernel = d->kernel;
+    info.channels = 3;
+    info.size_x_cm = d->size_x_cm;
+    info.size_y_cm = d->size_y_cm;
+    info.dataset_crc = op_dataset_crc(d);
+    snprintf(info.name, sizeof info.name, "%s", d->name);
+    snprintf(info.generator, sizeof info.generator, "%s", d->generator);
+    op_material_writer *w;
+    op_status st = op_material_writer_open(path, &info, &w, err);
+    if (st != OP_OK)
+        return st;
+    uint64_t bytes = op_dataset_rows(d) * (uint64_t)d->kernel * (uint64_t)d->kernel * 4;
+    static const char *rd_tags[3] = {"RD.R", "RD.G", "RD.B"}, *se_tags[3] = {"SE.R", "SE.G", "SE.B"};
+    for (int c = 0; c < 3 && st == OP_OK; c++)
+        st = op_material_writer_add(w, rd_tags[c], d->rd[c], bytes, err);
+    for (int c = 0; c < 3 && st == OP_OK; c++)
+        if (d->se[c])
+            st = op_material_writer_add(w, se_tags[c], d->se[c], bytes, err);
+    if (st != OP_OK) {
+        op_material_writer_abort(w);
+        return st;
+    }
+    return op_material_writer_commit(w, err);
+}
+
+op_status op_dataset_generate(const op_dataset_spec *spec, op_dataset *out,
+                              struct op_mc_stats *mc_stats, op_error *err)
+{
+    memset(out, 0, sizeof *out);
+    op_status st = op_dataset_spec_check(spec, err);
+    if (st != OP_OK)
+        return st;
+    op_layout layout;
+    st = op_dataset_layout(spec, &layout, err);
+    if (st != OP_OK)
+        return st;
+    st = op_dataset_alloc(out, spec->width, spec->height, spec->kernel,
+                          spec->generator == OP_GEN_MONTECARLO, err);
+    if (st == OP_OK) {
+        out->size_x_cm = spec->size_x_cm;
+        out->size_y_cm = spec->size_y_cm;
+        snprintf(out->name, sizeof out->name, "%s", spec->name);
+        if (spec->generator == OP_GEN_MONTECARLO) {
+            op_mc_options o = {.photons = spec->photons, .seed = spec->seed,
+                               .threads = spec->threads, .progress = spec->progress,
+                               .progress_user = spec->progress_user};
+            op_mc_stats stats;
+            st = op_mc_generate(&layout, &o, out, mc_stats ? mc_stats : &stats, err);
+            snprintf(out->generator, sizeof out->generator,
+                     "montecarlo photons=%llu seed=%llu media=%s,%s eta=%.2g",
+                     (unsigned long long)spec->photons, (unsigned long long)spec->seed,
+                     spec->media[0]->name, spec->media[1]->name, OP_MEDIUM_ETA);
+        } else {
+            st = op_diffusion_generate(&layout, spec->threads, spec->progress,
+                                       spec->progress_user, out, err);
+            snprintf(out->generator, sizeof out->generator,
+                     "diffusion dipole-segment media=%s,%s eta=%.2g", spec->media[0]->name,
+                     spec->media[1]->name, OP_MEDIUM_ETA);
+        }
+    }
+    if (st == OP_OK && op_dataset_check(out, err) != OP_OK) {
+        op_error_prefix(err, "%s generator broke an energy invariant (a bug): ",
+                        spec->generator == OP_GEN_MONTECARLO ? "montecarlo" : "diffusion");
+        st = OP_ERR_INTERNAL;
+        if (err)
+            err->status = st;
+    }
+    if (st != OP_OK)
+        op_dataset_free(out);
+    op_layout_free(&layout);
+    return st;
+}

@@ -1,0 +1,303 @@
+/* dataset_montecarlo.c - photon transport through the heterogeneous semi-infinite slab. */
+#include "dataset_montecarlo.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+/* ------------------------------------------------------------ random numbers */
+
+typedef struct rng {
+    uint64_t s[4];
+} rng;
+
+static uint64_t splitmix64(uint64_t *x)
+{
+    uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+/* The stream of one (channel, pixel) work unit. */
+static void rng_seed(rng *r, uint64_t seed, uint64_t channel, uint64_t pixel)
+{
+    uint64_t x = seed;
+    x = splitmix64(&x) ^ (channel * 0xd1b54a32d192ed03ULL);
+    x = splitmix64(&x) ^ pixel;
+    for (int i = 0; i < 4; i++)
+        r->s[i] = splitmix64(&x);
+}
+
+static inline uint64_t rotl(uint64_t x, int k)
+{
+    return (x << k) | (x >> (64 - k));
+}
+
+/* Uniform in [0, 1), 53 bits. */
+static inline double rng_uniform(rng *r)
+{
+    uint64_t *s = r->s;
+    uint64_t result = s[0] + s[3];
+    uint64_t t = s[1] << 17;
+    s[2] ^= s[0];
+    s[3] ^= s[1];
+    s[1] ^= s[2];
+    s[0] ^= s[3];
+    s[2] ^= t;
+    s[3] = rotl(s[3], 45);
+    return (double)(result >> 11) * 0x1.0p-53;
+}
+
+/* ------------------------------------------------------------ transport */
+
+/* Unpolarized Fresnel reflectance for light in index n1 meeting index n2 with cosine
+ * cos_i > 0 (1 under total internal reflection). */
+static double fresnel(double cos_i, double n1, double n2)
+{
+    double r = n1 / n2, sin_t2 = r * r * (1 - cos_i * cos_i);
+    if (sin_t2 >= 1)
+        return 1;
+    double cos_t = sqrt(1 - sin_t2);
+    double rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+    double rp = (n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+typedef struct mc_job {
+    const op_layout *l;
+    const op_mc_options *o;
+    op_dataset *out;
+    _Atomic uint64_t next_unit;
+    uint64_t units;
+    op_progress *progress;
+    double *total;      /* per unit: all escaping weight / photons */
+    double *rowsum;     /* per unit: row sum */
+    double *rowse;      /* per unit: standard error of the row sum */
+} mc_job;
+
+typedef struct mc_thread {
+    mc_job *job;
+    uint64_t steps, lost;
+    double *sum, *sq;   /* K*K tallies of the unit in progress */
+} mc_thread;
+
+/* Traces every photon of channel c entering pixel (px, py); fills row and standard errors. */
+static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
+{
+    mc_job *j = t->job;
+    const op_layout *l = j->l;
+    int K = j->out->kernel, h = K / 2, cols = K * K;
+    double sig_t[2], p_real[2], albedo[2];
+    for (int m = 0; m < 2; m++) {
+        sig_t[m] = l->media[m]->sigma_s[c] + l->media[m]->sigma_a[c];
+        albedo[m] = sig_t[m] > 0 ? l->media[m]->sigma_s[c] / sig_t[m] : 0;
+    }
+    double sig_bar = fmax(sig_t[0], sig_t[1]);
+    for (int m = 0; m < 2; m++)
+        p_real[m] = sig_t[m] / sig_bar;
+    int hetero = l->media[0] != l->media[1];
+    double inv_hx = 1 / l->pixel_x, inv_hy = 1 / l->pixel_y, inv_bar = 1 / sig_bar;
+    double inv_tx = 1 / (l->pixel_x * l->width), inv_ty = 1 / (l->pixel_y * l->height);
+    const double eta = OP_MEDIUM_ETA;
+    const int diffuse = j->o->incidence == OP_MC_DIFFUSE;
+    rng r;
+    rng_seed(&r, j->o->seed, (uint64_t)c, (uint64_t)py * (uint64_t)l->width + (uint64_t)px);
+    memset(t->sum, 0, (size_t)cols * sizeof(double));
+    memset(t->sq, 0, (size_t)cols * sizeof(double));
+    double total = 0;
+    uint64_t steps = 0;
+    uint64_t n = j->o->photons;
+    for (uint64_t p = 0; p < n; p++) {
+        double x = (px + rng_uniform(&r)) * l->pixel_x, y = (py + rng_uniform(&r)) * l->pixel_y;
+        double z = 0, ux = 0, uy = 0, uz = 1, w = 1;
+        if (diffuse) {
+            /* Cosine-weighted from outside, kept with the Fresnel transmittance, refracted. */
+            double ct, phi;
+            do {
+                ct = sqrt(1 - rng_uniform(&r));
+                phi = 2 * M_PI * rng_uniform(&r);
+            } while (rng_uniform(&r) < fresnel(ct, 1.0, eta));
+            double st = sqrt(1 - ct * ct) / eta;
+            ux = st * cos(phi);
+            uy = st * sin(phi);
+            uz = sqrt(1 - st * st);
+        }
+        uint64_t k;
+        for (k = 0; k < OP_MC_MAX_STEPS; k++) {
+            double s = -log(1 - rng_uniform(&r)) * inv_bar;
+            double zn = z + uz * s;
+            if (zn < 0) {
+                /* Reaches the surface: Fresnel reflection or exit; the free path restarts. */
+                double tt = -z / uz;
+                x += ux * tt;
+                y += uy * tt;
+                z = 0;
+                if (rng_uniform(&r) < fresnel(-uz, eta, 1.0)) {
+                    uz = -uz;
+                    continue;
+                }
+                total += w;
+                int64_t ex = (int64_t)floor(x * inv_hx) - px, ey = (int64_t)floor(y * inv_hy) - py;
+                if (ex >= -h && ex <= h && ey >= -h && ey <= h) {
+                    int col = (int)(ey + h) * K + (int)(ex + h);
+                    t->sum[col] += w;
+                    t->sq[col] += w * w;
+                }
+                break;
+            }
+            x += ux * s;
+            y += uy * s;
+            z = zn;
+            int m = 0;
+            if (hetero) {
+                /* The pixel under (x, y) in the periodic tiling, without integer division. */
+                double u = x * inv_tx, v = y * inv_ty;
+                int ix = (int)((u - floor(u)) * l->width), iy = (int)((v - floor(v)) * l->height);
+                ix = ix < l->width ? ix : l->width - 1;
+                iy = iy < l->height ? iy : l->height - 1;
+                m = l->map[iy * l->width + ix];
+            }
+            if (hetero && rng_uniform(&r) >= p_real[m])
+                continue; /* null collision */
+            w *= albedo[m];
+            if (w < 0.1) {
+                if (rng_uniform(&r) * 0.5 >= w)
+                    break; /* Russian roulette: absorbed */
+                w = 0.5;
+            }
+            /* Isotropic direction (Marsaglia). */
+            double a, b, q;
+            do {
+                a = 2 * rng_uniform(&r) - 1;
+                b = 2 * rng_uniform(&r) - 1;
+                q = a * a + b * b;
+            } while (q >= 1);
+            double f = 2 * sqrt(1 - q);
+            ux = a * f;
+            uy = b * f;
+            uz = 1 - 2 * q;
+        }
+        steps += k + 1;
+        if (k == OP_MC_MAX_STEPS)
+            t->lost++;
+    }
+    t->steps += steps;
+    uint64_t row = (uint64_t)py * (uint64_t)l->width + (uint64_t)px;
+    float *rd = j->out->rd[c] + row * (uint64_t)cols, *se = j->out->se[c] + row * (uint64_t)cols;
+    double dn = (double)n, rs = 0, rq = 0;
+    for (int i = 0; i < cols; i++) {
+        double mean = t->sum[i] / dn;
+        double var = n > 1 ? fmax(0, (t->sq[i] - dn * mean * mean) / (dn - 1)) : mean * mean;
+        rd[i] = (float)mean;
+        se[i] = (float)sqrt(var / dn);
+        rs += t->sum[i];
+        rq += t->sq[i];
+    }
+    double mean = rs / dn;
+    j->total[unit] = total / dn;
+    j->rowsum[unit] = mean;
+    j->rowse[unit] = sqrt((n > 1 ? fmax(0, (rq - dn * mean * mean) / (dn - 1)) : mean * mean) / dn);
+}
+
+static void *mc_worker(void *arg)
+{
+    mc_thread *t = arg;
+    mc_job *j = t->job;
+    uint64_t pixels = (uint64_t)j->l->width * (uint64_t)j->l->height;
+    for (;;) {
+        uint64_t u = atomic_fetch_add(&j->next_unit, 1);
+        if (u >= j->units)
+            break;
+        int c = (int)(u / pixels);
+        uint64_t p = u % pixels;
+        trace_unit(t, c, (int)(p % (uint64_t)j->l->width), (int)(p / (uint64_t)j->l->width), u);
+        op_progress_advance(j->progress, 1);
+    }
+    return NULL;
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset *out,
+                         op_mc_stats *stats, op_error *err)
+{
+    memset(stats, 0, sizeof *stats);
+    int K = out->kernel, cols = K * K;
+    if (out->width != l->width || out->height != l->height || !out->se[0] || K < 1 || K % 2 == 0)
+        return op_error_set(err, OP_ERR_INTERNAL, "montecarlo: dataset and layout disagree");
+    if (o->photons < 1 || o->threads < 1)
+        return op_error_set(err, OP_ERR_INPUT, "montecarlo: photons and threads must be >= 1");
+    for (int m = 0; m < 2; m++)
+        for (int c = 0; c < 3; c++)
+            if (!(l->media[m]->sigma_s[c] + l->media[m]->sigma_a[c] > 0))
+                return op_error_set(err, OP_ERR_INPUT, "medium %s has no extinction",
+                                    l->media[m]->name);
+    int threads = o->threads > 256 ? 256 : o->threads;
+    uint64_t pixels = (uint64_t)l->width * (uint64_t)l->height;
+    mc_job job = {.l = l, .o = o, .out = out, .units = 3 * pixels};
+    atomic_init(&job.next_unit, 0);
+    job.total = malloc(job.units * sizeof(double));
+    job.rowsum = malloc(job.units * sizeof(double));
+    job.rowse = malloc(job.units * sizeof(double));
+    mc_thread *th = calloc((size_t)threads, sizeof *th);
+    double *tallies = malloc((size_t)threads * 2 * (size_t)cols * sizeof(double));
+    if (!job.total || !job.rowsum || !job.rowse || !th || !tallies) {
+        free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);
+        return op_error_set(err, OP_ERR_NOMEM, "montecarlo: out of memory");
+    }
+    for (int t = 0; t < threads; t++) {
+        th[t].job = &job;
+        th[t].sum = tallies + (size_t)t * 2 * (size_t)cols;
+        th[t].sq = th[t].sum + cols;
+    }
+    job.progress = op_progress_begin("montecarlo", job.units, o->progress, o->progress_user);
+    double t0 = now_seconds();
+    pthread_t tid[256];
+    int started = 0;
+    for (int t = 1; t < threads; t++)
+        if (pthread_create(&tid[t], NULL, mc_worker, &th[t]) == 0)
+            started = t;
+        else
+            break;
+    mc_worker(&th[0]);
+    for (int t = 1; t <= started; t++)
+        pthread_join(tid[t], NULL);
+    stats->seconds = now_seconds() - t0;
+    op_progress_end(job.progress);
+
+    for (int t = 0; t < threads; t++) {
+        stats->steps += th[t].steps;
+        stats->lost += th[t].lost;
+    }
+    stats->photons = job.units * o->photons;
+    stats->steps_per_second = stats->seconds > 0 ? (double)stats->steps / stats->seconds : 0;
+    double rel = 0;
+    uint64_t nrel = 0;
+    for (uint64_t u = 0; u < job.units; u++) {
+        int c = (int)(u / pixels);
+        stats->total_reflectance[c] += job.total[u] / (double)pixels;
+        stats->mean_albedo[c] += job.rowsum[u] / (double)pixels;
+        if (job.rowsum[u] > 0) {
+            double q = job.rowse[u] / job.rowsum[u];
+            rel += q;
+            nrel++;
+            if (q > stats->max_rel_se)
+                stats->max_rel_se = q;
+        }
+    }
+    stats->mean_rel_se = nrel ? rel / (double)nrel : 0;
+    if (stats->lost)
+        op_log(OP_LOG_WARN, "montecarlo: %llu photon(s) stopped after %u steps (counted absorbed)",
+               (unsigned long long)stats->lost, OP_MC_MAX_STEPS);
+    free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);
+    return OP_OK;
+}

@@ -1,0 +1,43 @@
+/* media.c - the media table: Jensen et al. 2001 (as reproduced by pbrt-v4 and Mitsuba 0.6),
+ * plus opaline's own dark "Vein" medium for the veined marbles. */
+#include "media.h"
+
+#include <strings.h>
+
+#define JENSEN "Jensen et al. 2001, Table 1 (measured)"
+
+static const op_medium media[] = {
+    {"Apple", {2.29, 2.39, 1.97}, {0.0030, 0.0034, 0.046}, JENSEN},
+    {"Chicken1", {0.15, 0.21, 0.38}, {0.015, 0.077, 0.19}, JENSEN},
+    {"Chicken2", {0.19, 0.25, 0.32}, {0.018, 0.088, 0.20}, JENSEN},
+    {"Cream", {7.38, 5.47, 3.15}, {0.0002, 0.0028, 0.0163}, JENSEN},
+    {"Ketchup", {0.18, 0.07, 0.03}, {0.061, 0.97, 1.45}, JENSEN},
+    {"Marble", {2.19, 2.62, 3.00}, {0.0021, 0.0041, 0.0071}, JENSEN},
+    {"Potato", {0.68, 0.70, 0.55}, {0.0024, 0.0090, 0.12}, JENSEN},
+    {"Skimmilk", {0.70, 1.22, 1.90}, {0.0014, 0.0025, 0.0142}, JENSEN},
+    {"Skin1", {0.74, 0.88, 1.01}, {0.032, 0.17, 0.48}, JENSEN},
+    {"Skin2", {1.09, 1.59, 1.79}, {0.013, 0.070, 0.145}, JENSEN},
+    {"Spectralon", {11.6, 20.4, 14.9}, {0.0, 0.0, 0.0}, JENSEN},
+    {"Wholemilk", {2.55, 3.21, 3.77}, {0.0011, 0.0024, 0.014}, JENSEN},
+    /* Not measured: a dark, strongly absorbing medium (single-scattering albedo about 0.3) for
+     * the light-blocking veins of the veined marbles. */
+    {"Vein", {1.5, 1.5, 1.5}, {3.0, 3.3, 3.6}, "opaline (synthetic light-blocking vein)"},
+};
+
+int op_medium_count(void)
+{
+    return (int)(sizeof media / sizeof media[0]);
+}
+
+const op_medium *op_medium_at(int i)
+{
+    return i >= 0 && i < op_medium_count() ? &media[i] : 0;
+}
+
+const op_medium *op_medium_find(const char *name)
+{
+    for (int i = 0; name && i < op_medium_count(); i++)
+        if (!strcasecmp(name, media[i].name))
+            return &media[i];
+    return 0;
+}

@@ -1,0 +1,257 @@
+"""Shared helpers of the add-on tests (run inside `blender --background --factory-startup`).
+
+Makes the add-on importable from the source tree (OPALINE_SOURCE_DIR/blender_addon, else this
+checkout), registers it, finds opaline-render (OPALINE_BIN_DIR) and the presets
+(OPALINE_PRESETS_DIR), builds small scenes in code, and reads images without NumPy.
+"""
+
+import array
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import bpy
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SOURCE_DIR = os.environ.get("OPALINE_SOURCE_DIR") or os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.join(SOURCE_DIR, "blender_addon"))
+
+import opaline  # noqa: E402
+
+
+def register():
+    """Enables the add-on from the source tree the way Blender enables add-ons (so that its
+    preferences exist)."""
+    import addon_utils
+    if bpy.context.preferences.addons.get("opaline") is None:
+        addon_utils.enable("opaline", default_set=True, handle_error=None)
+    assert hasattr(bpy.types.Material, "opaline"), "add-on failed to register"
+
+
+def prefs():
+    return bpy.context.preferences.addons["opaline"].preferences
+
+
+def renderer():
+    """Path of opaline-render, or None when it is not built."""
+    d = os.environ.get("OPALINE_BIN_DIR")
+    cands = [os.path.join(d, "opaline-render")] if d else []
+    cands.append(os.path.join(SOURCE_DIR, "build", "bin", "opaline-render"))
+    for c in cands:
+        if os.path.isfile(c) and os.access(c, os.X_OK):
+            return c
+    return None
+
+
+def presets_dir():
+    d = os.environ.get("OPALINE_PRESETS_DIR")
+    return d if d and os.path.isdir(d) else None
+
+
+def tmpdir(name):
+    base = os.environ.get("OPALINE_TEST_TMP") or tempfile.gettempdir()
+    d = tempfile.mkdtemp(prefix="addon-%s-" % name, dir=base)
+    return d
+
+
+def need_renderer(test):
+    if renderer() is None:
+        raise unittest.SkipTest("opaline-render is not built (OPALINE_BIN_DIR has none)")
+    return renderer()
+
+
+def run_tests(*cases):
+    suite = unittest.TestSuite()
+    for c in cases:
+        suite.addTests(unittest.defaultTestLoader.loadTestsFromTestCase(c))
+    result = unittest.TextTestRunner(verbosity=2, stream=sys.stdout).run(suite)
+    sys.stdout.flush()
+    sys.exit(0 if result.wasSuccessful() else 1)
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene building.
+
+def empty_scene(res=(64, 64)):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    register()
+    sc = bpy.context.scene
+    sc.render.resolution_x, sc.render.resolution_y = res
+    sc.render.resolution_percentage = 100
+    w = bpy.data.worlds.new("World")
+    sc.world = w
+    w.use_nodes = True
+    bg = w.node_tree.nodes["Background"]
+    bg.inputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
+    return sc
+
+
+def diffuse_material(name, rgb):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (rgb[0], rgb[1], rgb[2], 1.0)
+    o = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(d.outputs[0], o.inputs["Surface"])
+    return mat
+
+
+def add_mesh(name, verts, faces, mat=None, location=(0, 0, 0)):
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    ob = bpy.data.objects.new(name, me)
+    ob.location = location
+    bpy.context.scene.collection.objects.link(ob)
+    if mat is not None:
+        me.materials.append(mat)
+    return ob
+
+
+def add_floor(size=50.0, rgb=(0.8, 0.8, 0.8)):
+    s = size
+    return add_mesh("floor", [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [(0, 1, 2, 3)],
+                    diffuse_material("floor", rgb))
+
+
+def add_camera(location, rotation_euler=(0, 0, 0), lens=50.0, sensor_fit='AUTO'):
+    cd = bpy.data.cameras.new("cam")
+    cd.lens = lens
+    cd.sensor_fit = sensor_fit
+    ob = bpy.data.objects.new("cam", cd)
+    ob.location = location
+    ob.rotation_euler = rotation_euler
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.context.scene.camera = ob
+    return ob
+
+
+def add_light(kind, location=(0, 0, 0), rotation_euler=(0, 0, 0), **props):
+    ld = bpy.data.lights.new("L_" + kind.lower(), kind)
+    for k, v in props.items():
+        setattr(ld, k, v)
+    ob = bpy.data.objects.new(ld.name, ld)
+    ob.location = location
+    ob.rotation_euler = rotation_euler
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def export(path, samples=None):
+    from opaline.export import scene as se
+    bpy.context.view_layer.update()
+    dg = bpy.context.evaluated_depsgraph_get()
+    return se.export_scene(dg, path, bpy.context, renderer(), samples=samples)
+
+
+def check_xml(test, path):
+    """Runs opaline-render --check on path; fails the test with its messages when invalid."""
+    r = need_renderer(test)
+    p = subprocess.run([r, "--check", path], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       timeout=120)
+    test.assertEqual(p.returncode, 0, "opaline-render --check %s failed:\n%s%s" % (
+        path, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")))
+
+
+def render_cli(test, xml, out, samples=None, threads=2, extra=()):
+    r = need_renderer(test)
+    cmd = [r, "-t", str(threads), "-q", "-o", out] + list(extra)
+    if samples is not None:
+        cmd += ["-s", str(samples)]
+    cmd.append(xml)
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=600)
+    test.assertEqual(p.returncode, 0, "opaline-render failed:\n%s" %
+                     p.stderr.decode(errors="replace"))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Images without NumPy.
+
+def read_pfm(path):
+    """(width, height, list of rows top to bottom, each a flat list of RGB floats)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    parts = []
+    pos = 0
+    while len(parts) < 4:
+        while data[pos:pos + 1].isspace():
+            pos += 1
+        end = pos
+        while not data[end:end + 1].isspace():
+            end += 1
+        parts.append(data[pos:end])
+        pos = end
+    pos += 1
+    kind, w, h, scale = parts[0], int(parts[1]), int(parts[2]), float(parts[3])
+    ch = 3 if kind == b"PF" else 1
+    fmt = "<" if scale < 0 else ">"
+    n = w * h * ch
+    vals = struct.unpack_from(fmt + "%df" % n, data, pos)
+    rows = [list(vals[(h - 1 - r) * w * ch:(h - r) * w * ch]) for r in range(h)]
+    if ch == 1:
+        rows = [[v for v in row for _ in range(3)] for row in rows]
+    return w, h, rows
+
+
+def load_image_rgba(path):
+    """(width, height, array('f') RGBA bottom row first) through Blender's image loader."""
+    im = bpy.data.images.load(path, check_existing=False)
+    try:
+        w, h = im.size
+        a = array.array('f', bytes(4 * len(im.pixels)))
+        im.pixels.foreach_get(a)
+        return w, h, a
+    finally:
+        bpy.data.images.remove(im)
+
+
+def mean_rgb_rgba(a):
+    n = len(a) // 4
+    s = 0.0
+    for i in range(n):
+        s += a[4 * i] + a[4 * i + 1] + a[4 * i + 2]
+    return s / (3 * n)
+
+
+def mean_rgb_rows(rows):
+    s = 0.0
+    n = 0
+    for row in rows:
+        s += sum(row)
+        n += len(row)
+    return s / n
+
+
+def render_cycles(path, samples=16):
+    """Renders the current scene with Cycles on the CPU into an OpenEXR file at path."""
+    sc = bpy.context.scene
+    sc.render.engine = 'CYCLES'
+    sc.cycles.device = 'CPU'
+    sc.cycles.samples = samples
+    sc.cycles.use_adaptive_sampling = False
+    sc.cycles.use_denoising = False
+    sc.cycles.seed = 1
+    sc.render.threads_mode = 'FIXED'
+    sc.render.threads = 2
+    sc.render.image_settings.file_format = 'OPEN_EXR'
+    sc.render.image_settings.color_depth = '32'
+    sc.view_settings.view_transform = 'Standard'
+    sc.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return path
+
+
+def look_down(height):
+    """A camera rotation and location looking straight down -Z from `height`."""
+    return (0.0, 0.0, height), (0.0, 0.0, 0.0)
+
+
+def approx_rel(a, b):
+    return abs(a - b) / max(abs(b), 1e-12)
+
