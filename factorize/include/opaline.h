@@ -114,7 +114,7 @@ op_status op_image_write_png(const char *path, const op_image *img, float exposu
 op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err);
 /* Portable float map, little-endian. */
 op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
-/* Reads an OpenEXR or PNG file (chosen by content) into linear floats. */
+/* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */
 op_status op_image_read(const char *path, op_image *img, op_error *err);
 
 /* ---------------------------------------------------------------- materials */

@@ -26,7 +26,7 @@ op_status op_error_prefix(op_error *err, const char *fmt, ...)
     vsnprintf(prefix, sizeof prefix, fmt, ap);
     va_end(ap);
     memcpy(old, err->message, sizeof old);
-    size_t n = strnlen(prefix, sizeof err->message - 1);
+    size_t n = strnlen(prefix, sizeof prefix);
     memcpy(err->message, prefix, n);
     size_t rest = strnlen(old, sizeof old);
     if (rest > sizeof err->message - 1 - n)

@@ -1,0 +1,657 @@
+/* op_image.c - linear float images and their files: PNG (libpng, 8-bit sRGB), OpenEXR (the
+ * OpenEXRCore C API), and portable float maps. Every file is written through op_output, so a
+ * failed write leaves nothing behind. */
+#include "opaline.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <png.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <openexr.h>
+
+/* Largest accepted side and pixel count: far above any render, far below overflow. */
+#define OP_IMAGE_MAX_SIDE 65536
+#define OP_IMAGE_MAX_PIXELS ((size_t)1 << 30)
+
+static int valid_channels(int c)
+{
+    return c == 1 || c == 3 || c == 4;
+}
+
+op_status op_image_alloc(op_image *img, int width, int height, int channels, op_error *err)
+{
+    memset(img, 0, sizeof *img);
+    if (width <= 0 || height <= 0 || width > OP_IMAGE_MAX_SIDE || height > OP_IMAGE_MAX_SIDE ||
+        (size_t)width * (size_t)height > OP_IMAGE_MAX_PIXELS || !valid_channels(channels))
+        return op_error_set(err, OP_ERR_INPUT, "image size %dx%d with %d channels is not supported",
+                            width, height, channels);
+    size_t n = (size_t)width * (size_t)height * (size_t)channels;
+    img->pixels = calloc(n, sizeof(float));
+    if (!img->pixels)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %dx%d image", width, height);
+    img->width = width;
+    img->height = height;
+    img->channels = channels;
+    return OP_OK;
+}
+
+void op_image_free(op_image *img)
+{
+    if (!img)
+        return;
+    free(img->pixels);
+    memset(img, 0, sizeof *img);
+}
+
+static op_status check_image(const char *path, const op_image *img, op_error *err)
+{
+    if (!img || !img->pixels || img->width <= 0 || img->height <= 0 ||
+        img->width > OP_IMAGE_MAX_SIDE || img->height > OP_IMAGE_MAX_SIDE ||
+        !valid_channels(img->channels))
+        return op_error_set(err, OP_ERR_INTERNAL, "%s: invalid image passed for writing", path);
+    return OP_OK;
+}
+
+/* ---------------------------------------------------------------- sRGB */
+
+static float srgb_encode(float v)
+{
+    if (!(v > 0.0f)) /* also NaN */
+        return 0.0f;
+    if (v >= 1.0f)
+        return 1.0f;
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * powf(v, 1.0f / 2.4f) - 0.055f;
+}
+
+static float srgb_decode(float v)
+{
+    return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f);
+}
+
+static unsigned char to_byte(float v)
+{
+    if (!(v > 0.0f))
+        return 0;
+    if (v >= 1.0f)
+        return 255;
+    return (unsigned char)(v * 255.0f + 0.5f);
+}
+
+/* ---------------------------------------------------------------- PNG */
+
+op_status op_image_write_png(const char *path, const op_image *img, float exposure_stops,
+                             op_error *err)
+{
+    op_status st = check_image(path, img, err);
+    if (st != OP_OK)
+        return st;
+    size_t n = (size_t)img->width * (size_t)img->height;
+    int c = img->channels;
+    unsigned char *buf = malloc(n * (size_t)c);
+    if (!buf)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    float scale = exp2f(exposure_stops);
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < c; k++) {
+            float v = img->pixels[i * (size_t)c + (size_t)k];
+            /* Alpha is coverage, not light: neither exposed nor gamma-encoded. */
+            buf[i * (size_t)c + (size_t)k] = (c == 4 && k == 3) ? to_byte(v)
+                                                                : to_byte(srgb_encode(v * scale));
+        }
+
+    op_output *out;
+    if ((st = op_output_open(path, &out, err)) != OP_OK) {
+        free(buf);
+        return st;
+    }
+    png_image pi;
+    memset(&pi, 0, sizeof pi);
+    pi.version = PNG_IMAGE_VERSION;
+    pi.width = (png_uint_32)img->width;
+    pi.height = (png_uint_32)img->height;
+    pi.format = c == 1 ? PNG_FORMAT_GRAY : c == 3 ? PNG_FORMAT_RGB : PNG_FORMAT_RGBA;
+    int ok = png_image_write_to_stdio(&pi, op_output_stream(out), 0, buf, 0, NULL);
+    free(buf);
+    if (!ok) {
+        op_error_set(err, OP_ERR_IO, "%s: cannot write PNG: %s", path, pi.message);
+        png_image_free(&pi);
+        op_output_abort(out);
+        return OP_ERR_IO;
+    }
+    png_image_free(&pi);
+    return op_output_commit(out, err);
+}
+
+/* Reads a PNG through libpng's simplified API (which never prints), as 8-bit sRGB, decoded to
+ * linear light; alpha stays as stored. Grey+alpha becomes RGBA. */
+static op_status read_png(const char *path, op_image *img, op_error *err)
+{
+    png_image pi;
+    memset(&pi, 0, sizeof pi);
+    pi.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&pi, path)) {
+        op_error_set(err, OP_ERR_FORMAT, "%s: not a readable PNG: %s", path, pi.message);
+        png_image_free(&pi);
+        return OP_ERR_FORMAT;
+    }
+    int has_alpha = (pi.format & PNG_FORMAT_FLAG_ALPHA) != 0;
+    int colour = (pi.format & PNG_FORMAT_FLAG_COLOR) != 0;
+    int c = has_alpha ? 4 : colour ? 3 : 1;
+    pi.format = c == 1 ? PNG_FORMAT_GRAY : c == 3 ? PNG_FORMAT_RGB : PNG_FORMAT_RGBA;
+    if (pi.width == 0 || pi.height == 0 || pi.width > OP_IMAGE_MAX_SIDE ||
+        pi.height > OP_IMAGE_MAX_SIDE) {
+        op_error_set(err, OP_ERR_FORMAT, "%s: PNG size %ux%u is not supported", path,
+                     (unsigned)pi.width, (unsigned)pi.height);
+        png_image_free(&pi);
+        return OP_ERR_FORMAT;
+    }
+    op_status st = op_image_alloc(img, (int)pi.width, (int)pi.height, c, err);
+    if (st != OP_OK) {
+        png_image_free(&pi);
+        return st;
+    }
+    size_t n = (size_t)pi.width * pi.height * (size_t)c;
+    unsigned char *buf = malloc(n);
+    if (!buf) {
+        png_image_free(&pi);
+        op_image_free(img);
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    if (!png_image_finish_read(&pi, NULL, buf, 0, NULL)) {
+        op_error_set(err, OP_ERR_FORMAT, "%s: corrupt PNG: %s", path, pi.message);
+        png_image_free(&pi);
+        free(buf);
+        op_image_free(img);
+        return OP_ERR_FORMAT;
+    }
+    float table[256];
+    for (int i = 0; i < 256; i++)
+        table[i] = srgb_decode((float)i / 255.0f);
+    for (size_t i = 0; i < n; i++)
+        img->pixels[i] = (c == 4 && i % 4 == 3) ? (float)buf[i] / 255.0f : table[buf[i]];
+    free(buf);
+    png_image_free(&pi);
+    return OP_OK;
+}
+
+/* ---------------------------------------------------------------- OpenEXR */
+
+/* What the EXR stream callbacks share: the output (writing) or descriptor (reading), and the
+ * library's last error message. One per call, so concurrent calls share nothing. */
+typedef struct exr_io {
+    op_output *out;
+    int fd;
+    int64_t size;
+    int io_errno;
+    char message[256];
+} exr_io;
+
+static void exr_error_cb(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    void *ud = NULL;
+    if (exr_get_user_data(ctxt, &ud) == EXR_ERR_SUCCESS && ud) {
+        exr_io *io = ud;
+        snprintf(io->message, sizeof io->message, "%s", msg ? msg : exr_get_error_code_as_string(code));
+    }
+}
+
+static int64_t exr_write_cb(exr_const_context_t ctxt, void *user, const void *buffer, uint64_t sz,
+                            uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    exr_io *io = user;
+    FILE *f = op_output_stream(io->out);
+    /* OpenEXR writes from this thread only (we encode chunk by chunk), so seeking is safe. */
+    if (offset > (uint64_t)INT64_MAX || fseeko(f, (off_t)offset, SEEK_SET) != 0 ||
+        fwrite(buffer, 1, sz, f) != sz) {
+        io->io_errno = errno ? errno : EIO;
+        error_cb(ctxt, EXR_ERR_WRITE_IO, "write failed: %s", strerror(io->io_errno));
+        return -1;
+    }
+    return (int64_t)sz;
+}
+
+static int64_t exr_read_cb(exr_const_context_t ctxt, void *user, void *buffer, uint64_t sz,
+                           uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    exr_io *io = user;
+    uint64_t done = 0;
+    while (done < sz) {
+        ssize_t r = pread(io->fd, (char *)buffer + done, sz - done, (off_t)(offset + done));
+        if (r < 0) {
+            if (errno == EINTR)
+                continue;
+            error_cb(ctxt, EXR_ERR_READ_IO, "read failed: %s", strerror(errno));
+            return -1;
+        }
+        if (r == 0)
+            break;
+        done += (uint64_t)r;
+    }
+    return (int64_t)done;
+}
+
+static int64_t exr_size_cb(exr_const_context_t ctxt, void *user)
+{
+    return ((exr_io *)user)->size;
+}
+
+static const char *exr_msg(const exr_io *io, exr_result_t rv)
+{
+    return io->message[0] ? io->message : exr_get_default_error_message(rv);
+}
+
+op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err)
+{
+    op_status st = check_image(path, img, err);
+    if (st != OP_OK)
+        return st;
+    exr_io io;
+    memset(&io, 0, sizeof io);
+    io.fd = -1;
+    if ((st = op_output_open(path, &io.out, err)) != OP_OK)
+        return st;
+
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = exr_error_cb;
+    init.user_data = &io;
+    init.write_fn = exr_write_cb;
+    exr_context_t ctx = NULL;
+    exr_encode_pipeline_t enc;
+    int enc_started = 0;
+    exr_result_t rv = exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init);
+    int part = 0;
+    static const char *names[4][4] = {{"Y"}, {0}, {"R", "G", "B"}, {"R", "G", "B", "A"}};
+    int c = img->channels;
+    exr_pixel_type_t ptype = half_float ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_add_part(ctx, "rgba", EXR_STORAGE_SCANLINE, &part);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_initialize_required_attr_simple(ctx, part, img->width, img->height,
+                                                 EXR_COMPRESSION_ZIP);
+    for (int k = 0; k < c && rv == EXR_ERR_SUCCESS; k++)
+        rv = exr_add_channel(ctx, part, names[c - 1][k], ptype,
+                             k == 3 ? EXR_PERCEPTUALLY_LINEAR : EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_write_header(ctx);
+    int32_t lines = 1;
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_get_scanlines_per_chunk(ctx, part, &lines);
+    size_t row_bytes = (size_t)img->width * (size_t)c * sizeof(float);
+    for (int y = 0; rv == EXR_ERR_SUCCESS && y < img->height; y += lines) {
+        exr_chunk_info_t ci;
+        rv = exr_write_scanline_chunk_info(ctx, part, y, &ci);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        if (!enc_started) {
+            rv = exr_encoding_initialize(ctx, part, &ci, &enc);
+            enc_started = rv == EXR_ERR_SUCCESS;
+        } else {
+            rv = exr_encoding_update(ctx, part, &ci, &enc);
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        for (int ch = 0; ch < enc.channel_count; ch++) {
+            exr_coding_channel_info_t *cc = &enc.channels[ch];
+            int k = 0;
+            while (k < c && strcmp(cc->channel_name, names[c - 1][k]) != 0)
+                k++;
+            if (k == c) {
+                rv = EXR_ERR_INVALID_ARGUMENT;
+                break;
+            }
+            cc->user_bytes_per_element = 4;
+            cc->user_data_type = EXR_PIXEL_FLOAT;
+            cc->user_pixel_stride = (int32_t)((size_t)c * sizeof(float));
+            cc->user_line_stride = (int32_t)row_bytes;
+            cc->encode_from_ptr =
+                (const uint8_t *)(img->pixels + ((size_t)y * (size_t)img->width) * (size_t)c +
+                                  (size_t)k);
+        }
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_encoding_choose_default_routines(ctx, part, &enc);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_encoding_run(ctx, part, &enc);
+    }
+    if (enc_started)
+        exr_encoding_destroy(ctx, &enc);
+    exr_result_t frv = ctx ? exr_finish(&ctx) : EXR_ERR_SUCCESS;
+    if (rv == EXR_ERR_SUCCESS)
+        rv = frv;
+    if (rv != EXR_ERR_SUCCESS) {
+        op_status code = io.io_errno ? OP_ERR_IO : OP_ERR_INTERNAL;
+        op_error_set(err, code, "%s: cannot write OpenEXR: %s", path, exr_msg(&io, rv));
+        op_output_abort(io.out);
+        return code;
+    }
+    return op_output_commit(io.out, err);
+}
+
+/* Reads the first part of a flat (not deep) scanline or tiled OpenEXR file; channels R, G, B
+ * and A (or Y) by name, any pixel type, converted to float. */
+static op_status read_exr(const char *path, int fd, int64_t size, op_image *img, op_error *err)
+{
+    exr_io io;
+    memset(&io, 0, sizeof io);
+    io.fd = fd;
+    io.size = size;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = exr_error_cb;
+    init.user_data = &io;
+    init.read_fn = exr_read_cb;
+    init.size_fn = exr_size_cb;
+    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
+    exr_context_t ctx = NULL;
+    op_status st = OP_OK;
+    exr_result_t rv = exr_start_read(&ctx, path, &init);
+    if (rv != EXR_ERR_SUCCESS) {
+        if (ctx)
+            exr_finish(&ctx);
+        return op_error_set(err, OP_ERR_FORMAT, "%s: not a readable OpenEXR file: %s", path,
+                            exr_msg(&io, rv));
+    }
+    exr_storage_t storage;
+    exr_attr_box2i_t dw;
+    const exr_attr_chlist_t *chl = NULL;
+    if ((rv = exr_get_storage(ctx, 0, &storage)) != EXR_ERR_SUCCESS ||
+        (rv = exr_get_data_window(ctx, 0, &dw)) != EXR_ERR_SUCCESS ||
+        (rv = exr_get_channels(ctx, 0, &chl)) != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path, exr_msg(&io, rv));
+        goto done;
+    }
+    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: deep OpenEXR images are not supported", path);
+        goto done;
+    }
+    int64_t w = (int64_t)dw.max.x - dw.min.x + 1, h = (int64_t)dw.max.y - dw.min.y + 1;
+    if (w <= 0 || h <= 0 || w > OP_IMAGE_MAX_SIDE || h > OP_IMAGE_MAX_SIDE) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR data window %lldx%lld is not supported",
+                          path, (long long)w, (long long)h);
+        goto done;
+    }
+    /* Map channel names to slots: R G B A, or Y (else R alone) for grey. */
+    int has[5] = {0};
+    static const char *slot_names[5] = {"R", "G", "B", "A", "Y"};
+    for (int i = 0; i < chl->num_channels; i++)
+        for (int s = 0; s < 5; s++)
+            if (strcmp(chl->entries[i].name.str, slot_names[s]) == 0) {
+                if (chl->entries[i].x_sampling != 1 || chl->entries[i].y_sampling != 1) {
+                    st = op_error_set(err, OP_ERR_FORMAT,
+                                      "%s: subsampled OpenEXR channel %s is not supported", path,
+                                      slot_names[s]);
+                    goto done;
+                }
+                has[s] = 1;
+            }
+    int c, slot_of[5] = {-1, -1, -1, -1, -1};
+    if (has[0] && has[1] && has[2]) {
+        c = has[3] ? 4 : 3;
+        for (int s = 0; s < c; s++)
+            slot_of[s] = s;
+    } else if (has[4] || has[0]) {
+        c = has[3] ? 4 : 1;
+        slot_of[has[4] ? 4 : 0] = 0;
+        if (c == 4)
+            slot_of[3] = 3;
+    } else {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR file has no R, G, B or Y channels", path);
+        goto done;
+    }
+    if ((st = op_image_alloc(img, (int)w, (int)h, c, err)) != OP_OK)
+        goto done;
+
+    /* The chunks: scanline blocks, or the level-0 tiles. */
+    int32_t lines = 1, nchunks = 0, tiles_x = 1;
+    uint32_t tw = 0, th = 0;
+    if (storage == EXR_STORAGE_SCANLINE) {
+        rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
+        nchunks = (int32_t)((h + lines - 1) / (lines > 0 ? lines : 1));
+    } else {
+        exr_tile_level_mode_t lm;
+        exr_tile_round_mode_t rm;
+        rv = exr_get_tile_descriptor(ctx, 0, &tw, &th, &lm, &rm);
+        if (rv == EXR_ERR_SUCCESS && (tw == 0 || th == 0))
+            rv = EXR_ERR_INVALID_ATTR;
+        if (rv == EXR_ERR_SUCCESS) {
+            tiles_x = (int32_t)((w + tw - 1) / tw);
+            nchunks = tiles_x * (int32_t)((h + th - 1) / th);
+        }
+    }
+    if (rv != EXR_ERR_SUCCESS || lines <= 0) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR layout: %s", path, exr_msg(&io, rv));
+        op_image_free(img);
+        goto done;
+    }
+    /* Each chunk is decoded into planar scratch, then interleaved here: the library's fast
+     * interleaved half-to-float paths have mixed up RGBA channel order in some releases. */
+    size_t chunk_px = storage == EXR_STORAGE_SCANLINE ? (size_t)lines * (size_t)w
+                                                      : (size_t)tw * (size_t)th;
+    float *scratch = malloc(chunk_px * (size_t)c * sizeof(float));
+    if (!scratch) {
+        op_image_free(img);
+        st = op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+        goto done;
+    }
+    exr_decode_pipeline_t dec;
+    int dec_started = 0;
+    size_t row_floats = (size_t)w * (size_t)c;
+    for (int32_t i = 0; i < nchunks && rv == EXR_ERR_SUCCESS; i++) {
+        exr_chunk_info_t ci;
+        if (storage == EXR_STORAGE_SCANLINE)
+            rv = exr_read_scanline_chunk_info(ctx, 0, dw.min.y + i * lines, &ci);
+        else
+            rv = exr_read_tile_chunk_info(ctx, 0, i % tiles_x, i / tiles_x, 0, 0, &ci);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        int64_t x0 = storage == EXR_STORAGE_SCANLINE ? 0 : (int64_t)(i % tiles_x) * tw;
+        int64_t y0 = storage == EXR_STORAGE_SCANLINE ? (int64_t)ci.start_y - dw.min.y
+                                                     : (int64_t)(i / tiles_x) * th;
+        if (y0 < 0 || x0 < 0 || ci.width <= 0 || ci.height <= 0 || y0 + ci.height > h ||
+            x0 + ci.width > w || (size_t)ci.width * (size_t)ci.height > chunk_px) {
+            rv = EXR_ERR_CORRUPT_CHUNK;
+            break;
+        }
+        if (!dec_started) {
+            rv = exr_decoding_initialize(ctx, 0, &ci, &dec);
+            dec_started = rv == EXR_ERR_SUCCESS;
+        } else {
+            rv = exr_decoding_update(ctx, 0, &ci, &dec);
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        size_t plane = (size_t)ci.width * (size_t)ci.height;
+        for (int ch = 0; ch < dec.channel_count; ch++) {
+            exr_coding_channel_info_t *cc = &dec.channels[ch];
+            cc->decode_to_ptr = NULL;
+            for (int s = 0; s < 5; s++)
+                if (slot_of[s] >= 0 && strcmp(cc->channel_name, slot_names[s]) == 0) {
+                    cc->user_bytes_per_element = 4;
+                    cc->user_data_type = EXR_PIXEL_FLOAT;
+                    cc->user_pixel_stride = (int32_t)sizeof(float);
+                    cc->user_line_stride = (int32_t)((size_t)ci.width * sizeof(float));
+                    cc->decode_to_ptr = (uint8_t *)(scratch + (size_t)slot_of[s] * plane);
+                }
+        }
+        rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_decoding_run(ctx, 0, &dec);
+        for (int32_t yy = 0; rv == EXR_ERR_SUCCESS && yy < ci.height; yy++)
+            for (int32_t xx = 0; xx < ci.width; xx++)
+                for (int k = 0; k < c; k++)
+                    img->pixels[(size_t)(y0 + yy) * row_floats + (size_t)(x0 + xx) * (size_t)c +
+                                (size_t)k] =
+                        scratch[(size_t)k * plane + (size_t)yy * (size_t)ci.width + (size_t)xx];
+    }
+    free(scratch);
+    if (dec_started)
+        exr_decoding_destroy(ctx, &dec);
+    if (rv != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: corrupt OpenEXR pixel data: %s", path,
+                          exr_msg(&io, rv));
+        op_image_free(img);
+    }
+done:
+    exr_finish(&ctx);
+    return st;
+}
+
+/* ---------------------------------------------------------------- PFM */
+
+static int host_little_endian(void)
+{
+    const uint16_t one = 1;
+    unsigned char b;
+    memcpy(&b, &one, 1);
+    return b == 1;
+}
+
+static void swap4(void *p)
+{
+    unsigned char *b = p, t;
+    t = b[0], b[0] = b[3], b[3] = t;
+    t = b[1], b[1] = b[2], b[2] = t;
+}
+
+/* Grey images are written as "Pf", colour as "PF"; alpha is dropped (PFM has no alpha).
+ * Rows go bottom to top, as the format requires. */
+op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err)
+{
+    op_status st = check_image(path, img, err);
+    if (st != OP_OK)
+        return st;
+    op_output *out;
+    if ((st = op_output_open(path, &out, err)) != OP_OK)
+        return st;
+    int oc = img->channels == 1 ? 1 : 3;
+    char header[64];
+    int hn = snprintf(header, sizeof header, "%s\n%d %d\n-1.0\n", oc == 1 ? "Pf" : "PF",
+                      img->width, img->height);
+    op_output_write(out, header, (size_t)hn);
+    float *row = malloc((size_t)img->width * (size_t)oc * sizeof(float));
+    if (!row) {
+        op_output_abort(out);
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    int swap = !host_little_endian();
+    for (int y = img->height - 1; y >= 0; y--) {
+        const float *src = img->pixels + (size_t)y * (size_t)img->width * (size_t)img->channels;
+        for (int x = 0; x < img->width; x++)
+            for (int k = 0; k < oc; k++) {
+                float *d = &row[(size_t)x * (size_t)oc + (size_t)k];
+                *d = src[(size_t)x * (size_t)img->channels + (size_t)k];
+                if (swap)
+                    swap4(d);
+            }
+        op_output_write(out, row, (size_t)img->width * (size_t)oc * sizeof(float));
+    }
+    free(row);
+    return op_output_commit(out, err);
+}
+
+/* Parses one whitespace-delimited token of a PFM header from buf[*pos..n). */
+static int pfm_token(const unsigned char *buf, size_t n, size_t *pos, char *tok, size_t cap)
+{
+    size_t p = *pos, k = 0;
+    while (p < n && (buf[p] == ' ' || buf[p] == '\t' || buf[p] == '\n' || buf[p] == '\r'))
+        p++;
+    while (p < n && !(buf[p] == ' ' || buf[p] == '\t' || buf[p] == '\n' || buf[p] == '\r')) {
+        if (k + 1 >= cap)
+            return 0;
+        tok[k++] = (char)buf[p++];
+    }
+    tok[k] = '\0';
+    if (p >= n || k == 0)
+        return 0;
+    *pos = p + 1; /* exactly one whitespace character ends the token */
+    return 1;
+}
+
+static op_status read_pfm(const char *path, int fd, int64_t size, op_image *img, op_error *err)
+{
+    unsigned char head[128];
+    ssize_t got = pread(fd, head, sizeof head, 0);
+    if (got < 0)
+        return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(errno));
+    size_t pos = 0;
+    char t0[8], t1[16], t2[16], t3[32];
+    if (!pfm_token(head, (size_t)got, &pos, t0, sizeof t0) ||
+        !pfm_token(head, (size_t)got, &pos, t1, sizeof t1) ||
+        !pfm_token(head, (size_t)got, &pos, t2, sizeof t2) ||
+        !pfm_token(head, (size_t)got, &pos, t3, sizeof t3))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: bad PFM header", path);
+    int c = strcmp(t0, "PF") == 0 ? 3 : strcmp(t0, "Pf") == 0 ? 1 : 0;
+    char *e1, *e2, *e3;
+    long w = strtol(t1, &e1, 10), h = strtol(t2, &e2, 10);
+    double scale = strtod(t3, &e3);
+    if (!c || *e1 || *e2 || *e3 || w <= 0 || h <= 0 || w > OP_IMAGE_MAX_SIDE ||
+        h > OP_IMAGE_MAX_SIDE || scale == 0.0 || !isfinite(scale))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: bad PFM header", path);
+    size_t count = (size_t)w * (size_t)h * (size_t)c;
+    if ((uint64_t)size < pos + count * sizeof(float))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: truncated PFM (%lld bytes, need %zu)", path,
+                            (long long)size, pos + count * sizeof(float));
+    op_status st = op_image_alloc(img, (int)w, (int)h, c, err);
+    if (st != OP_OK)
+        return st;
+    int swap = (scale < 0) != host_little_endian();
+    size_t row = (size_t)w * (size_t)c;
+    for (long y = 0; y < h; y++) {
+        float *dst = img->pixels + (size_t)(h - 1 - y) * row;
+        size_t want = row * sizeof(float), done = 0;
+        off_t off = (off_t)(pos + (size_t)y * want);
+        while (done < want) {
+            ssize_t r = pread(fd, (char *)dst + done, want - done, off + (off_t)done);
+            if (r <= 0) {
+                op_image_free(img);
+                return op_error_set(err, r < 0 ? OP_ERR_IO : OP_ERR_FORMAT,
+                                    "%s: cannot read PFM row %ld", path, y);
+            }
+            done += (size_t)r;
+        }
+        if (swap)
+            for (size_t i = 0; i < row; i++)
+                swap4(&dst[i]);
+    }
+    return OP_OK;
+}
+
+/* ---------------------------------------------------------------- reading */
+
+op_status op_image_read(const char *path, op_image *img, op_error *err)
+{
+    memset(img, 0, sizeof *img);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return op_error_set(err, OP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat sb;
+    unsigned char magic[8] = {0};
+    ssize_t got;
+    if (fstat(fd, &sb) != 0 || (got = pread(fd, magic, sizeof magic, 0)) < 0) {
+        int e = errno;
+        close(fd);
+        return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
+    }
+    if (!S_ISREG(sb.st_mode)) {
+        close(fd);
+        return op_error_set(err, OP_ERR_IO, "%s: not a regular file", path);
+    }
+    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    op_status st;
+    if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
+        st = read_exr(path, fd, (int64_t)sb.st_size, img, err);
+    } else if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
+        st = read_png(path, img, err);
+    } else if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
+               (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r')) {
+        st = read_pfm(path, fd, (int64_t)sb.st_size, img, err);
+    } else {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: not an OpenEXR, PNG or PFM image", path);
+    }
+    close(fd);
+    return st;
+}

@@ -1,0 +1,145 @@
+/* mesh.c - mesh helpers shared by the loaders and the scene builder. */
+#include "mesh_internal.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+op_status op_map_file(const char *path, op_mapped_file *f, op_error *err)
+{
+    f->data = NULL;
+    f->size = 0;
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return op_error_set(err, OP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat sb;
+    if (fstat(fd, &sb) != 0 || !S_ISREG(sb.st_mode)) {
+        int e = S_ISDIR(sb.st_mode) ? EISDIR : errno;
+        close(fd);
+        return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
+    }
+    if (sb.st_size > 0) {
+        void *p = mmap(NULL, (size_t)sb.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+        if (p == MAP_FAILED) {
+            int e = errno;
+            close(fd);
+            return op_error_set(err, OP_ERR_IO, "%s: cannot map: %s", path, strerror(e));
+        }
+        f->data = p;
+        f->size = (size_t)sb.st_size;
+    }
+    close(fd);
+    return OP_OK;
+}
+
+void op_unmap_file(op_mapped_file *f)
+{
+    if (f->data)
+        munmap((void *)f->data, f->size);
+    f->data = NULL;
+    f->size = 0;
+}
+
+void op_mesh_free(op_mesh *m)
+{
+    if (!m)
+        return;
+    free(m->positions);
+    free(m->normals);
+    free(m->uvs);
+    free(m->indices);
+    memset(m, 0, sizeof *m);
+}
+
+op_status op_mesh_load(const char *path, op_mesh *out, op_error *err)
+{
+    memset(out, 0, sizeof *out);
+    const char *dot = strrchr(path, '.');
+    char ext[8] = {0};
+    if (dot && strlen(dot + 1) < sizeof ext)
+        for (size_t i = 0; dot[1 + i]; i++)
+            ext[i] = (char)tolower((unsigned char)dot[1 + i]);
+    if (strcmp(ext, "obj") == 0)
+        return op_mesh_load_obj(path, out, err);
+    if (strcmp(ext, "ply") == 0)
+        return op_mesh_load_ply(path, out, err);
+    return op_error_set(err, OP_ERR_INPUT, "%s: unknown mesh format (expected .obj or .ply)", path);
+}
+
+void op_mesh_flip_v(op_mesh *m)
+{
+    if (!m->uvs)
+        return;
+    for (uint32_t i = 0; i < m->nverts; i++)
+        m->uvs[2 * (size_t)i + 1] = 1.0f - m->uvs[2 * (size_t)i + 1];
+}
+
+op_status op_mesh_compute_normals(op_mesh *m, op_error *err)
+{
+    double *acc = calloc((size_t)m->nverts * 3 + 1, sizeof(double));
+    if (!acc)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory computing normals");
+    for (uint32_t t = 0; t < m->ntris; t++) {
+        const uint32_t *idx = &m->indices[3 * (size_t)t];
+        const float *p0 = &m->positions[3 * (size_t)idx[0]], *p1 = &m->positions[3 * (size_t)idx[1]],
+                    *p2 = &m->positions[3 * (size_t)idx[2]];
+        double e1[3], e2[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            e1[k] = (double)p1[k] - p0[k];
+            e2[k] = (double)p2[k] - p0[k];
+        }
+        /* |e1 x e2| is twice the area: summing unnormalized crosses weights by area. */
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++)
+                acc[3 * (size_t)idx[c] + k] += n[k];
+    }
+    float *normals = m->normals ? m->normals : malloc((size_t)m->nverts * 3 * sizeof(float) + 1);
+    if (!normals) {
+        free(acc);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory computing normals");
+    }
+    for (uint32_t i = 0; i < m->nverts; i++) {
+        double *a = &acc[3 * (size_t)i];
+        double len = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        float *n = &normals[3 * (size_t)i];
+        if (len > 0 && isfinite(len)) {
+            n[0] = (float)(a[0] / len);
+            n[1] = (float)(a[1] / len);
+            n[2] = (float)(a[2] / len);
+        } else {
+            n[0] = 0.0f, n[1] = 0.0f, n[2] = 1.0f;
+        }
+    }
+    m->normals = normals;
+    free(acc);
+    return OP_OK;
+}
+
+void op_mesh_drop_normals(op_mesh *m)
+{
+    free(m->normals);
+    m->normals = NULL;
+}
+
+void op_mesh_bounds(const op_mesh *m, float lo[3], float hi[3])
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = hi[k] = 0.0f;
+    for (uint32_t i = 0; i < m->nverts; i++)
+        for (int k = 0; k < 3; k++) {
+            float v = m->positions[3 * (size_t)i + k];
+            if (i == 0 || v < lo[k])
+                lo[k] = v;
+            if (i == 0 || v > hi[k])
+                hi[k] = v;
+        }
+}
