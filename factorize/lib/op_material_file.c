@@ -62,6 +62,8 @@ static const op_method_ops *method_ops(op_method m)
 {
     switch (m) {
     case OP_METHOD_RAW: return &op_method_raw_ops;
+    case OP_METHOD_SVD: return &op_method_svd_ops;
+    case OP_METHOD_TUCKER: return &op_method_tucker_ops;
     default: return NULL;
     }
 }
@@ -335,7 +337,7 @@ static op_status check_container(op_material *m, op_error *err)
     return OP_OK;
 }
 
-op_status op_material_open(const char *path, op_material **out, op_error *err)
+static op_status open_file(const char *path, int with_method, op_material **out, op_error *err)
 {
     *out = NULL;
     op_material *m = calloc(1, sizeof *m);
@@ -373,6 +375,10 @@ op_status op_material_open(const char *path, op_material **out, op_error *err)
         st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'META' is missing", path);
     if (st == OP_OK)
         st = parse_meta(path, meta, meta_n, &m->info, err);
+    if (st == OP_OK && !with_method) {
+        *out = m;
+        return OP_OK;
+    }
     if (st == OP_OK && !(m->ops = method_ops(m->info.method)))
         st = op_error_set(err, OP_ERR_FORMAT, "%s: method '%s' is not supported by this build",
                           path, op_method_name(m->info.method));
@@ -385,6 +391,16 @@ op_status op_material_open(const char *path, op_material **out, op_error *err)
     }
     *out = m;
     return OP_OK;
+}
+
+op_status op_material_open(const char *path, op_material **out, op_error *err)
+{
+    return open_file(path, 1, out, err);
+}
+
+op_status op_material_open_container(const char *path, op_material **out, op_error *err)
+{
+    return open_file(path, 0, out, err);
 }
 
 void op_material_close(op_material *m)

@@ -37,6 +37,14 @@ void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_i
 op_status op_material_float_section(const op_material *m, const char *tag, uint64_t count,
                                     int nonneg, const float **out, op_error *err);
 
+/* Opens a file's container and META only (header, section table, checksums, dimensions) without
+ * the method's checks: sections may be read with op_material_section, but eval, eval_row and
+ * albedo must not be called. The factorizer reads datasets this way, so that NaN or negative
+ * noise in a dataset gets its own clear report. Close with op_material_close. */
+op_status op_material_open_container(const char *path, op_material **out, op_error *err);
+
 extern const op_method_ops op_method_raw_ops;
+extern const op_method_ops op_method_svd_ops;
+extern const op_method_ops op_method_tucker_ops;
 
 #endif

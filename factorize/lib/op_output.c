@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 struct op_output {
@@ -28,6 +29,12 @@ op_status op_output_open(const char *path, op_output **out, op_error *err)
     memcpy(o->path, path, n + 1);
     snprintf(o->tmp_path, n + 16, "%s.tmp-XXXXXX", path);
     int fd = mkstemp(o->tmp_path);
+    if (fd >= 0) {
+        /* mkstemp creates mode 0600; give the file the permissions open() would have. */
+        mode_t mask = umask(0);
+        umask(mask);
+        fchmod(fd, 0666 & ~mask);
+    }
     if (fd < 0 || !(o->f = fdopen(fd, "wb"))) {
         int e = errno;
         if (fd >= 0) {

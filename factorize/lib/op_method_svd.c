@@ -1,0 +1,252 @@
+/* op_method_svd.c - the log-transformed truncated SVD of Onel, Kurt and Ozturk.
+ *
+ * Per channel c (tag suffix R, G, B or Y), with T = info.terms and n = K*K columns:
+ *   "U.c"     rows x T float32, row-major: the left singular vectors scaled by the values
+ *   "V.c"     n x T float32, row-major: the right singular vectors
+ *   "SHIFT.c" rows u32 and "MAX.c" rows float32, only when info.shifted: the column of each
+ *             row's maximum and the maximum itself (paper section 4.1)
+ *   "ALBEDO"  optional, channels x rows float32: the row sums of the reconstruction, written
+ *             by the factorizer so the albedo map needs no summation
+ * Rd(row, col) = max * (A * exp(U[row] . V[j]) - A * B), clamped at 0, where
+ * j = (col - shift) mod n. docs/formats.md is the specification. */
+#include "op_material_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+
+typedef struct svd_state {
+    int terms, cols;
+    int stride;               /* floats per row of rowdata, a multiple of 16 */
+    float a, c;               /* Rd' = a * expm1(x) + c, c = A * (1 - B) */
+    const float *u[3], *v[3]; /* per channel, in the file */
+    const uint32_t *shift[3]; /* NULL when not shifted */
+    const float *max[3];      /* NULL when not shifted */
+    const float *albedo;      /* NULL when absent */
+    /* Per channel and row, one cache-line-aligned record: U[row] (terms floats), then the
+     * maximum and the shift (as a float holding a whole number), so that one evaluation
+     * touches one record instead of three sections. */
+    float *rowdata[3];
+} svd_state;
+
+/* Builds the interleaved row records of channel c. */
+static op_status build_rows(const op_material *m, svd_state *s, int c, op_error *err)
+{
+    int64_t rows = op_material_rows(m);
+    /* Whole 2 MiB pages, offered to the kernel as huge pages: random rows then cost one cache
+     * miss and no TLB miss. */
+    size_t huge = (size_t)2 << 20;
+    size_t bytes = ((size_t)rows * (size_t)s->stride * sizeof(float) + huge - 1) / huge * huge;
+    float *d = aligned_alloc(huge, bytes);
+    if (!d)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+#ifdef MADV_HUGEPAGE
+    madvise(d, bytes, MADV_HUGEPAGE); /* advisory: failure only costs speed */
+#endif
+    memset(d, 0, bytes);
+    for (int64_t r = 0; r < rows; r++) {
+        float *rec = d + r * s->stride;
+        memcpy(rec, s->u[c] + r * s->terms, (size_t)s->terms * sizeof *rec);
+        rec[s->terms] = s->max[c] ? s->max[c][r] : 1.0f;
+        rec[s->terms + 1] = s->shift[c] ? (float)s->shift[c][r] : 0.0f;
+    }
+    s->rowdata[c] = d;
+    return OP_OK;
+}
+
+static void free_state(svd_state *s)
+{
+    if (!s)
+        return;
+    for (int c = 0; c < 3; c++)
+        free(s->rowdata[c]);
+    free(s);
+}
+
+/* Checks the shift and maximum sections of one channel. */
+static op_status load_shift(const op_material *m, svd_state *s, int c, op_error *err)
+{
+    char tag[16];
+    int64_t rows = op_material_rows(m);
+    uint64_t bytes = 0;
+    op_channel_tag(tag, sizeof tag, "SHIFT.", &m->info, c);
+    const uint32_t *sh = op_material_section(m, tag, &bytes);
+    if (!sh)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
+    if (bytes != (uint64_t)rows * sizeof(uint32_t))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected %llu",
+                            m->path, tag, (unsigned long long)bytes,
+                            (unsigned long long)rows * sizeof(uint32_t));
+    for (int64_t r = 0; r < rows; r++)
+        if (sh[r] >= (uint32_t)s->cols)
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld shifts by %u >= %d",
+                                m->path, tag, (long long)r, sh[r], s->cols);
+    s->shift[c] = sh;
+    op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
+    return op_material_float_section(m, tag, (uint64_t)rows, 1, &s->max[c], err);
+}
+
+/* Rejects factors whose reconstruction could overflow a float: |U[r] . V[j]| is bounded by
+ * sum_t |U[r][t]| * max_j |V[j][t]|. */
+static op_status check_range(const op_material *m, const svd_state *s, int c, op_error *err)
+{
+    int T = s->terms;
+    double vmax[4096];
+    for (int t = 0; t < T; t++)
+        vmax[t] = 0;
+    for (int j = 0; j < s->cols; j++)
+        for (int t = 0; t < T; t++)
+            vmax[t] = fmax(vmax[t], fabs(s->v[c][(size_t)j * T + t]));
+    double limit = log(FLT_MAX) - 1.0 - log(fmax(s->a, 1.0));
+    int64_t rows = op_material_rows(m);
+    for (int64_t r = 0; r < rows; r++) {
+        double bound = 0;
+        for (int t = 0; t < T; t++)
+            bound += fabs(s->u[c][(size_t)r * T + t]) * vmax[t];
+        double scale = s->max[c] ? s->max[c][r] : 1.0;
+        if (bound + (scale > 1.0 ? log(scale) : 0.0) > limit)
+            return op_error_set(err, OP_ERR_FORMAT,
+                                "%s: channel %d row %lld: factors too large (reconstruction would "
+                                "overflow)", m->path, c, (long long)r);
+    }
+    return OP_OK;
+}
+
+static op_status svd_prepare(op_material *m, op_error *err)
+{
+    const op_material_info *in = &m->info;
+    if (in->terms < 1 || in->terms > 4096)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: svd needs 1 to 4096 terms, META says %d",
+                            m->path, in->terms);
+    if (!(in->log_a > 0) || !(in->log_b > 0) || in->log_a > 1e30 || in->log_b > 1e30)
+        return op_error_set(err, OP_ERR_FORMAT,
+                            "%s: svd needs log_a > 0 and log_b > 0, META says %g and %g", m->path,
+                            in->log_a, in->log_b);
+    svd_state *s = calloc(1, sizeof *s);
+    if (!s)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    s->terms = in->terms;
+    s->stride = (in->terms + 2 + 15) / 16 * 16;
+    s->cols = op_material_cols(m);
+    s->a = (float)in->log_a;
+    s->c = (float)(in->log_a * (1.0 - in->log_b));
+    int64_t rows = op_material_rows(m);
+    op_status st = OP_OK;
+    for (int c = 0; c < in->channels && st == OP_OK; c++) {
+        char tag[16];
+        op_channel_tag(tag, sizeof tag, "U.", in, c);
+        st = op_material_float_section(m, tag, (uint64_t)rows * (uint64_t)s->terms, 0, &s->u[c],
+                                       err);
+        if (st == OP_OK) {
+            op_channel_tag(tag, sizeof tag, "V.", in, c);
+            st = op_material_float_section(m, tag, (uint64_t)s->cols * (uint64_t)s->terms, 0,
+                                           &s->v[c], err);
+        }
+        if (st == OP_OK && in->shifted)
+            st = load_shift(m, s, c, err);
+        if (st == OP_OK)
+            st = check_range(m, s, c, err);
+        if (st == OP_OK)
+            st = build_rows(m, s, c, err);
+    }
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
+        st = op_material_float_section(m, "ALBEDO", (uint64_t)rows * (uint64_t)in->channels, 1,
+                                       &s->albedo, err);
+    if (st != OP_OK) {
+        free_state(s);
+        return st;
+    }
+    m->state = s;
+    return OP_OK;
+}
+
+/* The reconstruction of one entry of the shifted, normalized matrix, clamped at 0. */
+static inline float entry(const svd_state *s, const float *u, const float *v)
+{
+    /* Four partial sums: a short dependency chain matters more than the flops here. */
+    float x0 = 0.0f, x1 = 0.0f, x2 = 0.0f, x3 = 0.0f;
+    int t = 0;
+    for (; t + 4 <= s->terms; t += 4) {
+        x0 += u[t] * v[t];
+        x1 += u[t + 1] * v[t + 1];
+        x2 += u[t + 2] * v[t + 2];
+        x3 += u[t + 3] * v[t + 3];
+    }
+    for (; t < s->terms; t++)
+        x0 += u[t] * v[t];
+    float x = (x0 + x1) + (x2 + x3);
+    /* exp in double keeps A * (e^x - 1) accurate to float precision for tiny x (as expm1f
+     * would) and is several times faster than expm1f. */
+    float r = (float)((double)s->a * (exp((double)x) - 1.0) + (double)s->c);
+    return r > 0.0f ? r : 0.0f;
+}
+
+static float svd_eval(const op_material *m, int channel, int64_t row, int col)
+{
+    const svd_state *s = m->state;
+    const int T = s->terms;
+    const float *rec = s->rowdata[channel] + row * s->stride;
+    int j = col - (int)rec[T + 1];
+    if (j < 0)
+        j += s->cols;
+    return rec[T] * entry(s, rec, s->v[channel] + (size_t)j * T);
+}
+
+static void svd_eval_row(const op_material *m, int channel, int64_t row, float *out)
+{
+    const svd_state *s = m->state;
+    const int T = s->terms, n = s->cols;
+    const float *u = s->u[channel] + row * T, *v = s->v[channel];
+    if (!s->shift[channel]) {
+        for (int j = 0; j < n; j++)
+            out[j] = entry(s, u, v + (size_t)j * T);
+        return;
+    }
+    /* Column col holds shifted entry j = col - shift (mod n). */
+    int sh = (int)s->shift[channel][row];
+    float mx = s->max[channel][row];
+    for (int j = 0; j < n - sh; j++)
+        out[j + sh] = mx * entry(s, u, v + (size_t)j * T);
+    for (int j = n - sh; j < n; j++)
+        out[j + sh - n] = mx * entry(s, u, v + (size_t)j * T);
+}
+
+static op_status svd_albedo(const op_material *m, float *out, op_error *err)
+{
+    const svd_state *s = m->state;
+    int64_t rows = op_material_rows(m);
+    if (s->albedo) {
+        memcpy(out, s->albedo, (size_t)rows * (size_t)m->info.channels * sizeof *out);
+        return OP_OK;
+    }
+    float *row = malloc((size_t)s->cols * sizeof *row);
+    if (!row)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    for (int c = 0; c < m->info.channels; c++) {
+        for (int64_t r = 0; r < rows; r++) {
+            svd_eval_row(m, c, r, row);
+            double sum = 0;
+            for (int j = 0; j < s->cols; j++)
+                sum += row[j];
+            out[c * rows + r] = (float)sum;
+        }
+    }
+    free(row);
+    return OP_OK;
+}
+
+static void svd_destroy(op_material *m)
+{
+    free_state(m->state);
+    m->state = NULL;
+}
+
+const op_method_ops op_method_svd_ops = {
+    .prepare = svd_prepare,
+    .eval = svd_eval,
+    .eval_row = svd_eval_row,
+    .albedo = svd_albedo,
+    .destroy = svd_destroy,
+};

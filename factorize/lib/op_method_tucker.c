@@ -1,0 +1,192 @@
+/* op_method_tucker.c - Tucker factorization of the channel mean with per-row polynomial colour
+ * regression (Kurt, Ozturk and Peers 2013).
+ *
+ * With T = info.terms, P = info.degree, n = K*K columns, C = info.channels:
+ *   "U"      rows x T float32: f_j(x_i) g_j      "V"   n x T float32: h_j(d)
+ *   "RANGE"  rows x 2 float32: (center, scale) of each row's polynomial argument
+ *   "BETA"   C x rows x (P + 1) float32: Chebyshev coefficients per channel and row
+ *   "SHIFT"  rows u32 and "MAX" rows float32, only when info.shifted
+ *   "ALBEDO" optional, C x rows float32: the row sums of the reconstruction
+ * Rd_c(row, col) = max * sum_p BETA[c][row][p] T_p((U[row] . V[j] - center) * scale),
+ * clamped at 0, with j = (col - shift) mod n. docs/formats.md is the specification. */
+#include "op_material_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct tucker_state {
+    int terms, degree, cols;
+    int64_t rows;
+    const float *u, *v, *range, *beta, *max, *albedo;
+    const uint32_t *shift;
+} tucker_state;
+
+/* Rejects factors whose reconstruction could overflow a float anywhere: |U[r] . V[j]| <= b_r,
+ * |T_p(t)| <= max(1, 2|t|)^p and Clenshaw's partial sums stay within (P + 1) times that. */
+static op_status check_range(const op_material *m, const tucker_state *s, op_error *err)
+{
+    int T = s->terms, np = s->degree + 1;
+    double vmax[4096];
+    for (int t = 0; t < T; t++)
+        vmax[t] = 0;
+    for (int j = 0; j < s->cols; j++)
+        for (int t = 0; t < T; t++)
+            vmax[t] = fmax(vmax[t], fabs(s->v[(size_t)j * T + t]));
+    double limit = log(FLT_MAX) - 4.0;
+    for (int64_t r = 0; r < s->rows; r++) {
+        double bound = 0;
+        for (int t = 0; t < T; t++)
+            bound += fabs(s->u[(size_t)r * T + t]) * vmax[t];
+        double tau = (bound + fabs(s->range[2 * r])) * fabs(s->range[2 * r + 1]);
+        double mx = s->max ? s->max[r] : 1.0;
+        double coef = 0;
+        for (int c = 0; c < m->info.channels; c++)
+            for (int p = 0; p < np; p++)
+                coef = fmax(coef, fabs(s->beta[((size_t)c * s->rows + r) * np + p]));
+        double lg = log(fmax(mx, 1.0)) + log((double)np * np) + log(fmax(coef, 1e-300)) +
+                    s->degree * log(fmax(1.0, 2.0 * tau));
+        if (bound > 1e30 || !(lg < limit))
+            return op_error_set(err, OP_ERR_FORMAT, "%s: row %lld: factors too large "
+                                "(reconstruction would overflow)", m->path, (long long)r);
+    }
+    return OP_OK;
+}
+
+static op_status tucker_prepare(op_material *m, op_error *err)
+{
+    const op_material_info *in = &m->info;
+    if (in->terms < 1 || in->terms > 4096 || in->degree < 0 || in->degree > 64)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: tucker needs 1 to 4096 terms and degree 0 "
+                            "to 64, META says %d and %d", m->path, in->terms, in->degree);
+    tucker_state *s = calloc(1, sizeof *s);
+    if (!s)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    s->terms = in->terms;
+    s->degree = in->degree;
+    s->cols = op_material_cols(m);
+    s->rows = op_material_rows(m);
+    uint64_t rows = (uint64_t)s->rows, T = (uint64_t)s->terms;
+    op_status st = op_material_float_section(m, "U", rows * T, 0, &s->u, err);
+    if (st == OP_OK)
+        st = op_material_float_section(m, "V", (uint64_t)s->cols * T, 0, &s->v, err);
+    if (st == OP_OK)
+        st = op_material_float_section(m, "RANGE", rows * 2, 0, &s->range, err);
+    if (st == OP_OK)
+        st = op_material_float_section(m, "BETA",
+                                       (uint64_t)in->channels * rows * (uint64_t)(s->degree + 1),
+                                       0, &s->beta, err);
+    if (st == OP_OK && in->shifted) {
+        uint64_t bytes = 0;
+        s->shift = op_material_section(m, "SHIFT", &bytes);
+        if (!s->shift)
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'SHIFT' is missing", m->path);
+        else if (bytes != rows * sizeof(uint32_t))
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'SHIFT' holds %llu bytes, "
+                              "expected %llu", m->path, (unsigned long long)bytes,
+                              (unsigned long long)(rows * sizeof(uint32_t)));
+        for (uint64_t r = 0; st == OP_OK && r < rows; r++)
+            if (s->shift[r] >= (uint32_t)s->cols)
+                st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'SHIFT' row %llu shifts by "
+                                  "%u >= %d", m->path, (unsigned long long)r, s->shift[r],
+                                  s->cols);
+        if (st == OP_OK)
+            st = op_material_float_section(m, "MAX", rows, 1, &s->max, err);
+    }
+    if (st == OP_OK)
+        st = check_range(m, s, err);
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
+        st = op_material_float_section(m, "ALBEDO", rows * (uint64_t)in->channels, 1, &s->albedo,
+                                       err);
+    if (st != OP_OK) {
+        free(s);
+        return st;
+    }
+    m->state = s;
+    return OP_OK;
+}
+
+/* One entry of the shifted, normalized matrix for channel c, clamped at 0. */
+static inline float entry(const tucker_state *s, int c, int64_t row, const float *v)
+{
+    const int T = s->terms, P = s->degree;
+    const float *u = s->u + row * T;
+    float x = 0.0f;
+    for (int t = 0; t < T; t++)
+        x += u[t] * v[t];
+    float t = (x - s->range[2 * row]) * s->range[2 * row + 1];
+    const float *beta = s->beta + ((size_t)c * s->rows + row) * (size_t)(P + 1);
+    float b1 = 0.0f, b2 = 0.0f;
+    for (int p = P; p >= 1; p--) {
+        float b0 = 2.0f * t * b1 - b2 + beta[p];
+        b2 = b1;
+        b1 = b0;
+    }
+    float y = t * b1 - b2 + beta[0];
+    return y > 0.0f ? y : 0.0f;
+}
+
+static float tucker_eval(const op_material *m, int channel, int64_t row, int col)
+{
+    const tucker_state *s = m->state;
+    if (!s->shift)
+        return entry(s, channel, row, s->v + (size_t)col * s->terms);
+    int j = col - (int)s->shift[row];
+    if (j < 0)
+        j += s->cols;
+    return s->max[row] * entry(s, channel, row, s->v + (size_t)j * s->terms);
+}
+
+static void tucker_eval_row(const op_material *m, int channel, int64_t row, float *out)
+{
+    const tucker_state *s = m->state;
+    const int T = s->terms, n = s->cols;
+    if (!s->shift) {
+        for (int j = 0; j < n; j++)
+            out[j] = entry(s, channel, row, s->v + (size_t)j * T);
+        return;
+    }
+    int sh = (int)s->shift[row];
+    float mx = s->max[row];
+    for (int j = 0; j < n - sh; j++)
+        out[j + sh] = mx * entry(s, channel, row, s->v + (size_t)j * T);
+    for (int j = n - sh; j < n; j++)
+        out[j + sh - n] = mx * entry(s, channel, row, s->v + (size_t)j * T);
+}
+
+static op_status tucker_albedo(const op_material *m, float *out, op_error *err)
+{
+    const tucker_state *s = m->state;
+    if (s->albedo) {
+        memcpy(out, s->albedo, (size_t)s->rows * (size_t)m->info.channels * sizeof *out);
+        return OP_OK;
+    }
+    float *row = malloc((size_t)s->cols * sizeof *row);
+    if (!row)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    for (int c = 0; c < m->info.channels; c++)
+        for (int64_t r = 0; r < s->rows; r++) {
+            tucker_eval_row(m, c, r, row);
+            double sum = 0;
+            for (int j = 0; j < s->cols; j++)
+                sum += row[j];
+            out[c * s->rows + r] = (float)sum;
+        }
+    free(row);
+    return OP_OK;
+}
+
+static void tucker_destroy(op_material *m)
+{
+    free(m->state);
+    m->state = NULL;
+}
+
+const op_method_ops op_method_tucker_ops = {
+    .prepare = tucker_prepare,
+    .eval = tucker_eval,
+    .eval_row = tucker_eval_row,
+    .albedo = tucker_albedo,
+    .destroy = tucker_destroy,
+};

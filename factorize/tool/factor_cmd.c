@@ -1,0 +1,661 @@
+/* factor_cmd.c - `opaline-factor factor`: turns a raw dataset into a material (svd, tucker or
+ * raw), checks the result by reading it back through libopaline, and reports. */
+#include "commands.h"
+#include "opaline.h"
+#include "preprocess.h"
+#include "report.h"
+#include "rsvd.h"
+#include "tucker.h"
+
+#include "op_material_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define MAX_SECTIONS 32
+
+/* What the command was asked to do. */
+typedef struct factor_args {
+    const char *input, *output, *report, *albedo_png, *name;
+    op_method method;
+    int terms, degree, shift, sanitize;
+    double log_a, log_b;
+    op_rsvd_options svd;
+} factor_args;
+
+/* The sections of the material being written; data is owned by the list. */
+typedef struct section_list {
+    int n;
+    char tag[MAX_SECTIONS][9];
+    void *data[MAX_SECTIONS];
+    uint64_t bytes[MAX_SECTIONS];
+} section_list;
+
+/* The dataset as read: its META and one read-only rows x cols matrix per channel. */
+typedef struct dataset {
+    op_material *file;
+    op_material_info info;
+    int64_t rows;
+    int cols;
+    const float *rd[3];
+} dataset;
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: opaline-factor factor IN.opm -o OUT.opm --method svd|tucker|raw [options]\n"
+            "  -T N               terms (svd default 10, tucker default 15)\n"
+            "  -P N               tucker polynomial degree (default 7)\n"
+            "  --log-a A          svd transform R''' = ln(R'/A + B): scale A > 0 (default 100)\n"
+            "  --log-b B          svd transform offset B > 0 (default 1)\n"
+            "  --no-shift         do not shift and normalize rows (paper section 4.1)\n"
+            "  --report R.json    write the report as JSON\n"
+            "  --albedo-png A.png write the albedo map as an sRGB PNG thumbnail\n"
+            "  --sanitize         replace NaN and infinite dataset values by 0 (else an error)\n"
+            "  --name NAME        material name (default: the dataset's)\n"
+            "  --precision single|double  arithmetic of the randomized SVD (default single)\n"
+            "  --power-iters Q    randomized SVD power iterations (default 4)\n"
+            "  --oversample P     randomized SVD oversampling (default 10)\n"
+            "  --exact-svd        full LAPACK SVD instead of the randomized one (slow)\n"
+            "  -v / -q            more / less output on stderr\n");
+}
+
+static void sections_free(section_list *s)
+{
+    for (int i = 0; i < s->n; i++)
+        free(s->data[i]);
+    s->n = 0;
+}
+
+/* Takes ownership of data (freed by sections_free even when this fails). */
+static op_status sections_add(section_list *s, const char *tag, void *data, uint64_t bytes,
+                              op_error *err)
+{
+    if (s->n == MAX_SECTIONS) {
+        free(data);
+        return op_error_set(err, OP_ERR_INTERNAL, "too many sections");
+    }
+    snprintf(s->tag[s->n], sizeof s->tag[0], "%.8s", tag);
+    s->data[s->n] = data;
+    s->bytes[s->n++] = bytes;
+    return OP_OK;
+}
+
+static op_status parse_number(const char *opt, const char *val, double lo, double hi,
+                              double *out, op_error *err)
+{
+    char *end;
+    errno = 0;
+    double v = val ? strtod(val, &end) : 0;
+    if (!val || errno || end == val || *end || !(v >= lo && v <= hi))
+        return op_error_set(err, OP_ERR_INPUT, "%s needs a number in [%g, %g], got '%s'", opt, lo,
+                            hi, val ? val : "(nothing)");
+    *out = v;
+    return OP_OK;
+}
+
+static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err)
+{
+    memset(a, 0, sizeof *a);
+    a->method = OP_METHOD_COUNT;
+    a->terms = -1;
+    a->degree = -1;
+    a->shift = 1;
+    a->log_a = 100.0;
+    a->log_b = 1.0;
+    a->svd = op_rsvd_defaults();
+    for (int i = 1; i < argc; i++) {
+        const char *o = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
+        double d = 0;
+        op_status st = OP_OK;
+        if (!strcmp(o, "-o") || !strcmp(o, "--report") || !strcmp(o, "--albedo-png") ||
+            !strcmp(o, "--name") || !strcmp(o, "--method") || !strcmp(o, "--precision")) {
+            if (!val)
+                return op_error_set(err, OP_ERR_INPUT, "%s needs a value", o);
+            i++;
+            if (!strcmp(o, "-o"))
+                a->output = val;
+            else if (!strcmp(o, "--report"))
+                a->report = val;
+            else if (!strcmp(o, "--albedo-png"))
+                a->albedo_png = val;
+            else if (!strcmp(o, "--name"))
+                a->name = val;
+            else if (!strcmp(o, "--method")) {
+                a->method = op_method_from_name(val);
+                if (a->method != OP_METHOD_RAW && a->method != OP_METHOD_SVD &&
+                    a->method != OP_METHOD_TUCKER)
+                    return op_error_set(err, OP_ERR_INPUT,
+                                        "--method must be svd, tucker or raw, not '%s'", val);
+            } else if (!strcmp(val, "single") || !strcmp(val, "double")) {
+                a->svd.precision = !strcmp(val, "double") ? OP_SVD_DOUBLE : OP_SVD_SINGLE;
+            } else {
+                return op_error_set(err, OP_ERR_INPUT, "--precision must be single or double");
+            }
+        } else if (!strcmp(o, "-T")) {
+            st = parse_number(o, val, 1, 4096, &d, err);
+            a->terms = (int)d;
+            i++;
+        } else if (!strcmp(o, "-P")) {
+            st = parse_number(o, val, 0, 20, &d, err);
+            a->degree = (int)d;
+            i++;
+        } else if (!strcmp(o, "--log-a")) {
+            st = parse_number(o, val, 1e-30, 1e30, &a->log_a, err);
+            i++;
+        } else if (!strcmp(o, "--log-b")) {
+            st = parse_number(o, val, 1e-30, 1e30, &a->log_b, err);
+            i++;
+        } else if (!strcmp(o, "--power-iters")) {
+            st = parse_number(o, val, 0, 100, &d, err);
+            a->svd.power_iters = (int)d;
+            i++;
+        } else if (!strcmp(o, "--oversample")) {
+            st = parse_number(o, val, 0, 1000, &d, err);
+            a->svd.oversample = (int)d;
+            i++;
+        } else if (!strcmp(o, "-v") || !strcmp(o, "-q")) {
+            op_log_set_level(o[1] == 'v' ? OP_LOG_DEBUG : OP_LOG_WARN);
+        } else if (!strcmp(o, "--exact-svd")) {
+            a->svd.exact = 1;
+        } else if (!strcmp(o, "--no-shift")) {
+            a->shift = 0;
+        } else if (!strcmp(o, "--sanitize")) {
+            a->sanitize = 1;
+        } else if (o[0] == '-' && o[1]) {
+            return op_error_set(err, OP_ERR_INPUT, "unknown option '%s'", o);
+        } else if (!a->input) {
+            a->input = o;
+        } else {
+            return op_error_set(err, OP_ERR_INPUT, "unexpected argument '%s'", o);
+        }
+        if (st != OP_OK)
+            return st;
+        if ((!strcmp(o, "-T") || !strcmp(o, "-P") || !strcmp(o, "--power-iters") ||
+             !strcmp(o, "--oversample")) && d != floor(d))
+            return op_error_set(err, OP_ERR_INPUT, "%s needs a whole number, got '%s'", o, val);
+    }
+    if (!a->input || !a->output || a->method == OP_METHOD_COUNT)
+        return op_error_set(err, OP_ERR_INPUT, "need IN.opm, -o OUT.opm and --method");
+    if (a->terms < 0)
+        a->terms = a->method == OP_METHOD_TUCKER ? 15 : a->method == OP_METHOD_SVD ? 10 : 0;
+    if (a->degree < 0)
+        a->degree = a->method == OP_METHOD_TUCKER ? 7 : 0;
+    if (a->method == OP_METHOD_RAW)
+        a->terms = a->degree = 0;
+    if (a->method != OP_METHOD_TUCKER)
+        a->degree = 0;
+    return OP_OK;
+}
+
+/* Opens the dataset and checks its values: non-finite ones are an error naming the first,
+ * unless sanitize is set (they then count as 0). */
+static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_report *rep,
+                              op_error *err)
+{
+    op_status st = op_material_open_container(a->input, &ds->file, err);
+    if (st != OP_OK)
+        return st;
+    ds->info = *op_material_get_info(ds->file);
+    if (ds->info.method != OP_METHOD_RAW)
+        return op_error_set(err, OP_ERR_INPUT, "%s: is a %s material, not a dataset (method raw)",
+                            a->input, op_method_name(ds->info.method));
+    ds->rows = op_material_rows(ds->file);
+    ds->cols = op_material_cols(ds->file);
+    uint64_t count = (uint64_t)ds->rows * (uint64_t)ds->cols;
+    uint32_t crc = 0;
+    for (int c = 0; c < ds->info.channels; c++) {
+        char tag[16];
+        uint64_t bytes = 0;
+        op_channel_tag(tag, sizeof tag, "RD.", &ds->info, c);
+        ds->rd[c] = op_material_section(ds->file, tag, &bytes);
+        if (!ds->rd[c])
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", a->input, tag);
+        if (bytes != count * sizeof(float))
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected "
+                                "%llu", a->input, tag, (unsigned long long)bytes,
+                                (unsigned long long)(count * sizeof(float)));
+        crc = op_crc32(crc, ds->rd[c], (size_t)bytes);
+        op_prep_counts n;
+        op_prep_scan(ds->rd[c], count, &n);
+        if (n.nonfinite && !a->sanitize) {
+            int64_t i = n.first_nonfinite;
+            float v = ds->rd[c][i];
+            return op_error_set(err, OP_ERR_INPUT,
+                                "%s: section '%s' value %lld (row %lld, column %lld) is %s; %llu "
+                                "values are not finite (--sanitize replaces them by 0)",
+                                a->input, tag, (long long)i, (long long)(i / ds->cols),
+                                (long long)(i % ds->cols), isnan(v) ? "NaN" : "infinite",
+                                (unsigned long long)n.nonfinite);
+        }
+        rep->nonfinite_replaced += n.nonfinite;
+        rep->negative_values += n.negative;
+    }
+    if (rep->nonfinite_replaced)
+        op_log(OP_LOG_WARN, "%s: replaced %llu non-finite values by 0 (--sanitize)", a->input,
+               (unsigned long long)rep->nonfinite_replaced);
+    if (rep->negative_values)
+        op_log(OP_LOG_INFO, "%s: %llu negative values (noise) are factored as 0", a->input,
+               (unsigned long long)rep->negative_values);
+    rep->dataset_crc = crc;
+    return OP_OK;
+}
+
+static void *alloc_or_null(uint64_t bytes)
+{
+    return bytes > (uint64_t)SIZE_MAX ? NULL : malloc(bytes ? (size_t)bytes : 1);
+}
+
+/* The raw method: the cleaned dataset itself. */
+static op_status factor_raw(const dataset *ds, section_list *out, op_error *err)
+{
+    uint64_t count = (uint64_t)ds->rows * (uint64_t)ds->cols;
+    for (int c = 0; c < ds->info.channels; c++) {
+        float *v = alloc_or_null(count * sizeof *v);
+        if (!v)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        for (uint64_t i = 0; i < count; i++)
+            v[i] = op_prep_clean(ds->rd[c][i]);
+        char tag[16];
+        op_channel_tag(tag, sizeof tag, "RD.", &ds->info, c);
+        op_status st = sections_add(out, tag, v, count * sizeof *v, err);
+        if (st != OP_OK)
+            return st;
+    }
+    return OP_OK;
+}
+
+/* The svd method, channel by channel: preprocess, log transform, truncated SVD. */
+static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
+                            section_list *out, double *prep_seconds, op_error *err)
+{
+    int64_t rows = ds->rows;
+    int cols = ds->cols;
+    float *mat = alloc_or_null((uint64_t)rows * (uint64_t)cols * sizeof *mat);
+    if (!mat)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
+                            (long long)rows, cols);
+    op_status st = OP_OK;
+    op_progress *prog = op_progress_begin(
+        "svd", (uint64_t)ds->info.channels *
+                   (1 + op_rsvd_progress_units(rows, cols, terms, &a->svd)), NULL, NULL);
+    for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
+        char tag[16];
+        uint32_t *shift = NULL;
+        float *max = NULL;
+        double t0 = op_now();
+        if (a->shift) {
+            shift = alloc_or_null((uint64_t)rows * sizeof *shift);
+            max = alloc_or_null((uint64_t)rows * sizeof *max);
+            if (!shift || !max) {
+                free(shift);
+                free(max);
+                st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+                break;
+            }
+            op_prep_find_peaks(ds->rd[c], rows, cols, shift, max);
+        }
+        op_prep_apply(ds->rd[c], rows, cols, shift, max, mat);
+        op_prep_log(mat, (uint64_t)rows * (uint64_t)cols, a->log_a, a->log_b);
+        op_progress_advance(prog, 1);
+        double t1 = op_now();
+        *prep_seconds += t1 - t0;
+        float *us = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *us);
+        float *v = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *v);
+        if (!us || !v)
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        if (st == OP_OK)
+            st = op_rsvd(mat, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
+        op_log(OP_LOG_DEBUG, "channel %d: preprocessing %.3f s, SVD of %lld x %d to rank %d "
+               "%.3f s", c, t1 - t0, (long long)rows, cols, terms, op_now() - t1);
+        if (st != OP_OK) {
+            op_error_prefix(err, "channel %d: ", c);
+            free(us);
+            free(v);
+            free(shift);
+            free(max);
+            break;
+        }
+        op_channel_tag(tag, sizeof tag, "U.", &ds->info, c);
+        st = sections_add(out, tag, us, (uint64_t)rows * (uint64_t)terms * sizeof *us, err);
+        op_channel_tag(tag, sizeof tag, "V.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, v, (uint64_t)cols * (uint64_t)terms * sizeof *v, err);
+        else
+            free(v);
+        if (a->shift) {
+            op_channel_tag(tag, sizeof tag, "SHIFT.", &ds->info, c);
+            if (st == OP_OK)
+                st = sections_add(out, tag, shift, (uint64_t)rows * sizeof *shift, err);
+            else
+                free(shift);
+            op_channel_tag(tag, sizeof tag, "MAX.", &ds->info, c);
+            if (st == OP_OK)
+                st = sections_add(out, tag, max, (uint64_t)rows * sizeof *max, err);
+            else
+                free(max);
+        }
+    }
+    op_progress_end(prog);
+    free(mat);
+    return st;
+}
+
+/* The tucker method: the factors of tucker.c as sections. */
+static op_status factor_tucker(const factor_args *a, const dataset *ds, int terms,
+                               section_list *out, op_error *err)
+{
+    op_tucker_result t;
+    op_status st = op_tucker_factor(ds->rd, ds->info.channels, ds->rows, ds->cols, terms,
+                                    a->degree, a->shift, &a->svd, &t, err);
+    if (st != OP_OK)
+        return st;
+    uint64_t rows = (uint64_t)ds->rows, np = (uint64_t)a->degree + 1;
+    st = sections_add(out, "U", t.u, rows * (uint64_t)terms * sizeof(float), err);
+    t.u = NULL;
+    if (st == OP_OK)
+        st = sections_add(out, "V", t.v, (uint64_t)ds->cols * (uint64_t)terms * sizeof(float),
+                          err);
+    t.v = NULL;
+    if (st == OP_OK)
+        st = sections_add(out, "RANGE", t.range, rows * 2 * sizeof(float), err);
+    t.range = NULL;
+    if (st == OP_OK)
+        st = sections_add(out, "BETA", t.beta,
+                          (uint64_t)ds->info.channels * rows * np * sizeof(float), err);
+    t.beta = NULL;
+    if (st == OP_OK && t.shift)
+        st = sections_add(out, "SHIFT", t.shift, rows * sizeof(uint32_t), err);
+    t.shift = NULL;
+    if (st == OP_OK && t.max)
+        st = sections_add(out, "MAX", t.max, rows * sizeof(float), err);
+    t.max = NULL;
+    op_tucker_free(&t);
+    return st;
+}
+
+static op_status write_material(const char *path, const op_material_info *info,
+                                const section_list *s, const float *albedo,
+                                uint64_t albedo_count, op_error *err)
+{
+    op_material_writer *w;
+    op_status st = op_material_writer_open(path, info, &w, err);
+    for (int i = 0; i < s->n && st == OP_OK; i++)
+        st = op_material_writer_add(w, s->tag[i], s->data[i], s->bytes[i], err);
+    if (st == OP_OK && albedo)
+        st = op_material_writer_add(w, "ALBEDO", albedo, albedo_count * sizeof *albedo, err);
+    if (st != OP_OK) {
+        op_material_writer_abort(w);
+        return st;
+    }
+    return op_material_writer_commit(w, err);
+}
+
+/* Reads the material back through libopaline and compares every row with the dataset; fills
+ * the error figures of rep and the albedo map (channels x rows). */
+static op_status evaluate(const char *path, const dataset *ds, op_factor_report *rep,
+                          float *albedo, op_error *err)
+{
+    op_material *m;
+    op_status st = op_material_open(path, &m, err);
+    if (st != OP_OK)
+        return op_error_prefix(err, "reading back the new material: ");
+    float *row = malloc((size_t)ds->cols * sizeof *row);
+    if (!row) {
+        op_material_close(m);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    op_error_accum acc = {0};
+    int w = ds->info.width;
+    op_progress *prog =
+        op_progress_begin("evaluate", (uint64_t)ds->info.channels * (uint64_t)ds->rows, NULL, NULL);
+    for (int c = 0; c < ds->info.channels; c++) {
+        for (int64_t r = 0; r < ds->rows; r++) {
+            op_material_eval_row(m, c, (int)(r % w), (int)(r / w), row);
+            op_error_accum_add(&acc, ds->rd[c] + r * ds->cols, row, ds->cols);
+            double sum = 0;
+            for (int j = 0; j < ds->cols; j++)
+                sum += row[j];
+            albedo[c * ds->rows + r] = (float)sum;
+            if ((r & 1023) == 1023)
+                op_progress_advance(prog, 1024);
+        }
+    }
+    op_progress_end(prog);
+    op_error_accum_finish(&acc, rep);
+    free(row);
+    op_material_close(m);
+    for (int64_t i = 0; i < ds->rows * ds->info.channels; i++)
+        if (!isfinite(albedo[i]))
+            return op_error_set(err, OP_ERR_NUMERIC, "albedo of row %lld is not finite",
+                                (long long)(i % ds->rows));
+    return OP_OK;
+}
+
+/* The albedo map as an sRGB PNG, box-filtered down to at most 512 pixels on a side, scaled so
+ * that its brightest value is at most 1. */
+static op_status write_albedo_png(const char *path, const dataset *ds, const float *albedo,
+                                  op_error *err)
+{
+    int w = ds->info.width, h = ds->info.height, ch = ds->info.channels;
+    int f = 1;
+    while ((w + f - 1) / f > 512 || (h + f - 1) / f > 512)
+        f++;
+    op_image img;
+    op_status st = op_image_alloc(&img, (w + f - 1) / f, (h + f - 1) / f, ch, err);
+    if (st != OP_OK)
+        return st;
+    float peak = 0;
+    for (int y = 0; y < img.height; y++)
+        for (int x = 0; x < img.width; x++)
+            for (int c = 0; c < ch; c++) {
+                double sum = 0;
+                int n = 0;
+                for (int yy = y * f; yy < h && yy < (y + 1) * f; yy++)
+                    for (int xx = x * f; xx < w && xx < (x + 1) * f; xx++, n++)
+                        sum += albedo[(int64_t)c * ds->rows + (int64_t)yy * w + xx];
+                float v = (float)(sum / n);
+                img.pixels[((size_t)y * img.width + x) * ch + c] = v;
+                peak = v > peak ? v : peak;
+            }
+    float stops = peak > 1.0f ? -log2f(peak) : 0.0f;
+    st = op_image_write_png(path, &img, stops, err);
+    op_image_free(&img);
+    return st;
+}
+
+/* Times op_material_eval at pseudo-random arguments and the albedo map of m. */
+static op_status time_evaluation(const op_material *m, op_factor_report *rep, op_error *err)
+{
+    enum { N = 1 << 20 };
+    const op_material_info *in = op_material_get_info(m);
+    int h = in->kernel / 2;
+    int32_t *args = malloc((size_t)N * 5 * sizeof *args);
+    float *albedo = malloc((size_t)in->width * (size_t)in->height * (size_t)in->channels *
+                           sizeof *albedo);
+    if (!args || !albedo) {
+        free(args);
+        free(albedo);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    uint64_t x = 0x2545f4914f6cdd1dull;
+    for (int i = 0; i < N * 5; i++) {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        uint32_t r = (uint32_t)(x >> 32);
+        int k = i % 5;
+        args[i] = k == 0   ? (int32_t)(r % (uint32_t)in->channels)
+                  : k == 1 ? (int32_t)(r % (uint32_t)in->width)
+                  : k == 2 ? (int32_t)(r % (uint32_t)in->height)
+                           : (int32_t)(r % (uint32_t)in->kernel) - h;
+    }
+    /* Coherent: 64 offsets per incident pixel, as a renderer gathers a kernel; random: every
+     * argument independent, so nearly every call misses the caches. */
+    double t = op_now(), sum = 0;
+    for (int i = 0; i < N; i++) {
+        const int32_t *a = args + 5 * (i & ~63), *d = args + 5 * i;
+        sum += op_material_eval(m, a[0], a[1], a[2], d[3], d[4]);
+    }
+    rep->eval_ns = (op_now() - t) * 1e9 / N;
+    t = op_now();
+    for (int i = 0; i < N; i++) {
+        const int32_t *a = args + 5 * i;
+        sum += op_material_eval(m, a[0], a[1], a[2], a[3], a[4]);
+    }
+    rep->eval_random_ns = (op_now() - t) * 1e9 / N;
+    t = op_now();
+    op_status st = op_material_albedo_map(m, albedo, err);
+    rep->albedo_map_seconds = op_now() - t;
+    op_log(OP_LOG_DEBUG, "evaluation checksum %g", sum);
+    free(args);
+    free(albedo);
+    return st;
+}
+
+static int fail(op_status st, const op_error *err)
+{
+    op_log(OP_LOG_ERROR, "%s", err->message);
+    return op_exit_code(st);
+}
+
+int op_cmd_factor(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        }
+    op_error err = {0};
+    factor_args a;
+    op_status st = parse_args(argc, argv, &a, &err);
+    if (st != OP_OK) {
+        usage(stderr);
+        return fail(st, &err);
+    }
+    double t0 = op_now(), t = t0;
+    op_factor_report rep = {0};
+    dataset ds = {0};
+    section_list secs = {0};
+    float *albedo = NULL;
+    char tmp[1100];
+    tmp[0] = '\0';
+    st = load_dataset(&a, &ds, &rep, &err);
+    if (st != OP_OK)
+        goto done;
+    op_report_stage(&rep, "load", op_now() - t);
+
+    int64_t mn = ds.rows < ds.cols ? ds.rows : ds.cols;
+    int terms = a.terms;
+    if (terms > mn) {
+        op_log(OP_LOG_WARN, "-T %d exceeds the rank bound min(rows, columns) = %lld; using %lld",
+               terms, (long long)mn, (long long)mn);
+        terms = (int)mn;
+    }
+    op_material_info info = ds.info;
+    info.method = a.method;
+    info.terms = terms;
+    info.degree = a.degree;
+    info.clusters = 0;
+    info.shifted = a.method == OP_METHOD_RAW ? 0 : a.shift;
+    info.log_a = a.method == OP_METHOD_SVD ? a.log_a : 0.0;
+    info.log_b = a.method == OP_METHOD_SVD ? a.log_b : 0.0;
+    info.dataset_crc = rep.dataset_crc;
+    if (a.name)
+        snprintf(info.name, sizeof info.name, "%s", a.name);
+    for (char *p = info.name; *p; p++) /* META is one key=value per line */
+        if (*p == '\n' || *p == '\r')
+            *p = ' ';
+
+    t = op_now();
+    double prep = 0;
+    if (a.method == OP_METHOD_SVD)
+        st = factor_svd(&a, &ds, terms, &secs, &prep, &err);
+    else if (a.method == OP_METHOD_TUCKER)
+        st = factor_tucker(&a, &ds, terms, &secs, &err);
+    else
+        st = factor_raw(&ds, &secs, &err);
+    if (st != OP_OK)
+        goto done;
+    if (prep > 0)
+        op_report_stage(&rep, "preprocess", prep);
+    op_report_stage(&rep, "factor", op_now() - t - prep);
+
+    /* Write without the albedo map, read back to measure it and the errors, then write the
+     * final file with it. */
+    t = op_now();
+    uint64_t albedo_count = (uint64_t)ds.rows * (uint64_t)ds.info.channels;
+    albedo = alloc_or_null(albedo_count * sizeof *albedo);
+    if (!albedo) {
+        st = op_error_set(&err, OP_ERR_NOMEM, "out of memory");
+        goto done;
+    }
+    snprintf(tmp, sizeof tmp, "%s.unverified", a.output);
+    st = write_material(tmp, &info, &secs, NULL, 0, &err);
+    if (st != OP_OK) {
+        tmp[0] = '\0';
+        goto done;
+    }
+    op_report_stage(&rep, "write", op_now() - t);
+    t = op_now();
+    st = evaluate(tmp, &ds, &rep, albedo, &err);
+    if (st != OP_OK)
+        goto done;
+    op_report_stage(&rep, "evaluate", op_now() - t);
+    t = op_now();
+    if (a.method == OP_METHOD_RAW) {
+        if (rename(tmp, a.output) != 0) {
+            st = op_error_set(&err, OP_ERR_IO, "%s: cannot rename into place: %s", a.output,
+                              strerror(errno));
+            goto done;
+        }
+        tmp[0] = '\0';
+    } else {
+        st = write_material(a.output, &info, &secs, albedo, albedo_count, &err);
+        if (st != OP_OK)
+            goto done;
+    }
+    if (a.albedo_png && (st = write_albedo_png(a.albedo_png, &ds, albedo, &err)) != OP_OK)
+        goto done;
+    op_report_stage(&rep, "finish", op_now() - t);
+
+    op_material *out;
+    if ((st = op_material_open(a.output, &out, &err)) != OP_OK)
+        goto done;
+    rep.size_bytes = op_material_file_size(out);
+    st = time_evaluation(out, &rep, &err);
+    op_material_close(out);
+    if (st != OP_OK)
+        goto done;
+    snprintf(rep.name, sizeof rep.name, "%s", info.name);
+    snprintf(rep.method, sizeof rep.method, "%s", op_method_name(a.method));
+    snprintf(rep.input, sizeof rep.input, "%s", a.input);
+    snprintf(rep.output, sizeof rep.output, "%s", a.output);
+    rep.width = info.width;
+    rep.height = info.height;
+    rep.kernel = info.kernel;
+    rep.channels = info.channels;
+    rep.terms = info.terms;
+    rep.degree = info.degree;
+    rep.shifted = info.shifted;
+    rep.log_a = info.log_a;
+    rep.log_b = info.log_b;
+    rep.original_bytes = (uint64_t)ds.rows * (uint64_t)ds.cols * (uint64_t)ds.info.channels * 4u;
+    rep.compression_ratio = (double)rep.original_bytes / (double)rep.size_bytes;
+    rep.total_seconds = op_now() - t0;
+    rep.peak_memory_bytes = op_peak_memory_bytes();
+    op_report_print(&rep, stdout);
+    if (a.report)
+        st = op_report_write_json(&rep, a.report, &err);
+
+done:
+    if (tmp[0])
+        unlink(tmp);
+    free(albedo);
+    sections_free(&secs);
+    op_material_close(ds.file);
+    return st == OP_OK ? 0 : fail(st, &err);
+}

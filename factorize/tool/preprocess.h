@@ -1,0 +1,43 @@
+/* preprocess.h - the row preprocessing of Kurt et al. 2013, section 4.1, and the value
+ * transforms the factorization methods apply before factoring.
+ *
+ * A dataset channel is a row-major rows x cols float32 matrix Rd'(x_i, d): one row per
+ * incident pixel, one column per kernel offset. Shifting moves each row's maximum to column 0
+ * (circularly) and divides the row by it, so that similar values line up in the same columns:
+ *     shifted[r][j] = src[r][(j + shift[r]) mod cols] / max[r]
+ * and reconstruction is src[r][col] = max[r] * shifted[r][(col - shift[r]) mod cols]. */
+#ifndef OP_FACTOR_PREPROCESS_H
+#define OP_FACTOR_PREPROCESS_H
+
+#include <stdint.h>
+
+/* What a scan of the input values found. */
+typedef struct op_prep_counts {
+    uint64_t nonfinite;       /* NaN or infinite values (treated as 0) */
+    uint64_t negative;        /* negative values, i.e. noise (treated as 0) */
+    int64_t first_nonfinite;  /* index of the first one, -1 if none */
+} op_prep_counts;
+
+/* Counts non-finite and negative values of src[0 .. n). */
+void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts);
+
+/* The value the factorizations see for an input value: non-finite and negative become 0. */
+static inline float op_prep_clean(float v)
+{
+    return v > 0.0f && v <= 3.4028234663852886e38f ? v : 0.0f;
+}
+
+/* For every row of src (rows x cols, row-major): shift[r] = the first column holding the row's
+ * largest cleaned value, max[r] = that value (0 for a row with no positive value, whose shift
+ * is then 0). */
+void op_prep_find_peaks(const float *src, int64_t rows, int cols, uint32_t *shift, float *max);
+
+/* dst = the shifted, normalized matrix of the cleaned src (rows of zero maximum stay 0). With
+ * shift and max NULL, dst is the cleaned src itself. dst and src must not overlap. */
+void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shift,
+                   const float *max, float *dst);
+
+/* The svd method's value transform, in place: v = ln(v / a + b), with a > 0, b > 0, v >= 0. */
+void op_prep_log(float *v, uint64_t n, double a, double b);
+
+#endif

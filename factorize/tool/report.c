@@ -1,0 +1,170 @@
+/* report.c - see report.h. */
+#include "report.h"
+
+#include <math.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+
+double op_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void op_report_stage(op_factor_report *r, const char *name, double seconds)
+{
+    if (r->nstages >= OP_REPORT_MAX_STAGES)
+        return;
+    snprintf(r->stage_name[r->nstages], sizeof r->stage_name[0], "%s", name);
+    r->stage_seconds[r->nstages++] = seconds;
+}
+
+uint64_t op_peak_memory_bytes(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0)
+        return 0;
+    return (uint64_t)ru.ru_maxrss * 1024u; /* Linux reports kilobytes */
+}
+
+void op_error_accum_add(op_error_accum *acc, const float *ref, const float *approx, int n)
+{
+    double se = 0, sr = 0, me = acc->max_err, mr = acc->max_ref;
+    for (int j = 0; j < n; j++) {
+        double r = isfinite(ref[j]) ? ref[j] : 0.0;
+        double e = fabs(r - (double)approx[j]);
+        se += e * e;
+        sr += r * r;
+        me = e > me ? e : me;
+        mr = fabs(r) > mr ? fabs(r) : mr;
+    }
+    acc->sum_sq_err += se;
+    acc->sum_sq_ref += sr;
+    acc->max_err = me;
+    acc->max_ref = mr;
+    acc->count += (uint64_t)n;
+}
+
+void op_error_accum_finish(const op_error_accum *acc, op_factor_report *r)
+{
+    r->rmse = acc->count ? sqrt(acc->sum_sq_err / (double)acc->count) : 0.0;
+    r->relative_rmse = acc->sum_sq_ref > 0 ? sqrt(acc->sum_sq_err / acc->sum_sq_ref) : 0.0;
+    r->psnr = r->rmse > 0 ? 20.0 * log10(acc->max_ref / r->rmse) : INFINITY;
+    r->max_error = acc->max_err;
+}
+
+void op_report_print(const op_factor_report *r, FILE *f)
+{
+    fprintf(f, "material:          %s (%s", r->name, r->method);
+    if (r->terms)
+        fprintf(f, ", T=%d", r->terms);
+    if (r->degree)
+        fprintf(f, ", P=%d", r->degree);
+    if (!strcmp(r->method, "svd"))
+        fprintf(f, ", A=%g, B=%g", r->log_a, r->log_b);
+    fprintf(f, ", %s)\n", r->shifted ? "shifted" : "unshifted");
+    fprintf(f, "dataset:           %s (%d x %d pixels, kernel %d, %d channel(s), crc %08x)\n",
+            r->input, r->width, r->height, r->kernel, r->channels, (unsigned)r->dataset_crc);
+    fprintf(f, "output:            %s\n", r->output);
+    fprintf(f, "RMSE:              %.6g (relative %.4g%%)\n", r->rmse, 100.0 * r->relative_rmse);
+    if (isfinite(r->psnr))
+        fprintf(f, "PSNR:              %.2f dB\n", r->psnr);
+    else
+        fprintf(f, "PSNR:              exact\n");
+    fprintf(f, "max error:         %.6g\n", r->max_error);
+    fprintf(f, "size:              %llu bytes (dataset %llu bytes, ratio %.1f : 1)\n",
+            (unsigned long long)r->size_bytes, (unsigned long long)r->original_bytes,
+            r->compression_ratio);
+    if (r->nonfinite_replaced || r->negative_values)
+        fprintf(f, "input values:      %llu non-finite replaced by 0, %llu negative treated as 0\n",
+                (unsigned long long)r->nonfinite_replaced, (unsigned long long)r->negative_values);
+    fprintf(f, "time:             ");
+    for (int i = 0; i < r->nstages; i++)
+        fprintf(f, " %s %.3f s,", r->stage_name[i], r->stage_seconds[i]);
+    fprintf(f, " total %.3f s\n", r->total_seconds);
+    fprintf(f, "peak memory:       %.1f MiB\n", (double)r->peak_memory_bytes / 1048576.0);
+    fprintf(f, "evaluation:        %.1f ns per Rd value (%.1f ns at random rows), albedo map "
+               "%.4f s\n", r->eval_ns, r->eval_random_ns, r->albedo_map_seconds);
+}
+
+/* A JSON string literal of s (control characters escaped). */
+static void json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
+        if (*p == '"' || *p == '\\')
+            fprintf(f, "\\%c", *p);
+        else if (*p < 0x20)
+            fprintf(f, "\\u%04x", *p);
+        else
+            fputc(*p, f);
+    }
+    fputc('"', f);
+}
+
+static void json_number(FILE *f, double v)
+{
+    if (isfinite(v))
+        fprintf(f, "%.9g", v);
+    else
+        fputs("null", f);
+}
+
+op_status op_report_write_json(const op_factor_report *r, const char *path, op_error *err)
+{
+    op_output *out;
+    op_status st = op_output_open(path, &out, err);
+    if (st != OP_OK)
+        return st;
+    FILE *f = op_output_stream(out);
+    fputs("{\n  \"name\": ", f);
+    json_string(f, r->name);
+    fputs(",\n  \"method\": ", f);
+    json_string(f, r->method);
+    fputs(",\n  \"input\": ", f);
+    json_string(f, r->input);
+    fputs(",\n  \"output\": ", f);
+    json_string(f, r->output);
+    fprintf(f, ",\n  \"width\": %d,\n  \"height\": %d,\n  \"kernel\": %d,\n  \"channels\": %d,\n"
+               "  \"terms\": %d,\n  \"degree\": %d,\n  \"shifted\": %s,\n",
+            r->width, r->height, r->kernel, r->channels, r->terms, r->degree,
+            r->shifted ? "true" : "false");
+    fputs("  \"log_a\": ", f);
+    json_number(f, r->log_a);
+    fputs(",\n  \"log_b\": ", f);
+    json_number(f, r->log_b);
+    fprintf(f, ",\n  \"dataset_crc\": \"%08x\",\n  \"rmse\": ", (unsigned)r->dataset_crc);
+    json_number(f, r->rmse);
+    fputs(",\n  \"relative_rmse\": ", f);
+    json_number(f, r->relative_rmse);
+    fputs(",\n  \"psnr\": ", f);
+    json_number(f, r->psnr);
+    fputs(",\n  \"max_error\": ", f);
+    json_number(f, r->max_error);
+    fprintf(f, ",\n  \"size_bytes\": %llu,\n  \"original_bytes\": %llu,\n"
+               "  \"compression_ratio\": ",
+            (unsigned long long)r->size_bytes, (unsigned long long)r->original_bytes);
+    json_number(f, r->compression_ratio);
+    fprintf(f, ",\n  \"nonfinite_replaced\": %llu,\n  \"negative_values\": %llu,\n"
+               "  \"stage_seconds\": {",
+            (unsigned long long)r->nonfinite_replaced, (unsigned long long)r->negative_values);
+    for (int i = 0; i < r->nstages; i++) {
+        fprintf(f, "%s\"%s\": ", i ? ", " : "", r->stage_name[i]);
+        json_number(f, r->stage_seconds[i]);
+    }
+    fputs("},\n  \"total_seconds\": ", f);
+    json_number(f, r->total_seconds);
+    fprintf(f, ",\n  \"peak_memory_bytes\": %llu,\n  \"eval_ns\": ",
+            (unsigned long long)r->peak_memory_bytes);
+    json_number(f, r->eval_ns);
+    fputs(",\n  \"eval_random_ns\": ", f);
+    json_number(f, r->eval_random_ns);
+    fputs(",\n  \"albedo_map_seconds\": ", f);
+    json_number(f, r->albedo_map_seconds);
+    fputs(",\n  \"tool_version\": ", f);
+    json_string(f, op_version());
+    fputs("\n}\n", f);
+    return op_output_commit(out, err);
+}

@@ -1,0 +1,168 @@
+/* rsvd.c - see rsvd.h. */
+#include "rsvd.h"
+
+#include <cblas.h>
+#include <lapacke.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+op_rsvd_options op_rsvd_defaults(void)
+{
+    return (op_rsvd_options){.oversample = 10, .power_iters = 4, .seed = 1,
+                             .precision = OP_SVD_SINGLE, .exact = 0};
+}
+
+/* splitmix64: a small, well-mixed deterministic generator. */
+static uint64_t next_u64(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+/* A standard normal deviate (Box-Muller). */
+static double gaussian(uint64_t *state)
+{
+    double u1 = ((double)(next_u64(state) >> 11) + 1.0) * 0x1.0p-53; /* (0, 1] */
+    double u2 = (double)(next_u64(state) >> 11) * 0x1.0p-53;
+    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+#define REAL float
+#define FN(name) name##_single
+#define RSVD_IS_DOUBLE 0
+#define GEMM cblas_sgemm
+#define GEQRF LAPACKE_sgeqrf
+#define ORGQR LAPACKE_sorgqr
+#include "rsvd_impl.h"
+#undef REAL
+#undef FN
+#undef RSVD_IS_DOUBLE
+#undef GEMM
+#undef GEQRF
+#undef ORGQR
+
+#define REAL double
+#define FN(name) name##_double
+#define RSVD_IS_DOUBLE 1
+#define GEMM cblas_dgemm
+#define GEQRF LAPACKE_dgeqrf
+#define ORGQR LAPACKE_dorgqr
+#include "rsvd_impl.h"
+#undef REAL
+#undef FN
+#undef RSVD_IS_DOUBLE
+#undef GEMM
+#undef GEQRF
+#undef ORGQR
+
+/* Full SVD in double (gesdd), truncated to k. */
+static op_status exact_svd(const float *a, int64_t m, int64_t n, int k, float *us, float *v,
+                           double *s, op_error *err)
+{
+    int64_t mn = m < n ? m : n;
+    double *A = malloc((size_t)m * (size_t)n * sizeof *A);
+    double *U = malloc((size_t)m * (size_t)mn * sizeof *U);
+    double *VT = malloc((size_t)mn * (size_t)n * sizeof *VT);
+    double *S = malloc((size_t)mn * sizeof *S);
+    op_status st = OP_OK;
+    if (!A || !U || !VT || !S) {
+        st = op_error_set(err, OP_ERR_NOMEM, "SVD: out of memory for a %lld x %lld matrix",
+                          (long long)m, (long long)n);
+        goto done;
+    }
+    for (size_t i = 0; i < (size_t)m * (size_t)n; i++)
+        A[i] = a[i];
+    lapack_int info = LAPACKE_dgesdd(LAPACK_ROW_MAJOR, 'S', (lapack_int)m, (lapack_int)n, A,
+                                     (lapack_int)n, S, U, (lapack_int)mn, VT, (lapack_int)n);
+    if (info != 0) {
+        st = op_error_set(err, OP_ERR_NUMERIC, "SVD of a %lld x %lld matrix failed (LAPACK info "
+                          "%d)", (long long)m, (long long)n, (int)info);
+        goto done;
+    }
+    for (int64_t i = 0; i < m; i++)
+        for (int t = 0; t < k; t++)
+            us[i * k + t] = (float)(U[i * mn + t] * S[t]);
+    for (int64_t j = 0; j < n; j++)
+        for (int t = 0; t < k; t++)
+            v[j * k + t] = (float)VT[t * n + j];
+    if (s)
+        for (int t = 0; t < k; t++)
+            s[t] = S[t];
+done:
+    free(A);
+    free(U);
+    free(VT);
+    free(S);
+    return st;
+}
+
+/* Makes each pair's right vector's largest-magnitude entry positive; checks finiteness. */
+static op_status fix_signs(int64_t m, int64_t n, int k, float *us, float *v, op_error *err)
+{
+    for (int t = 0; t < k; t++) {
+        float big = 0.0f;
+        for (int64_t j = 0; j < n; j++)
+            if (fabsf(v[j * k + t]) > fabsf(big))
+                big = v[j * k + t];
+        if (big < 0.0f) {
+            for (int64_t j = 0; j < n; j++)
+                v[j * k + t] = -v[j * k + t];
+            for (int64_t i = 0; i < m; i++)
+                us[i * k + t] = -us[i * k + t];
+        }
+    }
+    for (size_t i = 0; i < (size_t)m * (size_t)k; i++)
+        if (!isfinite(us[i]))
+            return op_error_set(err, OP_ERR_NUMERIC, "SVD: left factor entry %zu is not finite",
+                                i);
+    for (size_t i = 0; i < (size_t)n * (size_t)k; i++)
+        if (!isfinite(v[i]))
+            return op_error_set(err, OP_ERR_NUMERIC, "SVD: right factor entry %zu is not finite",
+                                i);
+    return OP_OK;
+}
+
+static int use_exact(int64_t m, int64_t n, int k, const op_rsvd_options *opt)
+{
+    int64_t mn = m < n ? m : n;
+    return opt->exact || (int64_t)k + opt->oversample >= mn;
+}
+
+uint64_t op_rsvd_progress_units(int64_t m, int64_t n, int k, const op_rsvd_options *opt)
+{
+    return use_exact(m, n, k, opt) ? 1 : (uint64_t)(2 * opt->power_iters + 2);
+}
+
+op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_options *opt,
+                  float *us, float *v, double *s, op_progress *progress, op_error *err)
+{
+    op_rsvd_options def = op_rsvd_defaults();
+    if (!opt)
+        opt = &def;
+    int64_t mn = m < n ? m : n;
+    if (m < 1 || n < 1 || k < 1 || k > mn)
+        return op_error_set(err, OP_ERR_INPUT, "SVD: rank %d is not in [1, %lld] for a %lld x %lld "
+                            "matrix", k, (long long)mn, (long long)m, (long long)n);
+    if (opt->oversample < 0 || opt->power_iters < 0)
+        return op_error_set(err, OP_ERR_INPUT, "SVD: negative oversampling or power iterations");
+    if (m > INT32_MAX || n > INT32_MAX || m * n / n != m)
+        return op_error_set(err, OP_ERR_INPUT, "SVD: %lld x %lld is too large for LAPACK",
+                            (long long)m, (long long)n);
+    op_status st;
+    if (use_exact(m, n, k, opt)) {
+        st = exact_svd(a, m, n, k, us, v, s, err);
+        op_progress_advance(progress, 1);
+    } else {
+        int l = k + opt->oversample;
+        if (opt->precision == OP_SVD_DOUBLE)
+            st = randomized_double(a, m, n, k, l, opt->power_iters, opt->seed, us, v, s, progress,
+                                   err);
+        else
+            st = randomized_single(a, m, n, k, l, opt->power_iters, opt->seed, us, v, s, progress,
+                                   err);
+    }
+    return st == OP_OK ? fix_signs(m, n, k, us, v, err) : st;
+}

@@ -1,0 +1,38 @@
+/* rsvd.h - truncated singular value decompositions of a dense float32 matrix.
+ *
+ * The randomized method is Halko, Martinsson and Tropp (2011), algorithms 4.4 and 5.1: a
+ * Gaussian test matrix with oversampling, power iterations with a QR re-orthonormalization
+ * after every product with A or A^T (LAPACK geqrf/orgqr), then the SVD of the small projected
+ * matrix (LAPACK gesdd). Products use OpenBLAS's gemm. The result is deterministic for a given
+ * seed, and every singular pair's sign is fixed so that the entry of largest magnitude of its
+ * right singular vector is positive. */
+#ifndef OP_FACTOR_RSVD_H
+#define OP_FACTOR_RSVD_H
+
+#include "opaline.h"
+
+typedef enum op_svd_precision { OP_SVD_SINGLE, OP_SVD_DOUBLE } op_svd_precision;
+
+typedef struct op_rsvd_options {
+    int oversample;   /* extra test vectors p (default 10) */
+    int power_iters;  /* power iterations q (default 4) */
+    uint64_t seed;    /* test-matrix seed (default 1) */
+    op_svd_precision precision; /* arithmetic of the randomized stages (default single) */
+    int exact;        /* nonzero: full LAPACK SVD (gesdd in double) instead */
+} op_rsvd_options;
+
+/* The defaults above. */
+op_rsvd_options op_rsvd_defaults(void);
+
+/* Rank-k truncated SVD of the row-major m x n matrix a: us (m x k, row-major) holds the left
+ * singular vectors times the singular values, v (n x k, row-major) the right singular vectors,
+ * s (k values, may be NULL) the singular values in decreasing order. Needs 1 <= k <= min(m, n).
+ * When k + oversample >= min(m, n) the exact method is used. Fails with OP_ERR_NOMEM, or with
+ * OP_ERR_NUMERIC (naming the stage) when LAPACK fails or a result is not finite. */
+op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_options *opt,
+                  float *us, float *v, double *s, op_progress *progress, op_error *err);
+
+/* Units of progress op_rsvd reports for these arguments. */
+uint64_t op_rsvd_progress_units(int64_t m, int64_t n, int k, const op_rsvd_options *opt);
+
+#endif

@@ -1,0 +1,122 @@
+/* rsvd_impl.h - the randomized stages of rsvd.c in one precision. Included by rsvd.c only,
+ * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF and ORGQR defined. */
+
+/* Replaces the columns of the column-major rows x cols matrix y by an orthonormal basis of
+ * their span (Householder QR; rank-deficient input still yields orthonormal columns). */
+static op_status FN(orthonormalize)(REAL *y, int64_t rows, int64_t cols, REAL *tau,
+                                    op_error *err)
+{
+    lapack_int info = GEQRF(LAPACK_COL_MAJOR, (lapack_int)rows, (lapack_int)cols, y,
+                            (lapack_int)rows, tau);
+    if (info == 0)
+        info = ORGQR(LAPACK_COL_MAJOR, (lapack_int)rows, (lapack_int)cols, (lapack_int)cols, y,
+                     (lapack_int)rows, tau);
+    if (info != 0)
+        return op_error_set(err, OP_ERR_NUMERIC, "randomized SVD: QR of a %lld x %lld basis "
+                            "failed (LAPACK info %d)", (long long)rows, (long long)cols,
+                            (int)info);
+    return OP_OK;
+}
+
+/* Randomized rank-k SVD with l >= k test vectors and q power iterations; see op_rsvd. */
+static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int l, int q,
+                                uint64_t seed, float *us, float *v, double *s,
+                                op_progress *progress, op_error *err)
+{
+    op_status st = OP_OK;
+    const REAL *A;
+    REAL *acopy = NULL;
+#if RSVD_IS_DOUBLE
+    acopy = malloc((size_t)m * (size_t)n * sizeof *acopy);
+    if (!acopy)
+        return op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for a %lld x %lld "
+                            "double matrix", (long long)m, (long long)n);
+    for (size_t i = 0; i < (size_t)m * (size_t)n; i++)
+        acopy[i] = a[i];
+    A = acopy;
+#else
+    A = a;
+#endif
+    /* Row-major m x n A is column-major n x m A^T (leading dimension n). */
+    REAL *y = malloc((size_t)m * (size_t)l * sizeof *y);
+    REAL *z = malloc((size_t)n * (size_t)l * sizeof *z);
+    REAL *tau = malloc((size_t)l * sizeof *tau);
+    REAL *mk = malloc((size_t)l * (size_t)k * sizeof *mk);
+    double *bd = malloc((size_t)n * (size_t)l * sizeof *bd);
+    double *w = malloc((size_t)n * (size_t)l * sizeof *w);
+    double *xt = malloc((size_t)l * (size_t)l * sizeof *xt);
+    double *sv = malloc((size_t)l * sizeof *sv);
+    REAL *usr = NULL;
+#if RSVD_IS_DOUBLE
+    usr = malloc((size_t)m * (size_t)k * sizeof *usr);
+#endif
+    if (!y || !z || !tau || !mk || !bd || !w || !xt || !sv || (RSVD_IS_DOUBLE && !usr)) {
+        st = op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory");
+        goto done;
+    }
+    uint64_t rng = seed;
+    for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
+        z[i] = (REAL)gaussian(&rng);
+    /* Y = A Omega, then alternate Z = orth(A^T Y), Y = orth(A Z). */
+    GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
+         (blasint)n, z, (blasint)n, 0, y, (blasint)m);
+    op_progress_advance(progress, 1);
+    if ((st = FN(orthonormalize)(y, m, l, tau, err)) != OP_OK)
+        goto done;
+    for (int it = 0; it < q; it++) {
+        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1, A,
+             (blasint)n, y, (blasint)m, 0, z, (blasint)n);
+        op_progress_advance(progress, 1);
+        if ((st = FN(orthonormalize)(z, n, l, tau, err)) != OP_OK)
+            goto done;
+        GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
+             (blasint)n, z, (blasint)n, 0, y, (blasint)m);
+        op_progress_advance(progress, 1);
+        if ((st = FN(orthonormalize)(y, m, l, tau, err)) != OP_OK)
+            goto done;
+    }
+    /* B^T = A^T Y (n x l); B^T = W S X^T, so A ~ Y B = (Y X) S W^T. */
+    GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1, A,
+         (blasint)n, y, (blasint)m, 0, z, (blasint)n);
+    op_progress_advance(progress, 1);
+    for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
+        bd[i] = z[i];
+    lapack_int info = LAPACKE_dgesdd(LAPACK_COL_MAJOR, 'S', (lapack_int)n, (lapack_int)l, bd,
+                                     (lapack_int)n, sv, w, (lapack_int)n, xt, (lapack_int)l);
+    if (info != 0) {
+        st = op_error_set(err, OP_ERR_NUMERIC, "randomized SVD: SVD of the %lld x %d projection "
+                          "failed (LAPACK info %d)", (long long)n, l, (int)info);
+        goto done;
+    }
+    /* mk[j][t] = X(j, t) * s_t, with X(j, t) = xt[t + j * l]. */
+    for (int j = 0; j < l; j++)
+        for (int t = 0; t < k; t++)
+            mk[(size_t)j * k + t] = (REAL)(xt[t + (size_t)j * l] * sv[t]);
+#if RSVD_IS_DOUBLE
+    GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)m, k, l, 1, y, (blasint)m, mk, k, 0,
+         usr, k);
+    for (size_t i = 0; i < (size_t)m * (size_t)k; i++)
+        us[i] = (float)usr[i];
+#else
+    GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)m, k, l, 1, y, (blasint)m, mk, k, 0,
+         us, k);
+#endif
+    for (int64_t j = 0; j < n; j++)
+        for (int t = 0; t < k; t++)
+            v[j * k + t] = (float)w[j + (size_t)t * n];
+    if (s)
+        for (int t = 0; t < k; t++)
+            s[t] = sv[t];
+done:
+    free(acopy);
+    free(y);
+    free(z);
+    free(tau);
+    free(mk);
+    free(bd);
+    free(w);
+    free(xt);
+    free(sv);
+    free(usr);
+    return st;
+}
