@@ -302,7 +302,11 @@ static op_status attr_vec3(xml_ctx *c, xmlNode *e, const char *name, const doubl
     if (present)
         *present = s != NULL;
     if (!s) {
-        memcpy(out, def, 3 * sizeof(double));
+        /* get_attr fails for an absent attribute unless a default was given. */
+        if (def)
+            memcpy(out, def, 3 * sizeof(double));
+        else
+            memset(out, 0, 3 * sizeof(double));
         return OP_OK;
     }
     if (parse_list(s, out, 3) != 3)

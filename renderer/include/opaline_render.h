@@ -1,0 +1,98 @@
+/*
+ * opaline_render.h - the opaline renderer library.
+ *
+ * Loads a Mitsuba 0.5/0.6-style scene (XML) and path traces it, with opaline's measured
+ * heterogeneous subsurface materials (<subsurface type="svd|tucker|raw">) on shapes.
+ *
+ * Use: op_scene_load() a scene, op_renderer_new() with options, op_renderer_render() it (as
+ * many times as wanted), read op_renderer_image(), write it with op_scene_write_image(), free
+ * both. Errors follow opaline.h: an op_status plus an op_error naming the file and line at fault.
+ * A loaded scene is read-only while rendering; one renderer renders one scene at a time.
+ * Rendering is deterministic: the same scene, sample count and seed give a bit-identical image
+ * for any number of threads.
+ */
+#ifndef OPALINE_RENDER_H
+#define OPALINE_RENDER_H
+
+#include <stdatomic.h>
+
+#include "opaline.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct op_scene op_scene;
+typedef struct op_renderer op_renderer;
+
+/* A -D name=value override of a scene's <default name="..." value="..."/>. */
+typedef struct op_scene_define {
+    const char *name;
+    const char *value;
+} op_scene_define;
+
+/* Parses and builds the scene at path: geometry, acceleration structure, materials (only what
+ * the scene uses). Bad input gives OP_ERR_INPUT naming file:line. */
+op_status op_scene_load(const char *path, const op_scene_define *defines, int ndefines,
+                        op_scene **out, op_error *err);
+void op_scene_free(op_scene *scene);
+
+/* What the scene's film asks for. Strings stay owned by the scene. */
+typedef struct op_scene_info {
+    int width, height;        /* the image rendered (the crop window when there is one) */
+    int full_width, full_height;
+    int spp;                  /* the sampler's sampleCount */
+    const char *film_type;    /* "hdrfilm" or "ldrfilm" */
+    const char *film_filename;/* the film's filename, or NULL */
+    const char *integrator;   /* "path", "direct", "normals", ... */
+    int shapes, triangles, emitters, subsurface_shapes;
+} op_scene_info;
+
+void op_scene_get_info(const op_scene *scene, op_scene_info *info);
+
+/* A finished tile: RGBA linear floats, rows from the top; x, y its top-left pixel in the image. */
+typedef struct op_render_tile {
+    int x, y, w, h;
+    const float *rgba; /* w * h * 4 floats, valid during the callback only */
+} op_render_tile;
+
+/* Called once per finished tile, never concurrently with itself (the renderer serializes). */
+typedef void (*op_tile_fn)(void *user, const op_render_tile *tile);
+
+typedef struct op_render_options {
+    int threads;             /* worker threads; 0 = all cores */
+    int spp;                 /* samples per pixel; 0 = the scene's sampler */
+    int tile_size;           /* tile side in pixels; 0 = 32 */
+    uint64_t seed;           /* mixed into every random stream (default 0) */
+    op_progress_fn progress; /* NULL: op_progress's own report on stderr */
+    void *progress_user;
+    op_tile_fn tile;         /* may be NULL */
+    void *tile_user;
+    atomic_int *cancel;      /* when non-NULL and set non-zero, rendering stops soon */
+} op_render_options;
+
+/* The defaults: every field zero or NULL. */
+void op_render_options_init(op_render_options *opt);
+
+/* opt is copied; NULL means the defaults. Returns NULL when out of memory. */
+op_renderer *op_renderer_new(const op_render_options *opt);
+void op_renderer_free(op_renderer *r);
+
+/* Renders scene into the renderer's image (RGBA, alpha = coverage). Returns OP_ERR_CANCELLED
+ * when the cancel flag stopped it: the image then holds the finished tiles (others black, alpha
+ * 0). The scene must outlive the call only. */
+op_status op_renderer_render(op_renderer *r, const op_scene *scene, op_error *err);
+
+/* The last rendered image (width * height * 4 floats), or NULL before the first render. */
+const op_image *op_renderer_image(const op_renderer *r);
+
+/* Writes img to path through op_image_write_*, the format chosen by the extension (.exr, .png,
+ * .pfm, case-insensitive), applying the film's settings: hdrfilm's componentFormat (float16 or
+ * float32 EXR) and pixelFormat (rgb, rgba, luminance), ldrfilm's exposure and gamma for PNG. */
+op_status op_scene_write_image(const op_scene *scene, const op_image *img, const char *path,
+                               op_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

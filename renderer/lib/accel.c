@@ -1,0 +1,121 @@
+/* accel.c - Embree 3 acceleration structure (see accel.h). */
+#include "accel.h"
+
+#include <embree3/rtcore.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+struct op_accel {
+    RTCDevice device;
+    RTCScene scene;
+    char error[512]; /* the device's last error, written by the error callback during builds */
+};
+
+/* Embree reports its errors here; during a build only the building thread calls it. */
+static void device_error(void *user, enum RTCError code, const char *str)
+{
+    op_accel *a = user;
+    snprintf(a->error, sizeof a->error, "Embree error %d: %s", (int)code, str ? str : "");
+    op_log(OP_LOG_ERROR, "%s", a->error);
+}
+
+op_status op_accel_build(const op_trimesh *meshes, int n, op_accel **out, op_error *err)
+{
+    op_accel *a = calloc(1, sizeof *a);
+    if (!a)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    a->device = rtcNewDevice("verbose=0");
+    if (!a->device) {
+        free(a);
+        return op_error_set(err, OP_ERR_INTERNAL, "Embree: cannot create a device (error %d)",
+                            (int)rtcGetDeviceError(NULL));
+    }
+    rtcSetDeviceErrorFunction(a->device, device_error, a);
+    a->scene = rtcNewScene(a->device);
+    rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
+    for (int i = 0; i < n; i++) {
+        const op_trimesh *m = &meshes[i];
+        RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m->pos, 0,
+                                   3 * sizeof(float), (size_t)m->nverts);
+        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m->idx, 0,
+                                   3 * sizeof(uint32_t), (size_t)m->ntris);
+        rtcCommitGeometry(g);
+        rtcAttachGeometryByID(a->scene, g, (unsigned)i);
+        rtcReleaseGeometry(g);
+    }
+    rtcCommitScene(a->scene);
+    if (a->error[0]) {
+        op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
+        op_accel_free(a);
+        return OP_ERR_INTERNAL;
+    }
+    *out = a;
+    return OP_OK;
+}
+
+void op_accel_free(op_accel *a)
+{
+    if (!a)
+        return;
+    if (a->scene)
+        rtcReleaseScene(a->scene);
+    if (a->device)
+        rtcReleaseDevice(a->device);
+    free(a);
+}
+
+int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax,
+                       op_ray_hit *hit)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRayHit rh;
+    rh.ray.org_x = org.x;
+    rh.ray.org_y = org.y;
+    rh.ray.org_z = org.z;
+    rh.ray.dir_x = dir.x;
+    rh.ray.dir_y = dir.y;
+    rh.ray.dir_z = dir.z;
+    rh.ray.tnear = tmin;
+    rh.ray.tfar = tmax;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(a->scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+    hit->t = rh.ray.tfar;
+    hit->shape = (int)rh.hit.geomID;
+    hit->prim = (int)rh.hit.primID;
+    hit->b1 = rh.hit.u;
+    hit->b2 = rh.hit.v;
+    hit->ng = v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+    return 1;
+}
+
+int op_accel_occluded(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRay r;
+    r.org_x = org.x;
+    r.org_y = org.y;
+    r.org_z = org.z;
+    r.dir_x = dir.x;
+    r.dir_y = dir.y;
+    r.dir_z = dir.z;
+    r.tnear = tmin;
+    r.tfar = tmax;
+    r.time = 0.0f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+    rtcOccluded1(a->scene, &ctx, &r);
+    return r.tfar < 0.0f;
+}

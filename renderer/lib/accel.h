@@ -1,0 +1,28 @@
+/* accel.h - the ray-tracing acceleration structure: one Embree 3 device and scene over the
+ * scene's triangle meshes (shared buffers, no copies; robust traversal, high build quality).
+ * Geometry ids equal shape indices. Safe to query from any number of threads once built. */
+#ifndef OP_ACCEL_H
+#define OP_ACCEL_H
+
+#include "shape.h"
+
+typedef struct op_accel op_accel;
+
+typedef struct op_ray_hit {
+    float t;
+    int shape, prim;
+    float b1, b2; /* barycentrics of corners 1 and 2 */
+    op_v3 ng;     /* unnormalized geometric normal from the winding */
+} op_ray_hit;
+
+/* Builds over meshes[0..n); the meshes must outlive the accel and stay unchanged. */
+op_status op_accel_build(const op_trimesh *meshes, int n, op_accel **out, op_error *err);
+void op_accel_free(op_accel *a);
+
+/* Nearest hit with t in (tmin, tmax); returns 0 when none. */
+int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax,
+                       op_ray_hit *hit);
+/* Whether anything lies on the ray with t in (tmin, tmax). */
+int op_accel_occluded(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax);
+
+#endif

@@ -1,0 +1,54 @@
+/* bsdf.h - surface scattering models: diffuse, dielectric, conductor, plastic, roughplastic
+ * (GGX), each optionally two-sided. All work in the local shading frame (z = normal); wi points
+ * away from the surface toward where the light goes (the viewer), wo toward where it comes from.
+ * Values returned are f * |cos(wo)|. */
+#ifndef OP_BSDF_H
+#define OP_BSDF_H
+
+#include "rvec.h"
+#include "scene_desc.h"
+
+typedef enum op_bsdf_type {
+    OP_BSDF_DIFFUSE,
+    OP_BSDF_DIELECTRIC,
+    OP_BSDF_CONDUCTOR,
+    OP_BSDF_PLASTIC,
+    OP_BSDF_ROUGHPLASTIC
+} op_bsdf_type;
+
+typedef struct op_bsdf {
+    op_bsdf_type type;
+    int twosided;
+    op_v3 reflectance;     /* diffuse; the diffuse base of plastics */
+    op_v3 specular;        /* specularReflectance (and transmittance of dielectrics) */
+    float eta;             /* interior / exterior index of refraction */
+    op_v3 cond_eta, cond_k;/* conductor: complex index relative to the exterior */
+    int mirror;            /* conductor "none": a perfect mirror */
+    float alpha;           /* roughplastic GGX roughness */
+    int nonlinear;
+} op_bsdf;
+
+typedef struct op_bsdf_sample {
+    op_v3 wo;
+    op_v3 weight; /* f * |cos| / pdf */
+    float pdf;    /* solid angle; meaningless when delta */
+    int delta;    /* sampled a specular component */
+} op_bsdf_sample;
+
+/* Builds b from a <bsdf> node (twosided unwraps its child). Out-of-range reflectances are
+ * clamped to [0, 1] with a warning. */
+op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err);
+/* The default material of shapes without a BSDF: diffuse 0.5. */
+void op_bsdf_default(op_bsdf *b);
+/* Whether the BSDF has a non-delta component that next-event estimation can evaluate. */
+int op_bsdf_is_smooth_only(const op_bsdf *b);
+
+/* f * |cos(wo)| and the sampling density of wo (solid angle), non-delta parts only. */
+op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf);
+/* Samples wo; returns 0 when the sample is absorbed. */
+int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
+                       op_bsdf_sample *s);
+/* A colour for the albedo debug view. */
+op_v3 op_bsdf_albedo(const op_bsdf *b);
+
+#endif

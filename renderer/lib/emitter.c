@@ -1,0 +1,254 @@
+/* emitter.c - light sources (see emitter.h). */
+#include "emitter.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define GET_OR_FAIL(call)                                                                          \
+    do {                                                                                           \
+        if ((call) != OP_OK)                                                                       \
+            return err ? err->status : OP_ERR_INPUT;                                               \
+    } while (0)
+
+static op_status read_nonneg_color(op_node *n, const char *name, double def, op_v3 *out,
+                                   op_error *err)
+{
+    double d[3] = {def, def, def}, c[3];
+    GET_OR_FAIL(op_node_color(n, name, d, c, err));
+    for (int i = 0; i < 3; i++)
+        if (!(c[i] >= 0.0) || !isfinite(c[i]))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: %s must be "
+                                "finite and >= 0", n->file, n->line, n->type, name);
+    *out = v3_from_d(c);
+    return OP_OK;
+}
+
+op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
+                           op_emitter *e, op_error *err)
+{
+    memset(e, 0, sizeof *e);
+    node->used = 1;
+    op_matrix4 xf;
+    GET_OR_FAIL(op_node_transform(node, "toWorld", &xf, err));
+    const char *t = node->type;
+    if (strcmp(t, "point") == 0 || strcmp(t, "spot") == 0) {
+        double o[3] = {0, 0, 0}, pos[3];
+        op_matrix4_point(&xf, o, o);
+        GET_OR_FAIL(op_node_vec3(node, "position", o, pos, err));
+        e->pos = v3_from_d(pos);
+        GET_OR_FAIL(read_nonneg_color(node, "intensity", 1.0, &e->value, err));
+        e->type = OP_EM_POINT;
+        if (strcmp(t, "spot") == 0) {
+            e->type = OP_EM_SPOT;
+            double cutoff, beam, z[3] = {0, 0, 1};
+            GET_OR_FAIL(op_node_float(node, "cutoffAngle", 20.0, &cutoff, err));
+            if (!(cutoff > 0.0) || cutoff > 90.0) {
+                double c = cutoff > 90.0 ? 90.0 : 0.01;
+                op_log(OP_LOG_WARN, "%s:%d: <emitter type=\"spot\">: cutoffAngle %g is outside "
+                       "(0, 90]; clamped to %g", node->file, node->line, cutoff, c);
+                cutoff = c;
+            }
+            GET_OR_FAIL(op_node_float(node, "beamWidth", cutoff * 0.75, &beam, err));
+            if (!(beam > 0.0) || beam > cutoff) {
+                double c = beam > cutoff ? cutoff : cutoff * 0.75;
+                op_log(OP_LOG_WARN, "%s:%d: <emitter type=\"spot\">: beamWidth %g is outside "
+                       "(0, cutoffAngle]; clamped to %g", node->file, node->line, beam, c);
+                beam = c;
+            }
+            op_matrix4_vector(&xf, z, z);
+            op_v3 axis = v3_norm(v3_from_d(z));
+            if (v3_len(axis) == 0.0f)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: toWorld "
+                                    "is degenerate", node->file, node->line);
+            e->frame = op_frame_from_normal(axis);
+            e->cutoff = (float)(cutoff * M_PI / 180.0);
+            e->beam = (float)(beam * M_PI / 180.0);
+            e->cos_cutoff = cosf(e->cutoff);
+            e->cos_beam = cosf(e->beam);
+        }
+        return OP_OK;
+    }
+    if (strcmp(t, "area") == 0) {
+        if (!mesh)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be nested "
+                                "in a <shape>", node->file, node->line);
+        e->type = OP_EM_AREA;
+        e->mesh = mesh;
+        e->shape = shape;
+        return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "directional") == 0) {
+        double z[3] = {0, 0, 1}, d[3];
+        op_matrix4_vector(&xf, z, z);
+        GET_OR_FAIL(op_node_vec3(node, "direction", z, d, err));
+        e->type = OP_EM_DIRECTIONAL;
+        e->dir = v3_norm(v3_from_d(d));
+        if (v3_len(e->dir) == 0.0f)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: zero "
+                                "direction", node->file, node->line);
+        return read_nonneg_color(node, "irradiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "constant") == 0) {
+        e->type = OP_EM_CONSTANT;
+        return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "envmap") == 0) {
+        const char *fn;
+        double scale;
+        GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
+        GET_OR_FAIL(op_node_float(node, "scale", 1.0, &scale, err));
+        if (!fn)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\"> needs a "
+                                "filename", node->file, node->line);
+        char path[4096];
+        if (fn[0] == '/' || !base_dir)
+            snprintf(path, sizeof path, "%s", fn);
+        else
+            snprintf(path, sizeof path, "%s/%s", base_dir, fn);
+        e->type = OP_EM_ENVMAP;
+        op_status st = op_image_read(path, &e->env, err);
+        if (st)
+            return op_error_prefix(err, "%s:%d: <emitter type=\"envmap\">: ", node->file,
+                                   node->line);
+        if (e->env.channels < 3) {
+            op_image_free(&e->env);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: envmap %s: needs an RGB image",
+                                node->file, node->line, path);
+        }
+        e->value = v3s((float)scale);
+        /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
+        op_matrix4 inv;
+        op_matrix4_inverse(&xf, &inv);
+        double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
+        op_matrix4_vector(&inv, ex, ex);
+        op_matrix4_vector(&inv, ey, ey);
+        op_matrix4_vector(&inv, ez, ez);
+        /* store columns so that local = (dot(d, s), dot(d, t), dot(d, n)) */
+        e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
+        e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
+        e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
+        return OP_OK;
+    }
+    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
+                        "(point, spot, area, directional, constant, envmap)", node->file,
+                        node->line, t);
+}
+
+void op_emitter_free(op_emitter *e)
+{
+    if (e->type == OP_EM_ENVMAP)
+        op_image_free(&e->env);
+}
+
+int op_emitter_is_env(const op_emitter *e)
+{
+    return e->type == OP_EM_CONSTANT || e->type == OP_EM_ENVMAP;
+}
+
+static float spot_falloff(const op_emitter *e, float cos_theta)
+{
+    if (cos_theta <= e->cos_cutoff)
+        return 0.0f;
+    if (cos_theta >= e->cos_beam)
+        return 1.0f;
+    return (e->cutoff - acosf(fminf(cos_theta, 1.0f))) / (e->cutoff - e->beam);
+}
+
+op_v3 op_emitter_env_le(const op_emitter *e, op_v3 dir)
+{
+    if (e->type == OP_EM_CONSTANT)
+        return e->value;
+    op_v3 d = op_frame_to_local(&e->frame, dir);
+    float u = atan2f(d.x, -d.z) * (0.5f * OP_INV_PI);
+    if (u < 0.0f)
+        u += 1.0f;
+    float v = acosf(fmaxf(-1.0f, fminf(1.0f, d.y))) * OP_INV_PI;
+    int w = e->env.width, h = e->env.height;
+    int x = (int)(u * (float)w), y = (int)(v * (float)h);
+    x = x < 0 ? 0 : (x >= w ? w - 1 : x);
+    y = y < 0 ? 0 : (y >= h ? h - 1 : y);
+    const float *px = e->env.pixels + ((size_t)y * w + x) * (size_t)e->env.channels;
+    return v3_scale(v3(px[0], px[1], px[2]), e->value.x);
+}
+
+float op_emitter_env_pdf(const op_emitter *e, op_v3 dir)
+{
+    (void)e;
+    (void)dir;
+    return 1.0f / (4.0f * OP_PI);
+}
+
+op_v3 op_emitter_area_le(const op_emitter *e, op_v3 n, op_v3 w)
+{
+    return v3_dot(n, w) > 0.0f ? e->value : v3s(0.0f);
+}
+
+float op_emitter_area_pdf(const op_emitter *e, op_v3 n, op_v3 dir, float dist)
+{
+    float c = fabsf(v3_dot(n, dir)) / fmaxf(v3_len(n), 1e-30f);
+    if (c <= 0.0f)
+        return 0.0f;
+    return dist * dist / (c * e->mesh->area);
+}
+
+int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,
+                      op_light_sample *s)
+{
+    switch (e->type) {
+    case OP_EM_POINT:
+    case OP_EM_SPOT: {
+        op_v3 d = v3_sub(e->pos, p);
+        float d2 = v3_dot(d, d);
+        if (d2 <= 0.0f)
+            return 0;
+        s->dist = sqrtf(d2);
+        s->wi = v3_scale(d, 1.0f / s->dist);
+        s->pdf = 0.0f;
+        float f = 1.0f;
+        if (e->type == OP_EM_SPOT)
+            f = spot_falloff(e, -v3_dot(s->wi, e->frame.n));
+        if (f <= 0.0f)
+            return 0;
+        s->value = v3_scale(e->value, f / d2);
+        return 1;
+    }
+    case OP_EM_AREA: {
+        int t = op_trimesh_pick(e->mesh, u3);
+        float b1, b2;
+        op_sample_triangle(u1, u2, &b1, &b2);
+        op_v3 a, b, c;
+        op_trimesh_tri(e->mesh, t, &a, &b, &c);
+        op_v3 q = v3_add(v3_add(v3_scale(a, 1.0f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+        op_v3 n = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        op_v3 d = v3_sub(q, p);
+        float dist = v3_len(d);
+        if (dist <= 0.0f)
+            return 0;
+        s->wi = v3_scale(d, 1.0f / dist);
+        s->dist = dist;
+        float cl = -v3_dot(n, s->wi);
+        if (cl <= 0.0f)
+            return 0;
+        s->pdf = dist * dist / (cl * e->mesh->area);
+        s->value = v3_scale(e->value, 1.0f / s->pdf);
+        return 1;
+    }
+    case OP_EM_DIRECTIONAL:
+        s->wi = v3_neg(e->dir);
+        s->dist = INFINITY;
+        s->pdf = 0.0f;
+        s->value = e->value;
+        return 1;
+    case OP_EM_CONSTANT:
+    case OP_EM_ENVMAP: {
+        s->wi = op_sample_sphere(u1, u2);
+        s->dist = INFINITY;
+        s->pdf = 1.0f / (4.0f * OP_PI);
+        s->value = v3_scale(op_emitter_env_le(e, s->wi), 1.0f / s->pdf);
+        return !v3_is_black(s->value);
+    }
+    }
+    return 0;
+}

@@ -1,0 +1,60 @@
+/* emitter.h - light sources: point, spot (Mitsuba's linear falloff in angle from beamWidth to
+ * cutoffAngle), area (on a shape, emitting from its front side), directional, constant and
+ * envmap (a lat-long OpenEXR/PNG image in Mitsuba's orientation: +y up). */
+#ifndef OP_EMITTER_H
+#define OP_EMITTER_H
+
+#include "opaline.h"
+#include "rvec.h"
+#include "scene_desc.h"
+#include "shape.h"
+
+typedef enum op_emitter_type {
+    OP_EM_POINT,
+    OP_EM_SPOT,
+    OP_EM_AREA,
+    OP_EM_DIRECTIONAL,
+    OP_EM_CONSTANT,
+    OP_EM_ENVMAP
+} op_emitter_type;
+
+typedef struct op_emitter {
+    op_emitter_type type;
+    op_v3 pos;              /* point, spot */
+    op_v3 value;            /* intensity (point, spot), radiance (area, constant), irradiance
+                               (directional), scale (envmap) */
+    op_frame frame;         /* spot: n is the beam axis; envmap: world-to-map rotation rows */
+    float cos_cutoff, cos_beam, cutoff, beam;
+    const op_trimesh *mesh; /* area: the shape's mesh (owned by the scene) */
+    int shape;              /* area: the shape's index */
+    op_v3 dir;              /* directional: the direction the light travels */
+    op_image env;           /* envmap */
+} op_emitter;
+
+typedef struct op_light_sample {
+    op_v3 wi;     /* unit, from the shading point toward the light */
+    float dist;   /* distance to the light, INFINITY for directional/environment */
+    op_v3 value;  /* incident radiance divided by the sampling density (solid angle or delta) */
+    float pdf;    /* solid-angle density, 0 for delta lights */
+} op_light_sample;
+
+/* Builds an emitter node; for an area emitter, mesh/shape are its shape's. base_dir resolves an
+ * envmap's relative filename. */
+op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
+                           op_emitter *e, op_error *err);
+void op_emitter_free(op_emitter *e);
+int op_emitter_is_env(const op_emitter *e);
+
+/* Samples a direction from p toward the emitter; returns 0 when it contributes nothing. */
+int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,
+                      op_light_sample *s);
+/* Radiance leaving an area emitter at a point with geometric normal n toward direction w. */
+op_v3 op_emitter_area_le(const op_emitter *e, op_v3 n, op_v3 w);
+/* Solid-angle density with which op_emitter_sample picks the area emitter point at distance
+ * dist along dir from the shading point (n the light's geometric normal). */
+float op_emitter_area_pdf(const op_emitter *e, op_v3 n, op_v3 dir, float dist);
+/* Radiance arriving from an environment emitter along -dir (dir points away from the scene). */
+op_v3 op_emitter_env_le(const op_emitter *e, op_v3 dir);
+float op_emitter_env_pdf(const op_emitter *e, op_v3 dir);
+
+#endif

@@ -1,0 +1,220 @@
+/* film.c - films, reconstruction filters and samplers (see film.h). */
+#include "film.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "rvec.h"
+
+#define GET_OR_FAIL(call)                                                                          \
+    do {                                                                                           \
+        if ((call) != OP_OK)                                                                       \
+            return err ? err->status : OP_ERR_INPUT;                                               \
+    } while (0)
+
+static op_status build_filter(op_node *f, op_film *out, op_error *err)
+{
+    out->filter = OP_FILTER_GAUSSIAN;
+    out->stddev = 0.5f;
+    out->filter_radius = 2.0f;
+    if (!f)
+        return OP_OK;
+    f->used = 1;
+    if (strcmp(f->type, "box") == 0) {
+        out->filter = OP_FILTER_BOX;
+        out->filter_radius = 0.5f;
+    } else if (strcmp(f->type, "tent") == 0) {
+        double r;
+        GET_OR_FAIL(op_node_float(f, "radius", 1.0, &r, err));
+        if (!(r > 0.0 && r <= 16.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"tent\">: radius %g is "
+                                "not in (0, 16]", f->file, f->line, r);
+        out->filter = OP_FILTER_TENT;
+        out->filter_radius = (float)r;
+    } else if (strcmp(f->type, "gaussian") == 0) {
+        double sd;
+        GET_OR_FAIL(op_node_float(f, "stddev", 0.5, &sd, err));
+        if (!(sd > 0.0 && sd <= 4.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"gaussian\">: stddev %g "
+                                "is not in (0, 4]", f->file, f->line, sd);
+        out->stddev = (float)sd;
+        out->filter_radius = 4.0f * (float)sd;
+    } else {
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"%s\">: unknown filter "
+                            "(box, tent, gaussian)", f->file, f->line, f->type);
+    }
+    return OP_OK;
+}
+
+op_status op_film_build(op_node *film, op_film *out, op_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->full_width = 768;
+    out->full_height = 576;
+    out->half_float = 1;
+    out->gamma = -1.0;
+    out->pixel_format = OP_PIXFMT_RGBA;
+    op_node *filter = NULL;
+    if (film) {
+        film->used = 1;
+        if (strcmp(film->type, "hdrfilm") != 0 && strcmp(film->type, "ldrfilm") != 0)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"%s\">: unknown film "
+                                "(hdrfilm, ldrfilm)", film->file, film->line, film->type);
+        out->ldr = strcmp(film->type, "ldrfilm") == 0;
+        long long w, h, cx, cy, cw, ch;
+        GET_OR_FAIL(op_node_int(film, "width", 768, &w, err));
+        GET_OR_FAIL(op_node_int(film, "height", 576, &h, err));
+        if (w < 1 || h < 1 || w > 65536 || h > 65536)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: size %lldx%lld is not in "
+                                "1..65536", film->file, film->line, w, h);
+        GET_OR_FAIL(op_node_int(film, "cropOffsetX", 0, &cx, err));
+        GET_OR_FAIL(op_node_int(film, "cropOffsetY", 0, &cy, err));
+        GET_OR_FAIL(op_node_int(film, "cropWidth", w, &cw, err));
+        GET_OR_FAIL(op_node_int(film, "cropHeight", h, &ch, err));
+        if (cx < 0 || cy < 0 || cw < 1 || ch < 1 || cx + cw > w || cy + ch > h)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: crop window %lldx%lld at "
+                                "(%lld, %lld) is not inside the %lldx%lld film", film->file,
+                                film->line, cw, ch, cx, cy, w, h);
+        out->full_width = (int)w;
+        out->full_height = (int)h;
+        out->crop_x = (int)cx;
+        out->crop_y = (int)cy;
+        out->width = (int)cw;
+        out->height = (int)ch;
+        const char *fn, *pf, *cf;
+        GET_OR_FAIL(op_node_string(film, "filename", NULL, &fn, err));
+        if (fn)
+            snprintf(out->filename, sizeof out->filename, "%s", fn);
+        GET_OR_FAIL(op_node_string(film, "pixelFormat", out->ldr ? "rgb" : "rgba", &pf, err));
+        if (strcmp(pf, "rgb") == 0)
+            out->pixel_format = OP_PIXFMT_RGB;
+        else if (strcmp(pf, "rgba") == 0)
+            out->pixel_format = OP_PIXFMT_RGBA;
+        else if (strcmp(pf, "luminance") == 0)
+            out->pixel_format = OP_PIXFMT_LUMINANCE;
+        else
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: pixelFormat \"%s\" is not rgb, "
+                                "rgba or luminance", film->file, film->line, pf);
+        if (!out->ldr) {
+            GET_OR_FAIL(op_node_string(film, "componentFormat", "float16", &cf, err));
+            if (strcmp(cf, "float16") == 0)
+                out->half_float = 1;
+            else if (strcmp(cf, "float32") == 0)
+                out->half_float = 0;
+            else
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: componentFormat \"%s\" is "
+                                    "not float16 or float32", film->file, film->line, cf);
+            const char *ff;
+            GET_OR_FAIL(op_node_string(film, "fileFormat", "openexr", &ff, err));
+            if (strcmp(ff, "openexr") != 0 && strcmp(ff, "pfm") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: fileFormat \"%s\" is not "
+                                    "openexr or pfm", film->file, film->line, ff);
+        } else {
+            GET_OR_FAIL(op_node_float(film, "gamma", -1.0, &out->gamma, err));
+            GET_OR_FAIL(op_node_float(film, "exposure", 0.0, &out->exposure, err));
+            if (!(out->gamma == -1.0 || (out->gamma > 0.0 && out->gamma < 10.0)))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: gamma %g is neither -1 "
+                                    "(sRGB) nor in (0, 10)", film->file, film->line, out->gamma);
+            if (!isfinite(out->exposure) || fabs(out->exposure) > 64.0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: exposure %g is out of "
+                                    "range", film->file, film->line, out->exposure);
+            const char *ff, *tm;
+            GET_OR_FAIL(op_node_string(film, "fileFormat", "png", &ff, err));
+            if (strcmp(ff, "png") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: fileFormat \"%s\": only png "
+                                    "is supported", film->file, film->line, ff);
+            GET_OR_FAIL(op_node_string(film, "tonemapMethod", "gamma", &tm, err));
+            if (strcmp(tm, "gamma") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: tonemapMethod \"%s\": only "
+                                    "gamma is supported", film->file, film->line, tm);
+        }
+        for (int i = 0; i < film->nchildren; i++) {
+            op_node *c = film->children[i];
+            if (strcmp(c->tag, "rfilter") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s> is not allowed in <film>",
+                                    c->file, c->line, c->tag);
+            filter = c;
+        }
+    } else {
+        out->width = out->full_width;
+        out->height = out->full_height;
+    }
+    return build_filter(filter, out, err);
+}
+
+op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
+{
+    out->type = OP_SAMPLER_INDEPENDENT;
+    out->spp = 4;
+    if (!sampler)
+        return OP_OK;
+    sampler->used = 1;
+    if (strcmp(sampler->type, "independent") == 0)
+        out->type = OP_SAMPLER_INDEPENDENT;
+    else if (strcmp(sampler->type, "stratified") == 0)
+        out->type = OP_SAMPLER_STRATIFIED;
+    else
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler type=\"%s\">: unknown sampler "
+                            "(independent, stratified)", sampler->file, sampler->line,
+                            sampler->type);
+    long long n;
+    GET_OR_FAIL(op_node_int(sampler, "sampleCount", 4, &n, err));
+    if (n < 1 || n > (1 << 24))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler>: sampleCount %lld is not in "
+                            "1..16777216", sampler->file, sampler->line, n);
+    if (out->type == OP_SAMPLER_STRATIFIED) {
+        long long r = (long long)ceil(sqrt((double)n));
+        if (r * r != n)
+            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"stratified\">: sampleCount %lld rounded "
+                   "up to %lld (a square)", sampler->file, sampler->line, n, r * r);
+        n = r * r;
+    }
+    long long dim;
+    GET_OR_FAIL(op_node_int(sampler, "dimension", 4, &dim, err));
+    out->spp = (int)n;
+    return OP_OK;
+}
+
+/* Inverse CDF of the tent 1 - |x| on [-1, 1]. */
+static float tent_warp(float u)
+{
+    return u < 0.5f ? sqrtf(2.0f * u) - 1.0f : 1.0f - sqrtf(2.0f - 2.0f * u);
+}
+
+void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy)
+{
+    switch (film->filter) {
+    case OP_FILTER_BOX:
+        *dx = u1 - 0.5f;
+        *dy = u2 - 0.5f;
+        break;
+    case OP_FILTER_TENT:
+        *dx = tent_warp(u1) * film->filter_radius;
+        *dy = tent_warp(u2) * film->filter_radius;
+        break;
+    case OP_FILTER_GAUSSIAN: {
+        /* Box-Muller, truncated at the filter radius by folding the radius into range. */
+        float r = film->stddev * sqrtf(-2.0f * logf(fmaxf(1.0f - u1, 1e-12f)));
+        if (r > film->filter_radius)
+            r = fmodf(r, film->filter_radius);
+        float phi = 2.0f * OP_PI * u2;
+        *dx = r * cosf(phi);
+        *dy = r * sinf(phi);
+        break;
+    }
+    }
+}
+
+void op_sampler_pixel(const op_sampler *sampler, int s, int spp, op_rng *rng, float *u1, float *u2)
+{
+    float a = op_rng_float(rng), b = op_rng_float(rng);
+    if (sampler->type == OP_SAMPLER_STRATIFIED && spp > 1) {
+        int n = (int)ceil(sqrt((double)spp));
+        int cell = s % (n * n);
+        a = ((float)(cell % n) + a) / (float)n;
+        b = ((float)(cell / n) + b) / (float)n;
+    }
+    *u1 = a;
+    *u2 = b;
+}

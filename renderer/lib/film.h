@@ -1,0 +1,47 @@
+/* film.h - the film (hdrfilm / ldrfilm: size, crop window, output settings), its
+ * reconstruction filter and the sampler. The filter is applied by filter importance sampling:
+ * each sample's position within its pixel is drawn from the filter's own distribution and the
+ * sample is given weight 1, so pixels never share samples and tiles are independent. */
+#ifndef OP_FILM_H
+#define OP_FILM_H
+
+#include "rrng.h"
+#include "scene_desc.h"
+
+typedef enum op_filter_type { OP_FILTER_BOX, OP_FILTER_TENT, OP_FILTER_GAUSSIAN } op_filter_type;
+typedef enum op_pixel_format { OP_PIXFMT_RGB, OP_PIXFMT_RGBA, OP_PIXFMT_LUMINANCE } op_pixel_format;
+
+typedef struct op_film {
+    int ldr;                    /* ldrfilm */
+    int full_width, full_height;
+    int crop_x, crop_y, width, height;
+    char filename[1024];        /* empty when the film names none */
+    op_pixel_format pixel_format;
+    int half_float;             /* hdrfilm componentFormat float16 (the default) */
+    double gamma;               /* ldrfilm: -1 = sRGB */
+    double exposure;            /* ldrfilm: stops */
+    op_filter_type filter;
+    float filter_radius;        /* box 0.5, tent 1 (or radius), gaussian 4 * stddev */
+    float stddev;
+} op_film;
+
+typedef enum op_sampler_type { OP_SAMPLER_INDEPENDENT, OP_SAMPLER_STRATIFIED } op_sampler_type;
+
+typedef struct op_sampler {
+    op_sampler_type type;
+    int spp;
+} op_sampler;
+
+/* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
+op_status op_film_build(op_node *film, op_film *out, op_error *err);
+/* Reads a <sampler> (NULL: independent, 4 samples). */
+op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
+
+/* The offset of a sample from its pixel's centre, in pixels, drawn from the filter. */
+void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
+
+/* Two numbers in [0,1)^2 for sample s of spp in one pixel: stratified over a ceil(sqrt(spp))^2
+ * grid for the stratified sampler, plain random otherwise. */
+void op_sampler_pixel(const op_sampler *sampler, int s, int spp, op_rng *rng, float *u1, float *u2);
+
+#endif

@@ -1,0 +1,234 @@
+/* integrator.c - path tracing, direct lighting, debug views, irradiance (see integrator.h). */
+#include "integrator.h"
+
+#include <string.h>
+
+#include "subsurface.h"
+
+void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, op_v3 dir,
+                       op_isect *it)
+{
+    const op_trimesh *m = &scene->shapes[hit->shape].mesh;
+    const uint32_t *idx = m->idx + 3 * (size_t)hit->prim;
+    op_v3 a, b, c;
+    op_trimesh_tri(m, hit->prim, &a, &b, &c);
+    float b0 = 1.0f - hit->b1 - hit->b2;
+    it->shape = hit->shape;
+    it->prim = hit->prim;
+    /* the barycentric point is more accurate than org + t dir far from the origin */
+    it->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, hit->b1)), v3_scale(c, hit->b2));
+    (void)org;
+    (void)dir;
+    it->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    if (m->nrm) {
+        const float *n = m->nrm;
+        op_v3 n0 = v3(n[3 * idx[0]], n[3 * idx[0] + 1], n[3 * idx[0] + 2]);
+        op_v3 n1 = v3(n[3 * idx[1]], n[3 * idx[1] + 1], n[3 * idx[1] + 2]);
+        op_v3 n2 = v3(n[3 * idx[2]], n[3 * idx[2] + 1], n[3 * idx[2] + 2]);
+        op_v3 ns = v3_norm(v3_add(v3_add(v3_scale(n0, b0), v3_scale(n1, hit->b1)),
+                                  v3_scale(n2, hit->b2)));
+        it->ns = v3_len(ns) > 0.0f ? ns : it->ng;
+        if (v3_dot(it->ng, it->ns) < 0.0f)
+            it->ng = v3_neg(it->ng);
+    } else {
+        it->ns = it->ng;
+    }
+    if (m->uv) {
+        const float *t = m->uv;
+        it->u = t[2 * idx[0]] * b0 + t[2 * idx[1]] * hit->b1 + t[2 * idx[2]] * hit->b2;
+        it->v = t[2 * idx[0] + 1] * b0 + t[2 * idx[1] + 1] * hit->b1 + t[2 * idx[2] + 1] * hit->b2;
+    } else {
+        it->u = hit->b1;
+        it->v = hit->b2;
+    }
+    it->frame = op_frame_from_normal(it->ns);
+}
+
+op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w)
+{
+    float mag = fmaxf(fabsf(p.x), fmaxf(fabsf(p.y), fabsf(p.z)));
+    float eps = 1e-4f * fmaxf(1.0f, mag);
+    return v3_add(p, v3_scale(ng, v3_dot(ng, w) >= 0.0f ? eps : -eps));
+}
+
+/* The white Lambertian used for irradiance estimates. */
+static const op_bsdf white_bsdf = {OP_BSDF_DIFFUSE, 0, {1.0f, 1.0f, 1.0f}, {0, 0, 0}, 0.0f,
+                                   {0, 0, 0}, {0, 0, 0}, 0, 0.0f, 0};
+
+/* Next-event estimation at it: one sample of every emitter (scenes have few emitters, and
+ * sampling each avoids the noise of choosing between a strong and a weak one). */
+static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf *bsdf, op_v3 wi_l,
+                           op_rng *rng)
+{
+    op_v3 sum = v3s(0.0f);
+    for (int k = 0; k < s->nemitters; k++) {
+        const op_emitter *e = &s->emitters[k];
+        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+        op_light_sample ls;
+        if (!op_emitter_sample(e, it->p, u1, u2, u3, &ls))
+            continue;
+        op_v3 wo_l = op_frame_to_local(&it->frame, ls.wi);
+        /* light from below the geometric surface cannot arrive (guards shading-normal leaks) */
+        if ((v3_dot(ls.wi, it->ng) > 0.0f) != (wo_l.z > 0.0f))
+            continue;
+        float bsdf_pdf;
+        op_v3 f = op_bsdf_eval(bsdf, wi_l, wo_l, &bsdf_pdf);
+        if (v3_is_black(f))
+            continue;
+        op_v3 org = op_offset_origin(it->p, it->ng, ls.wi);
+        float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
+        if (op_accel_occluded(s->accel, org, ls.wi, 0.0f, tmax))
+            continue;
+        float w = ls.pdf > 0.0f ? op_mis(ls.pdf, bsdf_pdf) : 1.0f;
+        sum = v3_add(sum, v3_scale(v3_mul(f, ls.value), w));
+    }
+    return sum;
+}
+
+/* The path-tracing loop. With start != NULL the path begins at that surface with bsdf
+ * start_bsdf seen from direction wi (world, pointing away from the surface). */
+static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
+                   const op_isect *start, const op_bsdf *start_bsdf, op_rng *rng, float *alpha)
+{
+    const op_scene *s = ctx->scene;
+    const op_integrator *ig = &s->integrator;
+    int max_depth = ig->type == OP_INT_DIRECT ? 2 : ig->max_depth;
+    op_v3 L = v3s(0.0f), beta = v3s(1.0f);
+    float prev_pdf = 0.0f;
+    int prev_delta = 1, depth = 0;
+    if (alpha)
+        *alpha = 0.0f;
+    op_isect it;
+    op_bsdf proxy; /* a translucent shape's diffuse stand-in during the irradiance pass */
+    for (;;) {
+        const op_bsdf *bsdf;
+        op_v3 wi_world;
+        if (start && depth == 0) {
+            it = *start;
+            bsdf = start_bsdf;
+            wi_world = it.ns;
+        } else {
+            op_ray_hit hit;
+            if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit)) {
+                if (s->env >= 0 && !(depth == 0 && ig->hide_emitters && !start)) {
+                    const op_emitter *e = &s->emitters[s->env];
+                    op_v3 le = op_emitter_env_le(e, dir);
+                    float w = 1.0f;
+                    if (!prev_delta)
+                        w = op_mis(prev_pdf, op_emitter_env_pdf(e, dir));
+                    L = v3_add(L, v3_scale(v3_mul(beta, le), w));
+                }
+                break;
+            }
+            if (alpha)
+                *alpha = 1.0f;
+            op_isect_from_hit(s, &hit, org, dir, &it);
+            wi_world = v3_neg(dir);
+            const op_shape_rec *sh = &s->shapes[it.shape];
+            if (sh->emitter >= 0 && !(depth == 0 && ig->hide_emitters && !start)) {
+                const op_emitter *e = &s->emitters[sh->emitter];
+                /* emission leaves the front (winding) side */
+                op_v3 a, b, c;
+                op_trimesh_tri(&sh->mesh, it.prim, &a, &b, &c);
+                op_v3 nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
+                op_v3 le = op_emitter_area_le(e, nw, wi_world);
+                if (!v3_is_black(le)) {
+                    float w = 1.0f;
+                    if (!prev_delta)
+                        w = op_mis(prev_pdf, op_emitter_area_pdf(e, nw, dir, hit.t));
+                    L = v3_add(L, v3_scale(v3_mul(beta, le), w));
+                }
+            }
+            if (max_depth >= 0 && depth + 2 > max_depth)
+                break;
+            if (sh->sss >= 0) {
+                if (ctx->sss) {
+                    /* the measured Rd already holds the boundary: L_o = M / pi */
+                    op_v3 m = op_sss_exitance(ctx->sss, sh->sss, it.p, it.ns);
+                    if (v3_dot(wi_world, it.ng) > 0.0f)
+                        L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
+                    break;
+                }
+                op_bsdf_default(&proxy);
+                proxy.reflectance = s->sss[sh->sss].albedo_mean;
+                bsdf = &proxy;
+            } else {
+                bsdf = &s->bsdfs[sh->bsdf];
+            }
+        }
+        op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
+        if (!op_bsdf_is_smooth_only(bsdf))
+            L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, rng)));
+        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+        op_bsdf_sample bs;
+        if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
+            break;
+        op_v3 wo = op_frame_to_world(&it.frame, bs.wo);
+        if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f))
+            break;
+        beta = v3_mul(beta, bs.weight);
+        if (v3_is_black(beta) || !isfinite(v3_max(beta)))
+            break;
+        prev_pdf = bs.pdf;
+        prev_delta = bs.delta;
+        depth++;
+        if (depth >= ig->rr_depth) {
+            float q = fminf(v3_max(beta), 0.95f);
+            if (op_rng_float(rng) >= q)
+                break;
+            beta = v3_scale(beta, 1.0f / q);
+        }
+        org = op_offset_origin(it.p, it.ng, wo);
+        dir = wo;
+        tmin = 0.0f;
+        tmax = INFINITY;
+    }
+    return L;
+}
+
+/* The debug views. */
+static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
+                        float *alpha)
+{
+    const op_scene *s = ctx->scene;
+    op_ray_hit hit;
+    *alpha = 0.0f;
+    if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit))
+        return v3s(0.0f);
+    *alpha = 1.0f;
+    op_isect it;
+    op_isect_from_hit(s, &hit, org, dir, &it);
+    const op_shape_rec *sh = &s->shapes[it.shape];
+    switch (s->integrator.type) {
+    case OP_INT_NORMALS:
+        return it.ns;
+    case OP_INT_UV:
+        return v3(it.u, it.v, 0.0f);
+    default:
+        if (sh->sss >= 0)
+            return s->sss[sh->sss].albedo_mean;
+        return op_bsdf_albedo(&s->bsdfs[sh->bsdf]);
+    }
+}
+
+op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax, op_rng *rng,
+            float *alpha)
+{
+    op_integrator_type t = ctx->scene->integrator.type;
+    if (t == OP_INT_NORMALS || t == OP_INT_UV || t == OP_INT_ALBEDO)
+        return debug_view(ctx, org, dir, tmin, tmax, alpha);
+    return trace(ctx, org, dir, tmin, tmax, NULL, NULL, rng, alpha);
+}
+
+op_v3 op_irradiance(const op_trace_ctx *ctx, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng)
+{
+    op_isect it;
+    memset(&it, 0, sizeof it);
+    it.p = p;
+    it.ng = ng;
+    it.ns = ns;
+    it.frame = op_frame_from_normal(ns);
+    it.shape = -1;
+    op_v3 L = trace(ctx, p, ns, 0.0f, INFINITY, &it, &white_bsdf, rng, NULL);
+    return v3_scale(L, OP_PI);
+}

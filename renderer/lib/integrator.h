@@ -1,0 +1,43 @@
+/* integrator.h - radiance estimates: the path tracer (next-event estimation with multiple
+ * importance sampling, Russian roulette), direct lighting (the path tracer at depth 2), the
+ * debug views (normals, uv, albedo), and the irradiance estimate the subsurface pass uses.
+ * Translucent shapes: a camera path that reaches one takes the cached exitance M/pi there and
+ * ends; during the irradiance pass they act as diffuse surfaces of the material's mean albedo. */
+#ifndef OP_INTEGRATOR_H
+#define OP_INTEGRATOR_H
+
+#include "render_scene.h"
+#include "rrng.h"
+
+typedef struct op_sss_cache op_sss_cache;
+
+typedef struct op_trace_ctx {
+    const op_scene *scene;
+    const op_sss_cache *sss; /* NULL during the irradiance pass */
+} op_trace_ctx;
+
+/* A surface point found by a ray. */
+typedef struct op_isect {
+    op_v3 p;
+    op_v3 ng;      /* unit geometric normal, on the side of the shading normal */
+    op_v3 ns;      /* unit shading normal */
+    float u, v;    /* texture coordinates (0 when the mesh has none) */
+    int shape, prim;
+    op_frame frame;/* shading frame around ns */
+} op_isect;
+
+/* Fills it from a hit of the ray org + t dir. */
+void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, op_v3 dir,
+                       op_isect *it);
+/* A ray origin just off the surface at p on the side that direction w leaves toward. */
+op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w);
+
+/* Radiance along the ray (org, dir) with t in (tmin, tmax); *alpha gets 1 when the ray hit
+ * geometry, 0 when it escaped. */
+op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax, op_rng *rng,
+            float *alpha);
+/* One-sample estimate of the irradiance at surface point p (normals ng, ns): pi times the
+ * radiance a white Lambertian surface would reflect there, with direct and indirect light. */
+op_v3 op_irradiance(const op_trace_ctx *ctx, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
+
+#endif

@@ -1,0 +1,286 @@
+/* render.c - the public renderer API of opaline_render.h: scene loading, tiled multithreaded
+ * rendering, image output. */
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "integrator.h"
+#include "opaline_render.h"
+#include "parallel.h"
+#include "scene_build.h"
+#include "scene_color.h"
+#include "subsurface.h"
+
+op_status op_scene_load(const char *path, const op_scene_define *defines, int ndefines,
+                        op_scene **out, op_error *err)
+{
+    *out = NULL;
+    if (ndefines < 0 || (ndefines > 0 && !defines))
+        return op_error_set(err, OP_ERR_INPUT, "bad define list");
+    op_define *defs = calloc((size_t)(ndefines ? ndefines : 1), sizeof *defs);
+    if (!defs)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    for (int i = 0; i < ndefines; i++) {
+        defs[i].name = defines[i].name;
+        defs[i].value = defines[i].value;
+    }
+    op_node *root = NULL;
+    op_status st = op_desc_parse(path, defs, ndefines, &root, err);
+    free(defs);
+    if (st)
+        return st;
+    op_scene *s = calloc(1, sizeof *s);
+    if (!s) {
+        op_desc_free(root);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    st = op_scene_build(root, path, s, err);
+    op_desc_free(root);
+    if (st) {
+        op_scene_release(s);
+        free(s);
+        return st;
+    }
+    *out = s;
+    return OP_OK;
+}
+
+void op_scene_free(op_scene *scene)
+{
+    if (!scene)
+        return;
+    op_scene_release(scene);
+    free(scene);
+}
+
+void op_scene_get_info(const op_scene *s, op_scene_info *info)
+{
+    static const char *names[] = {"path", "direct", "normals", "uv", "albedo"};
+    memset(info, 0, sizeof *info);
+    info->width = s->film.width;
+    info->height = s->film.height;
+    info->full_width = s->film.full_width;
+    info->full_height = s->film.full_height;
+    info->spp = s->sampler.spp;
+    info->film_type = s->film.ldr ? "ldrfilm" : "hdrfilm";
+    info->film_filename = s->film.filename[0] ? s->film.filename : NULL;
+    info->integrator = names[s->integrator.type];
+    info->shapes = s->nshapes;
+    for (int i = 0; i < s->nshapes; i++)
+        info->triangles += s->shapes[i].mesh.ntris;
+    info->emitters = s->nemitters;
+    info->subsurface_shapes = s->nsss;
+}
+
+struct op_renderer {
+    op_render_options opt;
+    op_image img;
+    int has_image;
+};
+
+void op_render_options_init(op_render_options *opt)
+{
+    memset(opt, 0, sizeof *opt);
+}
+
+op_renderer *op_renderer_new(const op_render_options *opt)
+{
+    op_renderer *r = calloc(1, sizeof *r);
+    if (!r)
+        return NULL;
+    if (opt)
+        r->opt = *opt;
+    return r;
+}
+
+void op_renderer_free(op_renderer *r)
+{
+    if (!r)
+        return;
+    op_image_free(&r->img);
+    free(r);
+}
+
+const op_image *op_renderer_image(const op_renderer *r)
+{
+    return r->has_image ? &r->img : NULL;
+}
+
+typedef struct render_job {
+    const op_scene *scene;
+    const op_render_options *opt;
+    op_trace_ctx ctx;
+    op_image *img;
+    int tile, tiles_x, spp;
+    float **scratch;   /* per thread, tile * tile * 4 floats */
+    pthread_mutex_t tile_lock;
+    op_progress *prog;
+    atomic_int *cancel;
+} render_job;
+
+static void render_tile(void *user, int task, int thread)
+{
+    render_job *job = user;
+    const op_scene *s = job->scene;
+    const op_film *film = &s->film;
+    int tx = task % job->tiles_x, ty = task / job->tiles_x;
+    int x0 = tx * job->tile, y0 = ty * job->tile;
+    int w = film->width - x0 < job->tile ? film->width - x0 : job->tile;
+    int h = film->height - y0 < job->tile ? film->height - y0 : job->tile;
+    float *buf = job->scratch[thread];
+    float inv = 1.0f / (float)job->spp;
+    for (int y = 0; y < h; y++) {
+        if (job->cancel && atomic_load(job->cancel))
+            return;
+        for (int x = 0; x < w; x++) {
+            int fx = film->crop_x + x0 + x, fy = film->crop_y + y0 + y;
+            uint64_t pixel = (uint64_t)fy * (uint64_t)film->full_width + (uint64_t)fx;
+            double acc[4] = {0, 0, 0, 0};
+            for (int k = 0; k < job->spp; k++) {
+                op_rng rng = op_rng_seed(job->opt->seed, pixel, (uint64_t)k);
+                float u1, u2, dx, dy;
+                op_sampler_pixel(&s->sampler, k, job->spp, &rng, &u1, &u2);
+                op_film_sample_offset(film, u1, u2, &dx, &dy);
+                op_v3 org, dir;
+                float tmin, tmax, alpha;
+                op_camera_ray(&s->camera, (float)fx + 0.5f + dx, (float)fy + 0.5f + dy, &org, &dir,
+                              &tmin, &tmax);
+                op_v3 L = op_li(&job->ctx, org, dir, tmin, tmax, &rng, &alpha);
+                if (!isfinite(L.x) || !isfinite(L.y) || !isfinite(L.z))
+                    continue; /* a numerically broken path: dropped (counts as black) */
+                acc[0] += L.x;
+                acc[1] += L.y;
+                acc[2] += L.z;
+                acc[3] += alpha;
+            }
+            float *o = buf + 4 * ((size_t)y * w + x);
+            for (int c = 0; c < 4; c++)
+                o[c] = (float)acc[c] * inv;
+        }
+    }
+    for (int y = 0; y < h; y++)
+        memcpy(job->img->pixels + 4 * ((size_t)(y0 + y) * film->width + x0),
+               buf + 4 * (size_t)y * w, 4 * (size_t)w * sizeof(float));
+    if (job->opt->tile) {
+        op_render_tile t = {x0, y0, w, h, buf};
+        pthread_mutex_lock(&job->tile_lock);
+        job->opt->tile(job->opt->tile_user, &t);
+        pthread_mutex_unlock(&job->tile_lock);
+    }
+    op_progress_advance(job->prog, (uint64_t)w * (uint64_t)h);
+}
+
+op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
+{
+    const op_render_options *opt = &r->opt;
+    op_image_free(&r->img);
+    r->has_image = 0;
+    op_status st = op_image_alloc(&r->img, s->film.width, s->film.height, 4, err);
+    if (st)
+        return st;
+    memset(r->img.pixels, 0, (size_t)s->film.width * s->film.height * 4 * sizeof(float));
+    r->has_image = 1;
+    render_job job;
+    memset(&job, 0, sizeof job);
+    job.scene = s;
+    job.opt = opt;
+    job.img = &r->img;
+    job.cancel = opt->cancel;
+    job.ctx.scene = s;
+    job.spp = opt->spp > 0 ? opt->spp : s->sampler.spp;
+    job.tile = opt->tile_size > 0 ? opt->tile_size : 32;
+    op_sss_cache *sss = NULL;
+    int it = s->integrator.type;
+    if (s->nsss > 0 && (it == OP_INT_PATH || it == OP_INT_DIRECT)) {
+        op_sss_build_options so = {opt->threads, opt->seed, opt->cancel, opt->progress,
+                                   opt->progress_user};
+        st = op_sss_cache_build(s, &so, &sss, err);
+        if (st)
+            return st;
+        job.ctx.sss = sss;
+    }
+    int threads = op_parallel_threads(opt->threads);
+    job.tiles_x = (s->film.width + job.tile - 1) / job.tile;
+    int tiles_y = (s->film.height + job.tile - 1) / job.tile;
+    job.scratch = calloc((size_t)threads, sizeof *job.scratch);
+    if (!job.scratch) {
+        op_sss_cache_free(sss);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    for (int i = 0; i < threads; i++)
+        if (!(job.scratch[i] = malloc((size_t)job.tile * job.tile * 4 * sizeof(float))))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    pthread_mutex_init(&job.tile_lock, NULL);
+    if (st == OP_OK) {
+        op_log(OP_LOG_DEBUG, "rendering %dx%d, %d spp, %d threads", s->film.width, s->film.height,
+               job.spp, threads);
+        job.prog = op_progress_begin("render", (uint64_t)s->film.width * s->film.height,
+                                     opt->progress, opt->progress_user);
+        st = op_parallel_for(threads, job.tiles_x * tiles_y, render_tile, &job, opt->cancel, err);
+        op_progress_end(job.prog);
+    }
+    pthread_mutex_destroy(&job.tile_lock);
+    for (int i = 0; i < threads; i++)
+        free(job.scratch[i]);
+    free(job.scratch);
+    op_sss_cache_free(sss);
+    return st;
+}
+
+static int has_ext(const char *path, const char *ext)
+{
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && strcasecmp(path + n - e, ext) == 0;
+}
+
+op_status op_scene_write_image(const op_scene *s, const op_image *img, const char *path,
+                               op_error *err)
+{
+    const op_film *film = &s->film;
+    if (!img || img->channels != 4)
+        return op_error_set(err, OP_ERR_INPUT, "%s: no RGBA image to write", path);
+    int is_exr = has_ext(path, ".exr"), is_png = has_ext(path, ".png"), is_pfm = has_ext(path, ".pfm");
+    if (!is_exr && !is_png && !is_pfm)
+        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png or .pfm)",
+                            path);
+    int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
+    if ((is_pfm || (is_png && !film->ldr)) && oc == 4)
+        oc = 3; /* PFM has no alpha; a PNG from an hdrfilm is a preview, opaque */
+    op_image out;
+    op_status st = op_image_alloc(&out, img->width, img->height, oc, err);
+    if (st)
+        return st;
+    size_t n = (size_t)img->width * img->height;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = img->pixels + 4 * i;
+        float *q = out.pixels + (size_t)oc * i;
+        float rgb[3] = {p[0], p[1], p[2]};
+        if (is_png && film->ldr && film->gamma > 0.0) {
+            /* op_image_write_png encodes sRGB; pre-warp so the stored value is x^(1/gamma) */
+            float sc = (float)exp2(film->exposure);
+            for (int c = 0; c < 3; c++) {
+                float v = fmaxf(rgb[c] * sc, 0.0f);
+                rgb[c] = (float)op_srgb_to_linear(pow(fmin(v, 1.0), 1.0 / film->gamma));
+            }
+        }
+        if (oc == 1) {
+            q[0] = 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
+        } else {
+            q[0] = rgb[0];
+            q[1] = rgb[1];
+            q[2] = rgb[2];
+            if (oc == 4)
+                q[3] = p[3];
+        }
+    }
+    if (is_exr)
+        st = op_image_write_exr(path, &out, film->half_float, err);
+    else if (is_pfm)
+        st = op_image_write_pfm(path, &out, err);
+    else
+        st = op_image_write_png(path, &out,
+                                film->ldr && film->gamma < 0.0 ? (float)film->exposure : 0.0f, err);
+    op_image_free(&out);
+    return st;
+}

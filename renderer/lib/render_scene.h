@@ -1,0 +1,69 @@
+/* render_scene.h - the built scene as the renderer's modules see it (the public op_scene is
+ * opaque). Built once by scene_build.c, read-only afterwards. */
+#ifndef OP_RENDER_SCENE_H
+#define OP_RENDER_SCENE_H
+
+#include "accel.h"
+#include "bsdf.h"
+#include "camera.h"
+#include "emitter.h"
+#include "film.h"
+#include "opaline_render.h"
+#include "shape.h"
+
+typedef enum op_integrator_type {
+    OP_INT_PATH,
+    OP_INT_DIRECT,
+    OP_INT_NORMALS,
+    OP_INT_UV,
+    OP_INT_ALBEDO
+} op_integrator_type;
+
+typedef struct op_integrator {
+    op_integrator_type type;
+    int max_depth; /* -1 infinite; 1 = only emitters seen directly; 2 = direct lighting */
+    int rr_depth;
+    int hide_emitters;
+} op_integrator;
+
+/* A measured subsurface material on one shape. */
+typedef struct op_sss_desc {
+    op_material *material; /* owned by the scene's material list (shared between shapes) */
+    double scale;          /* multiplies the material's physical size */
+    int irr_samples;       /* paths per irradiance point */
+    double density;        /* irradiance points per material pixel area */
+    int max_points;
+    op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
+} op_sss_desc;
+
+typedef struct op_shape_rec {
+    op_trimesh mesh;
+    int bsdf;      /* index into bsdfs */
+    int emitter;   /* index into emitters, or -1 */
+    int sss;       /* index into sss, or -1 */
+    char label[160]; /* "file:line" of the shape, for messages */
+} op_shape_rec;
+
+struct op_scene {
+    char *path;
+    op_camera camera;
+    op_film film;
+    op_sampler sampler;
+    op_integrator integrator;
+    op_shape_rec *shapes;
+    int nshapes;
+    op_bsdf *bsdfs;
+    int nbsdfs;
+    op_emitter *emitters;
+    int nemitters;
+    int env; /* index of the environment emitter, or -1 */
+    op_sss_desc *sss;
+    int nsss;
+    op_material **materials;
+    int nmaterials;
+    op_accel *accel;
+    op_v3 bmin, bmax; /* world bounds of the geometry */
+    float eps;        /* ray offset scale */
+};
+
+#endif

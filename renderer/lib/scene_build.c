@@ -1,0 +1,529 @@
+/* scene_build.c - the scene builder (see scene_build.h). */
+#include "scene_build.h"
+
+#include <errno.h>
+#include <libgen.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+#ifndef OPALINE_DEFAULT_PRESETS_DIR
+#define OPALINE_DEFAULT_PRESETS_DIR "presets"
+#endif
+
+#define GET_OR_FAIL(call)                                                                          \
+    do {                                                                                           \
+        if ((call) != OP_OK)                                                                       \
+            return err ? err->status : OP_ERR_INPUT;                                               \
+    } while (0)
+
+/* Growing arrays and what the builder needs while it works. */
+typedef struct builder {
+    op_scene *s;
+    char dir[4096];
+    int cap_shapes, cap_bsdfs, cap_emitters, cap_sss, cap_mats;
+    const op_node **bsdf_nodes; /* node of each bsdf, to share referenced ones */
+    char **mat_paths;           /* resolved path of each opened material */
+    op_mesh_cache *meshes;
+} builder;
+
+static int grow(void **arr, int *cap, int n, size_t elem)
+{
+    if (n < *cap)
+        return 1;
+    int c = *cap ? 2 * *cap : 8;
+    void *p = realloc(*arr, (size_t)c * elem);
+    if (!p)
+        return 0;
+    memset((char *)p + (size_t)*cap * elem, 0, (size_t)(c - *cap) * elem);
+    *arr = p;
+    *cap = c;
+    return 1;
+}
+
+static int file_exists(const char *p)
+{
+    struct stat st;
+    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* dir + "/" + name (name alone when absolute or dir is empty), truncated to n - 1 bytes. */
+static void join(char *out, size_t n, const char *dir, const char *name)
+{
+    size_t k = 0;
+    const char *parts[3] = {NULL, NULL, name};
+    if (name[0] != '/' && dir && dir[0]) {
+        parts[0] = dir;
+        parts[1] = "/";
+    }
+    for (int p = 0; p < 3; p++)
+        for (const char *c = parts[p]; c && *c && k + 1 < n; c++)
+            out[k++] = *c;
+    out[k] = '\0';
+}
+
+op_status op_resolve_material(const char *name, const char *scene_dir, char *out, size_t n,
+                              op_error *err)
+{
+    size_t len = strlen(name);
+    int is_path = strchr(name, '/') != NULL || (len > 4 && strcasecmp(name + len - 4, ".opm") == 0);
+    if (is_path) {
+        join(out, n, scene_dir, name);
+        if (file_exists(out))
+            return OP_OK;
+        return op_error_set(err, OP_ERR_INPUT, "material file %s not found", out);
+    }
+    char searched[2048] = "";
+    join(out, n, scene_dir, name);
+    strncat(out, ".opm", n - strlen(out) - 1);
+    if (file_exists(out))
+        return OP_OK;
+    snprintf(searched, sizeof searched, "%s", scene_dir && scene_dir[0] ? scene_dir : ".");
+    const char *env = getenv("OPALINE_PRESETS_PATH");
+    if (env && env[0]) {
+        char *copy = strdup(env);
+        if (!copy)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        char *save = NULL;
+        for (char *d = strtok_r(copy, ":", &save); d; d = strtok_r(NULL, ":", &save)) {
+            snprintf(out, n, "%s/%s.opm", d, name);
+            if (file_exists(out)) {
+                free(copy);
+                return OP_OK;
+            }
+            size_t sl = strlen(searched);
+            snprintf(searched + sl, sizeof searched - sl, ", %s", d);
+        }
+        free(copy);
+    }
+    snprintf(out, n, "%s/%s.opm", OPALINE_DEFAULT_PRESETS_DIR, name);
+    if (file_exists(out))
+        return OP_OK;
+    size_t sl = strlen(searched);
+    snprintf(searched + sl, sizeof searched - sl, ", %s", OPALINE_DEFAULT_PRESETS_DIR);
+    return op_error_set(err, OP_ERR_INPUT, "material preset \"%s\" not found (searched %s; set "
+                        "OPALINE_PRESETS_PATH or give an .opm path)", name, searched);
+}
+
+static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
+{
+    op_scene *s = b->s;
+    for (int i = 0; i < s->nbsdfs; i++)
+        if (node && b->bsdf_nodes[i] == node) {
+            *index = i;
+            return OP_OK;
+        }
+    int cap = b->cap_bsdfs;
+    if (!grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs) ||
+        !grow((void **)&b->bsdf_nodes, &cap, s->nbsdfs, sizeof *b->bsdf_nodes))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    if (node)
+        GET_OR_FAIL(op_bsdf_build(node, &s->bsdfs[s->nbsdfs], err));
+    else
+        op_bsdf_default(&s->bsdfs[s->nbsdfs]);
+    b->bsdf_nodes[s->nbsdfs] = node;
+    *index = s->nbsdfs++;
+    return OP_OK;
+}
+
+static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, int shape,
+                             int *index, op_error *err)
+{
+    op_scene *s = b->s;
+    if (!grow((void **)&s->emitters, &b->cap_emitters, s->nemitters, sizeof *s->emitters))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    GET_OR_FAIL(op_emitter_build(node, mesh, shape, b->dir, &s->emitters[s->nemitters], err));
+    if (op_emitter_is_env(&s->emitters[s->nemitters])) {
+        if (s->env >= 0)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: a scene may have "
+                                "only one environment emitter", node->file, node->line, node->type);
+        s->env = s->nemitters;
+    }
+    *index = s->nemitters++;
+    return OP_OK;
+}
+
+static op_status open_material(builder *b, const char *path, op_material **out, op_error *err)
+{
+    op_scene *s = b->s;
+    for (int i = 0; i < s->nmaterials; i++)
+        if (strcmp(b->mat_paths[i], path) == 0) {
+            *out = s->materials[i];
+            return OP_OK;
+        }
+    int cap = b->cap_mats;
+    if (!grow((void **)&s->materials, &b->cap_mats, s->nmaterials, sizeof *s->materials) ||
+        !grow((void **)&b->mat_paths, &cap, s->nmaterials, sizeof *b->mat_paths))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    op_material *m;
+    GET_OR_FAIL(op_material_open(path, &m, err));
+    b->mat_paths[s->nmaterials] = strdup(path);
+    s->materials[s->nmaterials++] = m;
+    if (!b->mat_paths[s->nmaterials - 1])
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    *out = m;
+    return OP_OK;
+}
+
+static op_status add_subsurface(builder *b, op_node *node, int *index, op_error *err)
+{
+    op_scene *s = b->s;
+    node->used = 1;
+    const char *t = node->type;
+    op_method want = op_method_from_name(t);
+    if (strcmp(t, "dipole") == 0)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\"> is not "
+                            "supported by this renderer yet (use svd, tucker or raw)", node->file,
+                            node->line);
+    if (want == OP_METHOD_COUNT)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: unknown type "
+                            "(svd, tucker, raw)", node->file, node->line, t);
+    if (!grow((void **)&s->sss, &b->cap_sss, s->nsss, sizeof *s->sss))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    op_sss_desc *d = &s->sss[s->nsss];
+    const char *name;
+    long long irr, maxp;
+    GET_OR_FAIL(op_node_string(node, "material", NULL, &name, err));
+    if (!name)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\"> needs <string "
+                            "name=\"material\">", node->file, node->line, t);
+    GET_OR_FAIL(op_node_float(node, "scale", 1.0, &d->scale, err));
+    GET_OR_FAIL(op_node_int(node, "irrSamples", 16, &irr, err));
+    GET_OR_FAIL(op_node_float(node, "density", 1.0, &d->density, err));
+    GET_OR_FAIL(op_node_int(node, "maxPoints", 250000, &maxp, err));
+    if (!(d->scale > 0.0 && d->scale < 1e9))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: scale %g must be > 0",
+                            node->file, node->line, d->scale);
+    if (irr < 1 || irr > 65536 || maxp < 1 || maxp > 50000000 ||
+        !(d->density > 0.0 && d->density <= 64.0))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: need irrSamples in 1..65536, "
+                            "maxPoints in 1..5e7, density in (0, 64]", node->file, node->line);
+    d->irr_samples = (int)irr;
+    d->max_points = (int)maxp;
+    char path[4096];
+    op_status st = op_resolve_material(name, b->dir, path, sizeof path, err);
+    if (st == OP_OK)
+        st = open_material(b, path, &d->material, err);
+    if (st)
+        return op_error_prefix(err, "%s:%d: <subsurface>: ", node->file, node->line);
+    const op_material_info *info = op_material_get_info(d->material);
+    if (info->method != want)
+        op_log(OP_LOG_WARN, "%s:%d: <subsurface type=\"%s\">: %s holds a %s material; rendering "
+               "it as %s", node->file, node->line, t, path, op_method_name(info->method),
+               op_method_name(info->method));
+    size_t px = (size_t)info->width * (size_t)info->height;
+    float *alb = malloc(px * (size_t)info->channels * sizeof(float));
+    if (!alb)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    st = op_material_albedo_map(d->material, alb, err);
+    if (st) {
+        free(alb);
+        return st;
+    }
+    double mean[3] = {0, 0, 0};
+    for (int c = 0; c < info->channels; c++) {
+        for (size_t i = 0; i < px; i++)
+            mean[c] += alb[(size_t)c * px + i];
+        mean[c] /= (double)px;
+    }
+    free(alb);
+    if (info->channels == 1)
+        mean[1] = mean[2] = mean[0];
+    d->albedo_mean = v3((float)fmin(mean[0], 1.0), (float)fmin(mean[1], 1.0),
+                        (float)fmin(mean[2], 1.0));
+    *index = s->nsss++;
+    return OP_OK;
+}
+
+static op_status build_mesh(builder *b, op_node *node, op_trimesh *m, op_error *err)
+{
+    const char *t = node->type;
+    op_matrix4 xf;
+    int flip;
+    GET_OR_FAIL(op_node_transform(node, "toWorld", &xf, err));
+    GET_OR_FAIL(op_node_bool(node, "flipNormals", 0, &flip, err));
+    op_status st;
+    if (strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0) {
+        const char *fn;
+        int face, fliptex;
+        GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
+        if (!fn)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\"> needs a filename",
+                                node->file, node->line, t);
+        GET_OR_FAIL(op_node_bool(node, "faceNormals", 0, &face, err));
+        GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, &fliptex, err));
+        if (op_node_has(node, "maxSmoothAngle")) {
+            double a;
+            GET_OR_FAIL(op_node_float(node, "maxSmoothAngle", 0.0, &a, err));
+            op_log(OP_LOG_WARN, "%s:%d: <shape>: maxSmoothAngle is not supported; smooth normals "
+                   "are used", node->file, node->line);
+        }
+        char path[4096];
+        join(path, sizeof path, b->dir, fn);
+        st = op_mesh_cache_get(b->meshes, path, t, face, fliptex, m, err);
+    } else if (strcmp(t, "sphere") == 0) {
+        double c[3], zero[3] = {0, 0, 0}, r;
+        GET_OR_FAIL(op_node_vec3(node, "center", zero, c, err));
+        GET_OR_FAIL(op_node_float(node, "radius", 1.0, &r, err));
+        if (!(r > 0.0) || !isfinite(r))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"sphere\">: radius %g must "
+                                "be > 0", node->file, node->line, r);
+        op_matrix4 tr = op_matrix4_translate(c[0], c[1], c[2]), sc = op_matrix4_scale(r, r, r);
+        op_matrix4 local = op_matrix4_mul(&tr, &sc);
+        xf = op_matrix4_mul(&xf, &local);
+        st = op_shape_sphere(m, 128, err);
+    } else if (strcmp(t, "rectangle") == 0) {
+        st = op_shape_rectangle(m, err);
+    } else if (strcmp(t, "cube") == 0) {
+        st = op_shape_cube(m, err);
+    } else if (strcmp(t, "disk") == 0) {
+        st = op_shape_disk(m, 96, err);
+    } else {
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
+                            "(obj, ply, sphere, rectangle, cube, disk)", node->file, node->line, t);
+    }
+    if (st == OP_OK)
+        st = op_trimesh_finish(m, &xf, flip, err);
+    if (st)
+        return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file, node->line, t);
+    return OP_OK;
+}
+
+static op_status add_shape(builder *b, op_node *node, op_error *err)
+{
+    op_scene *s = b->s;
+    node->used = 1;
+    if (!grow((void **)&s->shapes, &b->cap_shapes, s->nshapes, sizeof *s->shapes))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    int index = s->nshapes;
+    op_shape_rec *sh = &s->shapes[index];
+    memset(sh, 0, sizeof *sh);
+    sh->bsdf = sh->emitter = sh->sss = -1;
+    snprintf(sh->label, sizeof sh->label, "%s:%d", node->file, node->line);
+    GET_OR_FAIL(build_mesh(b, node, &sh->mesh, err));
+    s->nshapes++; /* owns its mesh from here on */
+    op_node *bsdf = NULL, *em = NULL, *sss = NULL;
+    for (int i = 0; i < node->nchildren; i++) {
+        op_node *c = node->children[i];
+        if (strcmp(c->tag, "bsdf") == 0 && !bsdf)
+            bsdf = c;
+        else if (strcmp(c->tag, "emitter") == 0 && !em)
+            em = c;
+        else if (strcmp(c->tag, "subsurface") == 0 && !sss)
+            sss = c;
+        else
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s> %sis not supported inside <shape>",
+                                c->file, c->line, c->tag,
+                                (strcmp(c->tag, "bsdf") == 0 || strcmp(c->tag, "emitter") == 0 ||
+                                 strcmp(c->tag, "subsurface") == 0) ? "a second time " : "");
+    }
+    int bi = -1, ei = -1, si = -1;
+    GET_OR_FAIL(add_bsdf(b, bsdf, &bi, err));
+    s->shapes[index].bsdf = bi;
+    if (em) {
+        if (strcmp(em->type, "area") != 0)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: only an area emitter may be nested in a "
+                                "shape", em->file, em->line);
+        GET_OR_FAIL(add_emitter(b, em, &s->shapes[index].mesh, index, &ei, err));
+        s->shapes[index].emitter = ei;
+    }
+    if (sss) {
+        GET_OR_FAIL(add_subsurface(b, sss, &si, err));
+        s->shapes[index].sss = si;
+        if (bsdf)
+            op_log(OP_LOG_WARN, "%s:%d: <shape> has both a bsdf and a subsurface; the subsurface "
+                   "material replaces the bsdf", node->file, node->line);
+    }
+    return OP_OK;
+}
+
+static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
+{
+    ig->type = OP_INT_DIRECT;
+    ig->max_depth = 2;
+    ig->rr_depth = 5;
+    ig->hide_emitters = 0;
+    if (!n)
+        return OP_OK;
+    n->used = 1;
+    const char *t = n->type;
+    long long md, rr;
+    if (strcmp(t, "field") == 0) {
+        const char *f;
+        GET_OR_FAIL(op_node_string(n, "field", "shNormal", &f, err));
+        if (strcmp(f, "shNormal") == 0 || strcmp(f, "geoNormal") == 0)
+            ig->type = OP_INT_NORMALS;
+        else if (strcmp(f, "uv") == 0)
+            ig->type = OP_INT_UV;
+        else if (strcmp(f, "albedo") == 0)
+            ig->type = OP_INT_ALBEDO;
+        else
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"field\">: field "
+                                "\"%s\" is not shNormal, geoNormal, uv or albedo", n->file, n->line,
+                                f);
+        return OP_OK;
+    }
+    if (strcmp(t, "normals") == 0) {
+        ig->type = OP_INT_NORMALS;
+        return OP_OK;
+    }
+    if (strcmp(t, "uv") == 0) {
+        ig->type = OP_INT_UV;
+        return OP_OK;
+    }
+    if (strcmp(t, "albedo") == 0) {
+        ig->type = OP_INT_ALBEDO;
+        return OP_OK;
+    }
+    if (strcmp(t, "path") != 0 && strcmp(t, "direct") != 0)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"%s\">: unknown "
+                            "integrator (path, direct, field, normals, uv, albedo)", n->file,
+                            n->line, t);
+    ig->type = strcmp(t, "path") == 0 ? OP_INT_PATH : OP_INT_DIRECT;
+    GET_OR_FAIL(op_node_bool(n, "hideEmitters", 0, &ig->hide_emitters, err));
+    if (ig->type == OP_INT_DIRECT) {
+        long long es, bs;
+        GET_OR_FAIL(op_node_int(n, "emitterSamples", 1, &es, err));
+        GET_OR_FAIL(op_node_int(n, "bsdfSamples", 1, &bs, err));
+        return OP_OK;
+    }
+    GET_OR_FAIL(op_node_int(n, "maxDepth", -1, &md, err));
+    GET_OR_FAIL(op_node_int(n, "rrDepth", 5, &rr, err));
+    int strict;
+    GET_OR_FAIL(op_node_bool(n, "strictNormals", 0, &strict, err));
+    if (md < -1 || md == 0 || md > 100000 || rr < 1 || rr > 100000)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"path\">: maxDepth %lld "
+                            "(-1 or >= 1) or rrDepth %lld (>= 1) out of range", n->file, n->line,
+                            md, rr);
+    ig->max_depth = (int)md;
+    ig->rr_depth = (int)rr;
+    return OP_OK;
+}
+
+static op_status build_all(builder *b, op_node *root, op_error *err)
+{
+    op_scene *s = b->s;
+    root->used = 1;
+    op_node *sensor = NULL, *integrator = NULL, *film = NULL, *sampler = NULL;
+    for (int i = 0; i < root->nchildren; i++) {
+        op_node *c = root->children[i];
+        if (strcmp(c->tag, "sensor") == 0) {
+            if (sensor)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: a second <sensor> (only one is "
+                                    "supported)", c->file, c->line);
+            sensor = c;
+        } else if (strcmp(c->tag, "integrator") == 0) {
+            integrator = c;
+        }
+    }
+    if (sensor)
+        for (int i = 0; i < sensor->nchildren; i++) {
+            op_node *c = sensor->children[i];
+            if (strcmp(c->tag, "film") == 0)
+                film = c;
+            else if (strcmp(c->tag, "sampler") == 0)
+                sampler = c;
+            else
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s> is not supported inside "
+                                    "<sensor>", c->file, c->line, c->tag);
+        }
+    GET_OR_FAIL(op_film_build(film, &s->film, err));
+    GET_OR_FAIL(op_sampler_build(sampler, &s->sampler, err));
+    GET_OR_FAIL(op_camera_build(sensor, s->film.full_width, s->film.full_height, &s->camera, err));
+    GET_OR_FAIL(build_integrator(integrator, &s->integrator, err));
+    for (int i = 0; i < root->nchildren; i++) {
+        op_node *c = root->children[i];
+        int idx = -1;
+        if (strcmp(c->tag, "shape") == 0) {
+            GET_OR_FAIL(add_shape(b, c, err));
+        } else if (strcmp(c->tag, "emitter") == 0) {
+            if (strcmp(c->type, "area") == 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be "
+                                    "nested in a <shape>", c->file, c->line);
+            GET_OR_FAIL(add_emitter(b, c, NULL, -1, &idx, err));
+        } else if (strcmp(c->tag, "bsdf") == 0 || strcmp(c->tag, "texture") == 0 ||
+                   strcmp(c->tag, "subsurface") == 0 || strcmp(c->tag, "sensor") == 0 ||
+                   strcmp(c->tag, "integrator") == 0) {
+            /* built where referenced (or above); unreferenced ones are reported as unused */
+        } else {
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s type=\"%s\"> is not supported",
+                                c->file, c->line, c->tag, c->type ? c->type : "");
+        }
+    }
+    /* shapes no longer move: point area emitters at their meshes */
+    for (int i = 0; i < s->nemitters; i++)
+        if (s->emitters[i].type == OP_EM_AREA)
+            s->emitters[i].mesh = &s->shapes[s->emitters[i].shape].mesh;
+    if (s->nshapes == 0)
+        op_log(OP_LOG_WARN, "%s: the scene has no shapes", s->path);
+    if (s->nemitters == 0 && s->integrator.type <= OP_INT_DIRECT)
+        op_log(OP_LOG_WARN, "%s: the scene has no emitters; the image will be black", s->path);
+    op_v3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
+    for (int i = 0; i < s->nshapes; i++) {
+        const op_trimesh *m = &s->shapes[i].mesh;
+        for (int k = 0; k < m->nverts; k++) {
+            lo = v3(fminf(lo.x, m->pos[3 * k]), fminf(lo.y, m->pos[3 * k + 1]),
+                    fminf(lo.z, m->pos[3 * k + 2]));
+            hi = v3(fmaxf(hi.x, m->pos[3 * k]), fmaxf(hi.y, m->pos[3 * k + 1]),
+                    fmaxf(hi.z, m->pos[3 * k + 2]));
+        }
+    }
+    if (s->nshapes == 0)
+        lo = hi = v3s(0.0f);
+    s->bmin = lo;
+    s->bmax = hi;
+    op_trimesh *meshes = calloc((size_t)(s->nshapes ? s->nshapes : 1), sizeof *meshes);
+    if (!meshes)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    for (int i = 0; i < s->nshapes; i++)
+        meshes[i] = s->shapes[i].mesh;
+    op_status st = op_accel_build(meshes, s->nshapes, &s->accel, err);
+    free(meshes);
+    return st;
+}
+
+op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error *err)
+{
+    builder b;
+    memset(&b, 0, sizeof b);
+    b.s = s;
+    s->env = -1;
+    s->path = strdup(path);
+    char *tmp = strdup(path);
+    b.meshes = op_mesh_cache_new();
+    if (!s->path || !tmp || !b.meshes) {
+        free(tmp);
+        op_mesh_cache_free(b.meshes);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    snprintf(b.dir, sizeof b.dir, "%s", dirname(tmp));
+    free(tmp);
+    op_status st = build_all(&b, root, err);
+    for (int i = 0; i < s->nmaterials; i++)
+        free(b.mat_paths[i]);
+    free(b.mat_paths);
+    free(b.bsdf_nodes);
+    op_mesh_cache_free(b.meshes);
+    if (st == OP_OK)
+        op_desc_report_unused(root);
+    return st;
+}
+
+void op_scene_release(op_scene *s)
+{
+    for (int i = 0; i < s->nshapes; i++)
+        op_trimesh_free(&s->shapes[i].mesh);
+    free(s->shapes);
+    free(s->bsdfs);
+    for (int i = 0; i < s->nemitters; i++)
+        op_emitter_free(&s->emitters[i]);
+    free(s->emitters);
+    free(s->sss);
+    for (int i = 0; i < s->nmaterials; i++)
+        op_material_close(s->materials[i]);
+    free(s->materials);
+    op_accel_free(s->accel);
+    free(s->path);
+}

@@ -1,0 +1,23 @@
+/* scene_build.h - turns a parsed scene description (scene_desc.h) into the renderer's scene
+ * (render_scene.h): camera, film, sampler, integrator, shapes, BSDFs, emitters, subsurface
+ * materials and the acceleration structure. Builds only what shapes, emitters and the camera
+ * use; reports unused parameters at the end. */
+#ifndef OP_SCENE_BUILD_H
+#define OP_SCENE_BUILD_H
+
+#include "render_scene.h"
+#include "scene_desc.h"
+
+/* Fills the zeroed scene s from root (path: the scene file, for relative file names). On
+ * failure s may be partly filled; op_scene_release frees it either way. */
+op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error *err);
+/* Frees everything s owns (not s itself). */
+void op_scene_release(op_scene *s);
+
+/* Finds a subsurface material: an .opm path (relative to scene_dir) or a preset name looked up
+ * in scene_dir, each folder of OPALINE_PRESETS_PATH, then the compiled-in presets folder.
+ * Writes the found file into out. */
+op_status op_resolve_material(const char *name, const char *scene_dir, char *out, size_t n,
+                              op_error *err);
+
+#endif

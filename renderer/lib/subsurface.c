@@ -1,0 +1,488 @@
+/* subsurface.c - irradiance points, exitance gathering and interpolation (see subsurface.h). */
+#include "subsurface.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "parallel.h"
+
+typedef struct sss_point {
+    op_v3 p, ng, n;   /* position, geometric and shading normal */
+    op_v3 tu, tv;     /* unit tangents along the material's x (columns) and y (rows) */
+    float fx, fy;     /* continuous material pixel coordinates, in [0, W) x [0, H) */
+    op_v3 e;          /* irradiance */
+    op_v3 m;          /* exitance */
+} sss_point;
+
+/* A uniform grid hashed into buckets, stored compressed (bucket starts + point indices). */
+typedef struct sss_grid {
+    float cell;
+    op_v3 origin;
+    uint32_t mask;
+    uint32_t *start; /* mask + 2 entries */
+    uint32_t *items;
+    int32_t *coord;  /* 3 per point: its cell */
+} sss_grid;
+
+typedef struct sss_shape {
+    const op_sss_desc *desc;
+    int width, height, kernel, channels;
+    float px, py, a_pix, a_i, spacing;
+    float radius; /* gather radius: the kernel footprint */
+    float h;      /* interpolation radius */
+    int n;
+    sss_point *pts;
+    sss_grid gather, interp;
+    float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
+    int nchunks;
+} sss_shape;
+
+struct op_sss_cache {
+    sss_shape *shapes;
+    int n;
+};
+
+static uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask)
+{
+    return ((uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)z * 83492791u) & mask;
+}
+
+static void cell_of(const sss_grid *g, op_v3 p, int32_t c[3])
+{
+    c[0] = (int32_t)floorf((p.x - g->origin.x) / g->cell);
+    c[1] = (int32_t)floorf((p.y - g->origin.y) / g->cell);
+    c[2] = (int32_t)floorf((p.z - g->origin.z) / g->cell);
+}
+
+static op_status grid_build(sss_grid *g, const sss_point *pts, int n, op_v3 origin, float cell,
+                            op_error *err)
+{
+    memset(g, 0, sizeof *g);
+    g->cell = cell;
+    g->origin = origin;
+    uint32_t buckets = 1;
+    while (buckets < 2u * (uint32_t)n && buckets < (1u << 30))
+        buckets <<= 1;
+    g->mask = buckets - 1;
+    g->start = calloc((size_t)buckets + 1, sizeof *g->start);
+    g->items = malloc((size_t)n * sizeof *g->items);
+    g->coord = malloc(3 * (size_t)n * sizeof *g->coord);
+    uint32_t *fill = calloc((size_t)buckets, sizeof *fill);
+    if (!g->start || !g->items || !g->coord || !fill) {
+        free(fill);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface grid");
+    }
+    for (int i = 0; i < n; i++) {
+        cell_of(g, pts[i].p, g->coord + 3 * i);
+        g->start[cell_hash(g->coord[3 * i], g->coord[3 * i + 1], g->coord[3 * i + 2], g->mask) + 1]++;
+    }
+    for (uint32_t b = 0; b < buckets; b++)
+        g->start[b + 1] += g->start[b];
+    for (int i = 0; i < n; i++) {
+        uint32_t b = cell_hash(g->coord[3 * i], g->coord[3 * i + 1], g->coord[3 * i + 2], g->mask);
+        g->items[g->start[b] + fill[b]++] = (uint32_t)i;
+    }
+    free(fill);
+    return OP_OK;
+}
+
+static void grid_free(sss_grid *g)
+{
+    free(g->start);
+    free(g->items);
+    free(g->coord);
+}
+
+/* Runs the statements after i for every point i whose cell lies within radius r of p (a
+ * superset of the points within r), in a fixed order; `continue` skips to the next point. */
+#define GRID_FOR_EACH(g, p, r, i, ...)                                                            \
+    do {                                                                                           \
+        int32_t lo_[3], hi_[3];                                                                    \
+        cell_of((g), v3_sub((p), v3s(r)), lo_);                                                    \
+        cell_of((g), v3_add((p), v3s(r)), hi_);                                                    \
+        for (int32_t cz_ = lo_[2]; cz_ <= hi_[2]; cz_++)                                           \
+            for (int32_t cy_ = lo_[1]; cy_ <= hi_[1]; cy_++)                                       \
+                for (int32_t cx_ = lo_[0]; cx_ <= hi_[0]; cx_++) {                                 \
+                    uint32_t b_ = cell_hash(cx_, cy_, cz_, (g)->mask);                             \
+                    for (uint32_t k_ = (g)->start[b_]; k_ < (g)->start[b_ + 1]; k_++) {            \
+                        int i = (int)(g)->items[k_];                                               \
+                        const int32_t *c_ = (g)->coord + 3 * i;                                    \
+                        if (c_[0] != cx_ || c_[1] != cy_ || c_[2] != cz_)                          \
+                            continue;                                                              \
+                        __VA_ARGS__                                                                \
+                    }                                                                              \
+                }                                                                                  \
+    } while (0)
+
+/* The material frame of triangle t: tangents from its texture coordinates when it has usable
+ * ones, else from the box projection (see docs/subsurface-rendering.md). */
+static int triangle_uv_frame(const op_trimesh *m, int t, op_v3 n, op_v3 *tu, op_v3 *tv)
+{
+    if (!m->uv)
+        return 0;
+    const uint32_t *i = m->idx + 3 * (size_t)t;
+    op_v3 a, b, c;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    float du1 = m->uv[2 * i[1]] - m->uv[2 * i[0]], dv1 = m->uv[2 * i[1] + 1] - m->uv[2 * i[0] + 1];
+    float du2 = m->uv[2 * i[2]] - m->uv[2 * i[0]], dv2 = m->uv[2 * i[2] + 1] - m->uv[2 * i[0] + 1];
+    float det = du1 * dv2 - dv1 * du2;
+    if (!(fabsf(det) > 1e-12f))
+        return 0;
+    op_v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
+    op_v3 dpdu = v3_scale(v3_sub(v3_scale(e1, dv2), v3_scale(e2, dv1)), 1.0f / det);
+    op_v3 dpdv = v3_scale(v3_sub(v3_scale(e2, du1), v3_scale(e1, du2)), 1.0f / det);
+    op_v3 u = v3_norm(v3_sub(dpdu, v3_scale(n, v3_dot(n, dpdu))));
+    op_v3 v = v3_sub(dpdv, v3_scale(n, v3_dot(n, dpdv)));
+    v = v3_norm(v3_sub(v, v3_scale(u, v3_dot(u, v))));
+    if (v3_len(u) < 0.5f || v3_len(v) < 0.5f)
+        return 0;
+    *tu = u;
+    *tv = v;
+    return 1;
+}
+
+/* Box projection: the two world axes other than n's dominant one. */
+static void box_axes(op_v3 n, int *ua, int *va)
+{
+    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+    if (ax >= ay && ax >= az) {
+        *ua = 1;
+        *va = 2;
+    } else if (ay >= az) {
+        *ua = 0;
+        *va = 2;
+    } else {
+        *ua = 0;
+        *va = 1;
+    }
+}
+
+static float wrap(float x, int n)
+{
+    float f = x - floorf(x / (float)n) * (float)n;
+    return f >= (float)n || f < 0.0f ? 0.0f : f;
+}
+
+static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
+                             op_error *err)
+{
+    const op_trimesh *m = &sh->mesh;
+    const op_material_info *info = op_material_get_info(ss->desc->material);
+    ss->width = info->width;
+    ss->height = info->height;
+    ss->kernel = info->kernel;
+    ss->channels = info->channels;
+    double sx = info->size_x_cm * 0.01 * ss->desc->scale, sy = info->size_y_cm * 0.01 * ss->desc->scale;
+    ss->px = (float)(sx / info->width);
+    ss->py = (float)(sy / info->height);
+    ss->a_pix = ss->px * ss->py;
+    double want = (double)m->area / ss->a_pix * ss->desc->density;
+    int n = want < 1.0 ? 1 : (want > ss->desc->max_points ? ss->desc->max_points : (int)ceil(want));
+    if (want > ss->desc->max_points)
+        op_log(OP_LOG_WARN, "%s: subsurface needs %.0f irradiance points for one per material "
+               "pixel; capped at %d (coarser than the material: raise maxPoints or lower scale)",
+               sh->label, want, ss->desc->max_points);
+    ss->n = n;
+    ss->a_i = m->area / (float)n;
+    ss->spacing = sqrtf(ss->a_i);
+    ss->pts = calloc((size_t)n, sizeof *ss->pts);
+    if (!ss->pts)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
+    (void)scene;
+    for (int k = 0; k < n; k++) {
+        sss_point *q = &ss->pts[k];
+        /* systematic sampling of the area, an R2 sequence inside each triangle */
+        int t = op_trimesh_pick(m, ((float)k + 0.5f) / (float)n);
+        double r1 = 0.5 + k * 0.7548776662466927, r2 = 0.5 + k * 0.5698402909980532;
+        float b1, b2;
+        op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
+        float b0 = 1.0f - b1 - b2;
+        op_v3 a, b, c;
+        op_trimesh_tri(m, t, &a, &b, &c);
+        const uint32_t *ix = m->idx + 3 * (size_t)t;
+        q->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, b1)), v3_scale(c, b2));
+        q->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        q->n = q->ng;
+        if (m->nrm) {
+            const float *nn = m->nrm;
+            op_v3 s = v3_add(v3_add(v3_scale(v3(nn[3 * ix[0]], nn[3 * ix[0] + 1], nn[3 * ix[0] + 2]), b0),
+                                    v3_scale(v3(nn[3 * ix[1]], nn[3 * ix[1] + 1], nn[3 * ix[1] + 2]), b1)),
+                             v3_scale(v3(nn[3 * ix[2]], nn[3 * ix[2] + 1], nn[3 * ix[2] + 2]), b2));
+            if (v3_len(s) > 0.0f)
+                q->n = v3_norm(s);
+            if (v3_dot(q->n, q->ng) < 0.0f)
+                q->ng = v3_neg(q->ng);
+        }
+        float u, v;
+        if (triangle_uv_frame(m, t, q->n, &q->tu, &q->tv)) {
+            const float *uv = m->uv;
+            u = uv[2 * ix[0]] * b0 + uv[2 * ix[1]] * b1 + uv[2 * ix[2]] * b2;
+            v = uv[2 * ix[0] + 1] * b0 + uv[2 * ix[1] + 1] * b1 + uv[2 * ix[2] + 1] * b2;
+        } else {
+            int ua, va;
+            box_axes(q->n, &ua, &va);
+            op_v3 eu = v3(ua == 0, ua == 1, ua == 2), ev = v3(va == 0, va == 1, va == 2);
+            q->tu = v3_norm(v3_sub(eu, v3_scale(q->n, v3_dot(q->n, eu))));
+            q->tv = v3_sub(ev, v3_scale(q->n, v3_dot(q->n, ev)));
+            q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
+            u = v3_get(q->p, ua) / (float)sx;
+            v = v3_get(q->p, va) / (float)sy;
+        }
+        q->fx = wrap(u * (float)ss->width, ss->width);
+        q->fy = wrap(v * (float)ss->height, ss->height);
+    }
+    return OP_OK;
+}
+
+typedef struct build_job {
+    const op_scene *scene;
+    op_sss_cache *cache;
+    uint64_t seed;
+    op_progress *prog;
+    int chunk;  /* sources per scatter chunk */
+    /* task -> (shape, first point) */
+    int *task_shape, *task_first;
+    float **rows; /* per thread: one kernel row per channel */
+    int scatter_shape;
+} build_job;
+
+enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
+
+static void irradiance_task(void *user, int task, int thread)
+{
+    (void)thread;
+    build_job *job = user;
+    sss_shape *ss = &job->cache->shapes[job->task_shape[task]];
+    op_trace_ctx ctx = {job->scene, NULL};
+    int first = job->task_first[task], last = first + POINTS_PER_TASK;
+    if (last > ss->n)
+        last = ss->n;
+    int spp = ss->desc->irr_samples;
+    for (int k = first; k < last; k++) {
+        sss_point *q = &ss->pts[k];
+        op_v3 sum = v3s(0.0f);
+        for (int s = 0; s < spp; s++) {
+            op_rng rng = op_rng_seed(job->seed ^ 0x5355425355524641ull,
+                                     ((uint64_t)job->task_shape[task] << 40) | (uint64_t)k,
+                                     (uint64_t)s);
+            op_v3 e = op_irradiance(&ctx, q->p, q->ng, q->n, &rng);
+            if (isfinite(e.x) && isfinite(e.y) && isfinite(e.z))
+                sum = v3_add(sum, e);
+        }
+        q->e = v3_scale(sum, 1.0f / (float)spp);
+    }
+    op_progress_advance(job->prog, (uint64_t)(last - first));
+}
+
+/* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
+ * acc[3 j + c] += E_i,c Rd_c(pixel(i), offset(i -> j)) over the receivers j in i's footprint.
+ * Chunks are fixed ranges of points, summed in order afterwards, so the result does not depend
+ * on the thread count. */
+static void scatter_task(void *user, int task, int thread)
+{
+    build_job *job = user;
+    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    const op_material *mat = ss->desc->material;
+    int chunk = task;
+    int first = chunk * job->chunk, last = first + job->chunk;
+    if (last > ss->n)
+        last = ss->n;
+    float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->n;
+    int K = ss->kernel, half = K / 2;
+    float *rows = job->rows[thread];
+    float inv_px = 1.0f / ss->px, inv_py = 1.0f / ss->py;
+    for (int i = first; i < last; i++) {
+        const sss_point *s = &ss->pts[i];
+        if (v3_is_black(s->e))
+            continue;
+        int x = (int)s->fx, y = (int)s->fy;
+        for (int c = 0; c < ss->channels; c++)
+            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
+        const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
+                    *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
+        GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
+            const sss_point *r = &ss->pts[j];
+            if (v3_dot(s->n, r->n) <= 0.0f)
+                continue;
+            op_v3 d = v3_sub(r->p, s->p);
+            /* the offset in material pixels, in the source's frame; Rd is interpolated
+             * bilinearly between the four kernel offsets around it */
+            float dx = v3_dot(d, s->tu) * inv_px, dy = v3_dot(d, s->tv) * inv_py;
+            float flx = floorf(dx), fly = floorf(dy);
+            int ox = (int)flx, oy = (int)fly;
+            if (ox < -half - 1 || ox > half || oy < -half - 1 || oy > half)
+                continue;
+            float tx = dx - flx, ty = dy - fly;
+            float wx[2] = {1.0f - tx, tx}, wy[2] = {1.0f - ty, ty};
+            float vr = 0.0f, vg = 0.0f, vb = 0.0f;
+            for (int b = 0; b < 2; b++) {
+                int oyb = oy + b;
+                if (oyb < -half || oyb > half)
+                    continue;
+                for (int a = 0; a < 2; a++) {
+                    int oxa = ox + a;
+                    if (oxa < -half || oxa > half)
+                        continue;
+                    int col = (oyb + half) * K + (oxa + half);
+                    float w = wx[a] * wy[b];
+                    vr += w * rr[col];
+                    vg += w * rg[col];
+                    vb += w * rb[col];
+                }
+            }
+            acc[3 * (size_t)j] += s->e.x * vr;
+            acc[3 * (size_t)j + 1] += s->e.y * vg;
+            acc[3 * (size_t)j + 2] += s->e.z * vb;
+        });
+    }
+    op_progress_advance(job->prog, (uint64_t)(last - first));
+}
+
+op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
+                             op_sss_cache **out, op_error *err)
+{
+    op_sss_cache *c = calloc(1, sizeof *c);
+    if (!c)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    c->n = scene->nsss;
+    c->shapes = calloc((size_t)(c->n ? c->n : 1), sizeof *c->shapes);
+    if (!c->shapes) {
+        free(c);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    op_status st = OP_OK;
+    long long total = 0;
+    for (int s = 0; s < scene->nshapes && st == OP_OK; s++) {
+        const op_shape_rec *sh = &scene->shapes[s];
+        if (sh->sss < 0)
+            continue;
+        sss_shape *ss = &c->shapes[sh->sss];
+        ss->desc = &scene->sss[sh->sss];
+        st = make_points(scene, sh, ss, err);
+        if (st)
+            break;
+        int half = ss->kernel / 2;
+        ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+        ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
+        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
+        if (st == OP_OK)
+            st = grid_build(&ss->interp, ss->pts, ss->n, scene->bmin, ss->h, err);
+        total += (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+        op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
+               "of %.3g x %.3g scene units", sh->label, ss->n, ss->a_pix / ss->a_i, ss->width,
+               ss->height, ss->px, ss->py);
+    }
+    build_job job;
+    memset(&job, 0, sizeof job);
+    job.scene = scene;
+    job.cache = c;
+    job.seed = opt->seed;
+    if (st == OP_OK && total > 0) {
+        job.task_shape = malloc((size_t)total * sizeof(int));
+        job.task_first = malloc((size_t)total * sizeof(int));
+        if (!job.task_shape || !job.task_first)
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        int t = 0;
+        uint64_t npts = 0;
+        for (int s = 0; st == OP_OK && s < c->n; s++) {
+            npts += (uint64_t)c->shapes[s].n;
+            for (int k = 0; k < c->shapes[s].n; k += POINTS_PER_TASK) {
+                job.task_shape[t] = s;
+                job.task_first[t++] = k;
+            }
+        }
+        if (st == OP_OK) {
+            job.prog = op_progress_begin("irradiance", npts, opt->progress, opt->progress_user);
+            st = op_parallel_for(opt->threads, (int)total, irradiance_task, &job, opt->cancel, err);
+            op_progress_end(job.prog);
+        }
+        int threads = op_parallel_threads(opt->threads);
+        if (st == OP_OK && !(job.rows = calloc((size_t)threads, sizeof *job.rows)))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        if (st == OP_OK)
+            job.prog = op_progress_begin("subsurface", npts, opt->progress, opt->progress_user);
+        for (int s = 0; st == OP_OK && s < c->n; s++) {
+            sss_shape *ss = &c->shapes[s];
+            int K = ss->kernel;
+            for (int i = 0; i < threads && st == OP_OK; i++) {
+                free(job.rows[i]);
+                if (!(job.rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
+                    st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            }
+            ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+            if (ss->nchunks > MAX_CHUNKS)
+                ss->nchunks = MAX_CHUNKS;
+            job.chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
+            ss->nchunks = (ss->n + job.chunk - 1) / job.chunk;
+            if (st == OP_OK &&
+                !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->n, sizeof(float))))
+                st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
+            job.scatter_shape = s;
+            if (st == OP_OK)
+                st = op_parallel_for(opt->threads, ss->nchunks, scatter_task, &job, opt->cancel,
+                                     err);
+            if (st == OP_OK) {
+                float k = ss->a_i / ss->a_pix;
+                for (int j = 0; j < ss->n; j++) {
+                    double m[3] = {0, 0, 0};
+                    for (int ch = 0; ch < ss->nchunks; ch++)
+                        for (int q = 0; q < 3; q++)
+                            m[q] += ss->acc[((size_t)ch * ss->n + j) * 3 + q];
+                    ss->pts[j].m = v3((float)m[0] * k, (float)m[1] * k, (float)m[2] * k);
+                }
+            }
+            free(ss->acc);
+            ss->acc = NULL;
+        }
+        op_progress_end(job.prog);
+        if (job.rows)
+            for (int i = 0; i < threads; i++)
+                free(job.rows[i]);
+        free(job.rows);
+    }
+    free(job.task_shape);
+    free(job.task_first);
+    if (st) {
+        op_sss_cache_free(c);
+        return st;
+    }
+    *out = c;
+    return OP_OK;
+}
+
+void op_sss_cache_free(op_sss_cache *c)
+{
+    if (!c)
+        return;
+    for (int i = 0; i < c->n; i++) {
+        free(c->shapes[i].pts);
+        grid_free(&c->shapes[i].gather);
+        grid_free(&c->shapes[i].interp);
+    }
+    free(c->shapes);
+    free(c);
+}
+
+int op_sss_cache_points(const op_sss_cache *c, int sss)
+{
+    return sss >= 0 && sss < c->n ? c->shapes[sss].n : 0;
+}
+
+op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
+{
+    const sss_shape *ss = &c->shapes[sss];
+    if (!ss->pts)
+        return v3s(0.0f);
+    float h2 = ss->h * ss->h, wsum = 0.0f;
+    op_v3 m = v3s(0.0f);
+    GRID_FOR_EACH(&ss->interp, p, ss->h, i, {
+        const sss_point *q = &ss->pts[i];
+        op_v3 d = v3_sub(q->p, p);
+        float w = 1.0f - v3_dot(d, d) / h2;
+        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
+            continue;
+        wsum += w;
+        m = v3_add(m, v3_scale(q->m, w));
+    });
+    return wsum > 0.0f ? v3_scale(m, 1.0f / wsum) : v3s(0.0f);
+}

@@ -1,0 +1,196 @@
+/* test_render_basic.c - the renderer against closed forms: the white furnace, a Lambertian plane
+ * under a point light (which also pins the camera's orientation), and the CLI-facing API. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "opaline_render.h"
+#include "test_support.h"
+
+/* Writes text to a fresh temporary scene file; returns its path (static storage rotates). */
+static const char *write_scene(const char *text)
+{
+    const char *path = op_test_tmp_path("scene.xml");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+    return path;
+}
+
+/* Renders the scene at path with the given spp (0: the scene's) and threads. */
+static op_renderer *render(const char *path, int spp, int threads, op_scene **scene_out)
+{
+    op_error err = {0};
+    op_scene *scene = NULL;
+    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_render_options opt;
+    op_render_options_init(&opt);
+    opt.spp = spp;
+    opt.threads = threads;
+    op_renderer *r = op_renderer_new(&opt);
+    assert_non_null(r);
+    st = op_renderer_render(r, scene, &err);
+    OP_ASSERT_OK(st, err);
+    if (scene_out)
+        *scene_out = scene;
+    else
+        op_scene_free(scene);
+    return r;
+}
+
+static void test_white_furnace(void **state)
+{
+    (void)state;
+    /* A diffuse sphere of albedo 0.5 inside a uniform environment of radiance 1: every pixel on
+     * the sphere is 0.5 (light reflected once leaves the convex sphere for good). */
+    const char *path = write_scene(
+        "<scene version=\"0.6.0\">"
+        " <integrator type=\"path\"/>"
+        " <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/>"
+        "  <transform name=\"toWorld\"><lookat origin=\"0,0,-5\" target=\"0,0,0\" up=\"0,1,0\"/>"
+        "  </transform>"
+        "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"24\"/>"
+        "   <integer name=\"height\" value=\"24\"/><rfilter type=\"box\"/></film></sensor>"
+        " <emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
+        " <shape type=\"sphere\"><float name=\"radius\" value=\"1\"/>"
+        "  <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5\"/></bsdf></shape>"
+        "</scene>");
+    op_renderer *r = render(path, 64, 2, NULL);
+    const op_image *img = op_renderer_image(r);
+    assert_non_null(img);
+    double sum[3] = {0, 0, 0};
+    int n = 0;
+    for (int y = 8; y < 16; y++)
+        for (int x = 8; x < 16; x++) {
+            const float *p = img->pixels + 4 * (y * img->width + x);
+            for (int c = 0; c < 3; c++)
+                sum[c] += p[c];
+            assert_true(fabsf(p[3] - 1.0f) < 1e-6f);
+            n++;
+        }
+    for (int c = 0; c < 3; c++) {
+        double mean = sum[c] / n;
+        if (fabs(mean - 0.5) > 0.01)
+            fail_msg("furnace: channel %d mean %.4f, expected 0.5", c, mean);
+    }
+    /* the background is the environment itself */
+    const float *corner = img->pixels;
+    assert_true(fabsf(corner[0] - 1.0f) < 1e-5f && corner[3] == 0.0f);
+    op_renderer_free(r);
+}
+
+static void test_lambertian_plane(void **state)
+{
+    (void)state;
+    /* Camera straight down from z = 4 with up = +y: world +x is to the right of the image and
+     * +y up. A point light at (0.5, 0, 1) of intensity 2 over a plane of albedo 0.6:
+     * L(x) = 0.6 / pi * I * h / d^3. The light's offset to +x pins the orientation. */
+    const char *path = write_scene(
+        "<scene version=\"0.6.0\">"
+        " <integrator type=\"direct\"/>"
+        " <sensor type=\"perspective\"><float name=\"fov\" value=\"60\"/>"
+        "  <transform name=\"toWorld\"><lookat origin=\"0,0,4\" target=\"0,0,0\" up=\"0,1,0\"/>"
+        "  </transform><sampler type=\"stratified\"><integer name=\"sampleCount\" value=\"16\"/>"
+        "  </sampler>"
+        "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"40\"/>"
+        "   <integer name=\"height\" value=\"30\"/><rfilter type=\"box\"/></film></sensor>"
+        " <emitter type=\"point\"><point name=\"position\" x=\"0.5\" y=\"0\" z=\"1\"/>"
+        "  <rgb name=\"intensity\" value=\"2\"/></emitter>"
+        " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
+        "  <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.6\"/></bsdf></shape>"
+        "</scene>");
+    op_renderer *r = render(path, 0, 2, NULL);
+    const op_image *img = op_renderer_image(r);
+    int w = img->width, h = img->height;
+    double tx = tan(30.0 * M_PI / 180.0), ty = tx * h / w;
+    double worst = 0.0;
+    int brightest_x = -1;
+    float brightest = -1.0f;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double sx = 2.0 * (x + 0.5) / w - 1.0, sy = 2.0 * (y + 0.5) / h - 1.0;
+            double px = 4.0 * sx * tx, py = -4.0 * sy * ty;
+            double dx = 0.5 - px, dy = -py, d2 = dx * dx + dy * dy + 1.0;
+            double expect = 0.6 / M_PI * 2.0 * 1.0 / (d2 * sqrt(d2));
+            float got = img->pixels[4 * (y * w + x)];
+            double rel = fabs(got - expect) / expect;
+            if (rel > worst)
+                worst = rel;
+            if (got > brightest) {
+                brightest = got;
+                brightest_x = x;
+            }
+        }
+    /* a pixel averages L over its footprint; the curvature of L makes that ~1 % off centre */
+    if (worst > 0.03)
+        fail_msg("plane: worst relative error %.4f", worst);
+    /* the light is at +x: the brightest pixel is right of centre */
+    assert_true(brightest_x > w / 2);
+    op_renderer_free(r);
+}
+
+static void test_bad_scenes(void **state)
+{
+    (void)state;
+    op_error err = {0};
+    op_scene *scene = NULL;
+    const char *path = write_scene("<scene version=\"0.6.0\">\n"
+                                   " <shape type=\"teapot\"/>\n"
+                                   "</scene>\n");
+    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
+    assert_int_equal(st, OP_ERR_INPUT);
+    assert_null(scene);
+    assert_non_null(strstr(err.message, ":2:"));
+    assert_non_null(strstr(err.message, "teapot"));
+
+    path = write_scene("<scene version=\"0.6.0\"><shape type=\"sphere\">"
+                       "<subsurface type=\"svd\"><string name=\"material\" "
+                       "value=\"NoSuchPreset_XYZ\"/></subsurface></shape></scene>");
+    st = op_scene_load(path, NULL, 0, &scene, &err);
+    assert_int_equal(st, OP_ERR_INPUT);
+    assert_non_null(strstr(err.message, "NoSuchPreset_XYZ"));
+}
+
+static void test_clamping_and_info(void **state)
+{
+    (void)state;
+    /* reflectance 100 and cutoffAngle 200 (as in the plugin slides' scene) are clamped */
+    const char *path = write_scene(
+        "<scene version=\"0.6.0\">"
+        " <sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
+        "  <integer name=\"height\" value=\"6\"/><string name=\"filename\" value=\"x.exr\"/>"
+        "  </film></sensor>"
+        " <emitter type=\"spot\"><float name=\"cutoffAngle\" value=\"200\"/>"
+        "  <spectrum name=\"intensity\" value=\"100\"/></emitter>"
+        " <shape type=\"cube\"><bsdf type=\"diffuse\">"
+        "  <rgb name=\"diffuseReflectance\" value=\"100, 100, 100\"/></bsdf></shape>"
+        "</scene>");
+    op_error err = {0};
+    op_scene *scene = NULL;
+    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_scene_info info;
+    op_scene_get_info(scene, &info);
+    assert_int_equal(info.width, 8);
+    assert_int_equal(info.height, 6);
+    assert_int_equal(info.spp, 4);
+    assert_string_equal(info.film_filename, "x.exr");
+    assert_string_equal(info.integrator, "direct");
+    assert_int_equal(info.triangles, 12);
+    op_scene_free(scene);
+}
+
+int main(void)
+{
+    op_log_set_level(OP_LOG_WARN);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_white_furnace),
+        cmocka_unit_test(test_lambertian_plane),
+        cmocka_unit_test(test_bad_scenes),
+        cmocka_unit_test(test_clamping_and_info),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

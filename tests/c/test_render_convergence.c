@@ -1,0 +1,143 @@
+/* test_render_convergence.c - the image is bit-identical for any thread count (also with a
+ * translucent shape), and the error of a Cornell-like box falls as 1/sqrt(spp). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "opaline_render.h"
+#include "test_support.h"
+
+static const char *write_file(const char *suffix, const char *text)
+{
+    const char *path = op_test_tmp_path(suffix);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+    return path;
+}
+
+/* A small closed box: white walls, a red and a green wall, an area light in the ceiling and a
+ * diffuse cube, seen through the open front. */
+static const char *cornell =
+    "<scene version=\"0.6.0\">"
+    " <integrator type=\"path\"><integer name=\"maxDepth\" value=\"5\"/>"
+    "  <boolean name=\"hideEmitters\" value=\"true\"/></integrator>"
+    " <sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/>"
+    "  <transform name=\"toWorld\"><lookat origin=\"0,0,-3.4\" target=\"0,0,0\" up=\"0,1,0\"/>"
+    "  </transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"20\"/>"
+    "  <integer name=\"height\" value=\"20\"/><rfilter type=\"tent\"/></film></sensor>"
+    " <bsdf type=\"diffuse\" id=\"white\"><rgb name=\"reflectance\" value=\"0.7\"/></bsdf>"
+    " <shape type=\"rectangle\"><transform name=\"toWorld\"><rotate x=\"1\" angle=\"-90\"/>"
+    "  <translate y=\"-1\"/></transform><ref id=\"white\"/></shape>"
+    " <shape type=\"rectangle\"><transform name=\"toWorld\"><rotate x=\"1\" angle=\"90\"/>"
+    "  <translate y=\"1\"/></transform><ref id=\"white\"/></shape>"
+    " <shape type=\"rectangle\"><transform name=\"toWorld\"><rotate x=\"1\" angle=\"180\"/>"
+    "  <translate z=\"1\"/></transform><ref id=\"white\"/></shape>"
+    " <shape type=\"rectangle\"><transform name=\"toWorld\"><rotate y=\"1\" angle=\"90\"/>"
+    "  <translate x=\"-1\"/></transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\""
+    "  value=\"0.7,0.1,0.1\"/></bsdf></shape>"
+    " <shape type=\"rectangle\"><transform name=\"toWorld\"><rotate y=\"1\" angle=\"-90\"/>"
+    "  <translate x=\"1\"/></transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\""
+    "  value=\"0.1,0.7,0.1\"/></bsdf></shape>"
+    " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"0.3\"/>"
+    "  <rotate x=\"1\" angle=\"90\"/><translate y=\"0.99\"/></transform>"
+    "  <emitter type=\"area\"><rgb name=\"radiance\" value=\"12\"/></emitter></shape>"
+    " <shape type=\"cube\"><transform name=\"toWorld\"><scale value=\"0.3\"/>"
+    "  <rotate y=\"1\" angle=\"30\"/><translate x=\"0.3\" y=\"-0.7\" z=\"0.2\"/></transform>"
+    "  <ref id=\"white\"/></shape>"
+    "</scene>";
+
+static op_image render(const char *path, int spp, int threads, uint64_t seed)
+{
+    op_error err = {0};
+    op_scene *scene = NULL;
+    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_render_options opt;
+    op_render_options_init(&opt);
+    opt.spp = spp;
+    opt.threads = threads;
+    opt.seed = seed;
+    opt.tile_size = 8;
+    op_renderer *r = op_renderer_new(&opt);
+    assert_non_null(r);
+    st = op_renderer_render(r, scene, &err);
+    OP_ASSERT_OK(st, err);
+    const op_image *img = op_renderer_image(r);
+    op_image copy = {0};
+    st = op_image_alloc(&copy, img->width, img->height, 4, &err);
+    OP_ASSERT_OK(st, err);
+    memcpy(copy.pixels, img->pixels, (size_t)img->width * img->height * 4 * sizeof(float));
+    op_renderer_free(r);
+    op_scene_free(scene);
+    return copy;
+}
+
+static void test_threads_bit_identical(void **state)
+{
+    (void)state;
+    const char *path = write_file("cornell.xml", cornell);
+    char keep[1024];
+    snprintf(keep, sizeof keep, "%s", path);
+    op_image a = render(keep, 8, 1, 0), b = render(keep, 8, 2, 0), c = render(keep, 8, 3, 0);
+    size_t n = (size_t)a.width * a.height * 4 * sizeof(float);
+    assert_memory_equal(a.pixels, b.pixels, n);
+    assert_memory_equal(a.pixels, c.pixels, n);
+    /* and the picture is not trivially black */
+    double sum = 0;
+    for (size_t i = 0; i < (size_t)a.width * a.height * 4; i++)
+        sum += a.pixels[i];
+    assert_true(sum > 1.0);
+    op_image_free(&a);
+    op_image_free(&b);
+    op_image_free(&c);
+}
+
+static double rmse(const op_image *a, const op_image *ref)
+{
+    double s = 0;
+    size_t n = (size_t)a->width * a->height;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            double d = a->pixels[4 * i + c] - ref->pixels[4 * i + c];
+            s += d * d;
+        }
+    return sqrt(s / (3.0 * n));
+}
+
+static void test_error_falls_as_inverse_sqrt_spp(void **state)
+{
+    (void)state;
+    const char *path = write_file("cornell.xml", cornell);
+    char keep[1024];
+    snprintf(keep, sizeof keep, "%s", path);
+    /* an independent reference (another seed) with 32x the largest sample count */
+    op_image ref = render(keep, 1024, 2, 12345);
+    double e[3];
+    int spp[3] = {2, 8, 32};
+    /* (the light is hidden from the camera: its few edge pixels would dominate the error) */
+    for (int i = 0; i < 3; i++) {
+        op_image img = render(keep, spp[i], 2, 7);
+        e[i] = rmse(&img, &ref);
+        op_image_free(&img);
+    }
+    double ratio1 = e[0] / e[1], ratio2 = e[1] / e[2];
+    print_message("rmse at 2, 8, 32 spp: %.5f %.5f %.5f\n", e[0], e[1], e[2]);
+    /* 4x the samples: the error halves (ratio 2), within the noise of the estimate */
+    if (ratio1 < 1.6 || ratio1 > 2.5 || ratio2 < 1.6 || ratio2 > 2.5)
+        fail_msg("rmse at 2, 8, 32 spp: %.5f %.5f %.5f (ratios %.3f %.3f, want ~2)", e[0], e[1],
+                 e[2], ratio1, ratio2);
+    op_image_free(&ref);
+}
+
+int main(void)
+{
+    op_log_set_level(OP_LOG_WARN);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_threads_bit_identical),
+        cmocka_unit_test(test_error_falls_as_inverse_sqrt_spp),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
