@@ -1,7 +1,6 @@
 /* test_core.c - errors, crash-safe output and progress reporting. */
 #include "test_support.h"
 
-#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,18 +36,6 @@ static void exit_codes(void **state)
     assert_int_equal(op_exit_code(OP_ERR_FORMAT), 2);
     assert_int_equal(op_exit_code(OP_ERR_IO), 1);
     assert_int_equal(op_exit_code(OP_ERR_CANCELLED), 130);
-}
-
-static int count_entries_with_prefix(const char *dir, const char *prefix)
-{
-    DIR *d = opendir(dir);
-    assert_non_null(d);
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += strncmp(e->d_name, prefix, strlen(prefix)) == 0;
-    closedir(d);
-    return n;
 }
 
 static void output_commit_replaces_atomically(void **state)
@@ -92,7 +79,7 @@ static void output_abort_leaves_nothing(void **state)
     snprintf(dir, sizeof dir, "%s", path);
     char *slash = strrchr(dir, '/');
     *slash = '\0';
-    assert_int_equal(count_entries_with_prefix(dir, slash + 1), 0);
+    assert_int_equal(op_test_count_prefix(dir, slash + 1), 0);
 }
 
 static void output_into_missing_folder_fails_cleanly(void **state)

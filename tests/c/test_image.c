@@ -2,7 +2,6 @@
  * clamping, failed writes that leave nothing, and unreadable files. */
 #include "test_support.h"
 
-#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -195,18 +194,6 @@ static void pfm_round_trip(void **state)
     }
 }
 
-static int count_prefix(const char *dir, const char *prefix)
-{
-    DIR *d = opendir(dir);
-    assert_non_null(d);
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += strncmp(e->d_name, prefix, strlen(prefix)) == 0;
-    closedir(d);
-    return n;
-}
-
 static void bad_path_leaves_nothing(void **state)
 {
     op_error err = {0};
@@ -232,11 +219,11 @@ static void bad_path_leaves_nothing(void **state)
     char prefix[1100];
     snprintf(prefix, sizeof prefix, "%s.tmp", base);
     assert_int_equal(op_image_write_png(dir, &img, 0, &err), OP_ERR_IO);
-    assert_int_equal(count_prefix(parent, prefix), 0);
+    assert_int_equal(op_test_count_prefix(parent, prefix), 0);
     assert_int_equal(op_image_write_exr(dir, &img, 0, &err), OP_ERR_IO);
-    assert_int_equal(count_prefix(parent, prefix), 0);
+    assert_int_equal(op_test_count_prefix(parent, prefix), 0);
     assert_int_equal(op_image_write_pfm(dir, &img, &err), OP_ERR_IO);
-    assert_int_equal(count_prefix(parent, prefix), 0);
+    assert_int_equal(op_test_count_prefix(parent, prefix), 0);
     rmdir(dir);
     op_image_free(&img);
 }

@@ -15,6 +15,8 @@
 const char *op_test_tmp_path(const char *suffix);
 /* The shared folder's path + rel, or NULL (after printing why) when it is absent. */
 const char *op_test_shared_path(const char *rel);
+/* How many entries of folder dir have names starting with prefix. */
+int op_test_count_prefix(const char *dir, const char *prefix);
 /* Fails the test with the error's message unless st is OP_OK. */
 #define OP_ASSERT_OK(st, err)                                                                      \
     do {                                                                                           \
