@@ -64,6 +64,8 @@ static const op_method_ops *method_ops(op_method m)
     case OP_METHOD_RAW: return &op_method_raw_ops;
     case OP_METHOD_SVD: return &op_method_svd_ops;
     case OP_METHOD_TUCKER: return &op_method_tucker_ops;
+    case OP_METHOD_KCTA: return &op_method_kcta_ops;
+    case OP_METHOD_NMF: return &op_method_nmf_ops;
     default: return NULL;
     }
 }

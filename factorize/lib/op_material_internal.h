@@ -46,5 +46,7 @@ op_status op_material_open_container(const char *path, op_material **out, op_err
 extern const op_method_ops op_method_raw_ops;
 extern const op_method_ops op_method_svd_ops;
 extern const op_method_ops op_method_tucker_ops;
+extern const op_method_ops op_method_kcta_ops;
+extern const op_method_ops op_method_nmf_ops;
 
 #endif

@@ -1,6 +1,8 @@
-/* factor_cmd.c - `opaline-factor factor`: turns a raw dataset into a material (svd, tucker or
- * raw), checks the result by reading it back through libopaline, and reports. */
+/* factor_cmd.c - `opaline-factor factor`: turns a raw dataset into a material (svd, tucker,
+ * kcta, nmf or raw), checks the result by reading it back through libopaline, and reports. */
 #include "commands.h"
+#include "kcta.h"
+#include "nmf.h"
 #include "opaline.h"
 #include "preprocess.h"
 #include "report.h"
@@ -22,6 +24,8 @@ typedef struct factor_args {
     const char *input, *output, *report, *albedo_png, *name;
     op_method method;
     int terms, degree, shift, sanitize;
+    int clusters, km, iters; /* kcta's C and K_m; kcta's or nmf's iterations (-1: default) */
+    double homog_exp;        /* nmf: the remainder is Rd / H^homog_exp */
     double log_a, log_b;
     op_rsvd_options svd;
 } factor_args;
@@ -46,9 +50,18 @@ typedef struct dataset {
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: opaline-factor factor IN.opm -o OUT.opm --method svd|tucker|raw [options]\n"
-            "  -T N               terms (svd default 10, tucker default 15)\n"
+            "usage: opaline-factor factor IN.opm -o OUT.opm --method svd|tucker|kcta|nmf|raw "
+            "[options]\n"
+            "  -T N               terms (svd 10, tucker 15, kcta rank per cluster 4, nmf rank "
+            "10)\n"
             "  -P N               tucker polynomial degree (default 7)\n"
+            "  -C N               kcta clusters (default 8)\n"
+            "  --km N             kcta clusters mixed per row, K_m (default 2)\n"
+            "  --iters N          kcta iterations (default 10), nmf HALS iterations (default "
+            "200)\n"
+            "  --homog-exp E      nmf factors Rd / H^E, H the homogeneous approximation, E in "
+            "[0, 1]\n"
+            "                     (default 1: Peers et al.'s division; 0 factors Rd itself)\n"
             "  --log-a A          svd transform R''' = ln(R'/A + B): scale A > 0 (default 100)\n"
             "  --log-b B          svd transform offset B > 0 (default 1)\n"
             "  --no-shift         do not shift and normalize rows (paper section 4.1)\n"
@@ -103,6 +116,8 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
     a->method = OP_METHOD_COUNT;
     a->terms = -1;
     a->degree = -1;
+    a->clusters = a->km = a->iters = -1;
+    a->homog_exp = -1;
     a->shift = 1;
     a->log_a = 100.0;
     a->log_b = 1.0;
@@ -126,10 +141,10 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
                 a->name = val;
             else if (!strcmp(o, "--method")) {
                 a->method = op_method_from_name(val);
-                if (a->method != OP_METHOD_RAW && a->method != OP_METHOD_SVD &&
-                    a->method != OP_METHOD_TUCKER)
+                if (a->method == OP_METHOD_COUNT)
                     return op_error_set(err, OP_ERR_INPUT,
-                                        "--method must be svd, tucker or raw, not '%s'", val);
+                                        "--method must be svd, tucker, kcta, nmf or raw, not "
+                                        "'%s'", val);
             } else if (!strcmp(val, "single") || !strcmp(val, "double")) {
                 a->svd.precision = !strcmp(val, "double") ? OP_SVD_DOUBLE : OP_SVD_SINGLE;
             } else {
@@ -142,6 +157,21 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
         } else if (!strcmp(o, "-P")) {
             st = parse_number(o, val, 0, 20, &d, err);
             a->degree = (int)d;
+            i++;
+        } else if (!strcmp(o, "-C")) {
+            st = parse_number(o, val, 1, 65536, &d, err);
+            a->clusters = (int)d;
+            i++;
+        } else if (!strcmp(o, "--km")) {
+            st = parse_number(o, val, 1, 64, &d, err);
+            a->km = (int)d;
+            i++;
+        } else if (!strcmp(o, "--iters")) {
+            st = parse_number(o, val, 1, 10000, &d, err);
+            a->iters = (int)d;
+            i++;
+        } else if (!strcmp(o, "--homog-exp")) {
+            st = parse_number(o, val, 0, 1, &a->homog_exp, err);
             i++;
         } else if (!strcmp(o, "--log-a")) {
             st = parse_number(o, val, 1e-30, 1e30, &a->log_a, err);
@@ -175,13 +205,41 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
         if (st != OP_OK)
             return st;
         if ((!strcmp(o, "-T") || !strcmp(o, "-P") || !strcmp(o, "--power-iters") ||
-             !strcmp(o, "--oversample")) && d != floor(d))
+             !strcmp(o, "--oversample") || !strcmp(o, "-C") || !strcmp(o, "--km") ||
+             !strcmp(o, "--iters")) && d != floor(d))
             return op_error_set(err, OP_ERR_INPUT, "%s needs a whole number, got '%s'", o, val);
     }
     if (!a->input || !a->output || a->method == OP_METHOD_COUNT)
         return op_error_set(err, OP_ERR_INPUT, "need IN.opm, -o OUT.opm and --method");
     if (a->terms < 0)
-        a->terms = a->method == OP_METHOD_TUCKER ? 15 : a->method == OP_METHOD_SVD ? 10 : 0;
+        a->terms = a->method == OP_METHOD_TUCKER ? 15
+                   : a->method == OP_METHOD_SVD  ? 10
+                   : a->method == OP_METHOD_KCTA ? op_kcta_defaults().terms
+                   : a->method == OP_METHOD_NMF  ? op_nmf_defaults().rank
+                                                 : 0;
+    if (a->method == OP_METHOD_KCTA) {
+        op_kcta_options k = op_kcta_defaults();
+        a->clusters = a->clusters < 0 ? k.clusters : a->clusters;
+        a->km = a->km < 0 ? k.km : a->km;
+        a->iters = a->iters < 0 ? k.max_iters : a->iters;
+        if (a->km > a->clusters)
+            return op_error_set(err, OP_ERR_INPUT, "--km %d exceeds the %d clusters (-C)", a->km,
+                                a->clusters);
+        if (a->iters > OP_KCTA_MAX_HISTORY)
+            return op_error_set(err, OP_ERR_INPUT, "kcta takes at most %d iterations",
+                                OP_KCTA_MAX_HISTORY);
+    } else if ((a->clusters >= 0 || a->km >= 0)) {
+        return op_error_set(err, OP_ERR_INPUT, "-C and --km apply to --method kcta only");
+    }
+    if (a->method == OP_METHOD_NMF) {
+        a->iters = a->iters < 0 ? op_nmf_defaults().max_iter : a->iters;
+        a->homog_exp = a->homog_exp < 0 ? 1.0 : a->homog_exp;
+        a->shift = 0; /* the homogeneous approximation takes the place of shifting */
+    } else if (a->method != OP_METHOD_KCTA && a->iters >= 0) {
+        return op_error_set(err, OP_ERR_INPUT, "--iters applies to --method kcta and nmf only");
+    }
+    if (a->method != OP_METHOD_NMF && a->homog_exp >= 0)
+        return op_error_set(err, OP_ERR_INPUT, "--homog-exp applies to --method nmf only");
     if (a->degree < 0)
         a->degree = a->method == OP_METHOD_TUCKER ? 7 : 0;
     if (a->method == OP_METHOD_RAW)
@@ -377,6 +435,189 @@ static op_status factor_tucker(const factor_args *a, const dataset *ds, int term
     return st;
 }
 
+/* The kcta method, channel by channel: preprocess (shift and normalize, no log transform: the
+ * clusters are linear subspaces), then K-CTA (kcta.h). *clusters may be lowered to the rows. */
+static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms, int clusters,
+                             section_list *out, double *prep_seconds, op_error *err)
+{
+    int64_t rows = ds->rows;
+    int cols = ds->cols;
+    float *mat = alloc_or_null((uint64_t)rows * (uint64_t)cols * sizeof *mat);
+    if (!mat)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
+                            (long long)rows, cols);
+    op_kcta_options opt = op_kcta_defaults();
+    opt.clusters = clusters;
+    opt.km = a->km;
+    opt.terms = terms;
+    opt.max_iters = a->iters;
+    opt.svd = a->svd;
+    int wide = clusters > 65536 ? 4 : 2;
+    op_status st = OP_OK;
+    op_progress *prog = op_progress_begin(
+        "kcta", (uint64_t)ds->info.channels * (uint64_t)(2 + opt.max_iters), NULL, NULL);
+    for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
+        char tag[16];
+        uint32_t *shift = NULL;
+        float *max = NULL;
+        double t0 = op_now();
+        if (a->shift) {
+            shift = alloc_or_null((uint64_t)rows * sizeof *shift);
+            max = alloc_or_null((uint64_t)rows * sizeof *max);
+            if (!shift || !max) {
+                free(shift);
+                free(max);
+                st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+                break;
+            }
+            op_prep_find_peaks(ds->rd[c], rows, cols, shift, max);
+        }
+        op_prep_apply(ds->rd[c], rows, cols, shift, max, mat);
+        double t1 = op_now();
+        *prep_seconds += t1 - t0;
+        op_kcta_model md;
+        st = op_kcta_factor(mat, rows, cols, &opt, &md, prog, err);
+        if (st != OP_OK) {
+            op_error_prefix(err, "channel %d: ", c);
+            free(shift);
+            free(max);
+            break;
+        }
+        double norm = 0;
+        for (uint64_t q = 0; q < (uint64_t)rows * (uint64_t)cols; q++)
+            norm += (double)mat[q] * mat[q];
+        op_log(OP_LOG_INFO, "kcta channel %d: %d iteration(s)%s, %d empty cluster(s) split, "
+               "relative error %.4g of the preprocessed matrix (%.3f s)", c, md.iterations,
+               md.restored ? " (one more raised the error and was undone)" : "", md.splits,
+               norm > 0 ? sqrt(md.history[md.nhistory - 1] / norm) : 0.0, op_now() - t1);
+        uint64_t nidx = (uint64_t)rows * (uint64_t)md.km;
+        void *idx = alloc_or_null(nidx * (uint64_t)wide);
+        if (!idx) {
+            op_kcta_free(&md);
+            free(shift);
+            free(max);
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            break;
+        }
+        for (uint64_t q = 0; q < nidx; q++) {
+            if (wide == 2)
+                ((uint16_t *)idx)[q] = (uint16_t)md.idx[q];
+            else
+                ((uint32_t *)idx)[q] = md.idx[q];
+        }
+        free(md.idx);
+        op_channel_tag(tag, sizeof tag, "BASIS.", &ds->info, c);
+        st = sections_add(out, tag, md.basis,
+                          (uint64_t)clusters * (uint64_t)cols * (uint64_t)terms * sizeof(float),
+                          err);
+        op_channel_tag(tag, sizeof tag, "KIDX.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, idx, nidx * (uint64_t)wide, err);
+        else
+            free(idx);
+        op_channel_tag(tag, sizeof tag, "KCOEF.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, md.coef, nidx * (uint64_t)terms * sizeof(float), err);
+        else
+            free(md.coef);
+        if (a->shift) {
+            op_channel_tag(tag, sizeof tag, "SHIFT.", &ds->info, c);
+            if (st == OP_OK)
+                st = sections_add(out, tag, shift, (uint64_t)rows * sizeof *shift, err);
+            else
+                free(shift);
+            op_channel_tag(tag, sizeof tag, "MAX.", &ds->info, c);
+            if (st == OP_OK)
+                st = sections_add(out, tag, max, (uint64_t)rows * sizeof *max, err);
+            else
+                free(max);
+        }
+    }
+    op_progress_end(prog);
+    free(mat);
+    if (st == OP_OK) {
+        uint32_t *par = alloc_or_null(2 * sizeof *par);
+        if (!par)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        par[0] = (uint32_t)a->km;
+        par[1] = (uint32_t)wide;
+        st = sections_add(out, "KCTA", par, 2 * sizeof *par, err);
+    }
+    return st;
+}
+
+/* The nmf method, channel by channel: the homogeneous approximation, the remainder, HALS. */
+static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
+                            section_list *out, double *prep_seconds, op_error *err)
+{
+    int64_t rows = ds->rows;
+    int cols = ds->cols;
+    float *q = alloc_or_null((uint64_t)rows * (uint64_t)cols * sizeof *q);
+    if (!q)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
+                            (long long)rows, cols);
+    op_nmf_options opt = op_nmf_defaults();
+    opt.rank = terms;
+    opt.max_iter = a->iters;
+    opt.svd = a->svd;
+    op_status st = OP_OK;
+    op_progress *prog = op_progress_begin(
+        "nmf", (uint64_t)ds->info.channels * (uint64_t)opt.max_iter, NULL, NULL);
+    for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
+        char tag[16];
+        double t0 = op_now();
+        float *prof = alloc_or_null((uint64_t)cols * sizeof *prof);
+        float *scale = alloc_or_null((uint64_t)rows * sizeof *scale);
+        float *w = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *w);
+        float *h = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *h);
+        if (!prof || !scale || !w || !h) {
+            free(prof);
+            free(scale);
+            free(w);
+            free(h);
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            break;
+        }
+        op_nmf_homogeneous(ds->rd[c], rows, ds->info.kernel, a->homog_exp, prof, scale);
+        op_nmf_remainder(ds->rd[c], rows, cols, prof, scale, q);
+        double t1 = op_now();
+        *prep_seconds += t1 - t0;
+        op_nmf_stats ns;
+        st = op_nmf_hals(q, rows, cols, &opt, w, h, &ns, prog, err);
+        if (st == OP_OK)
+            op_log(OP_LOG_INFO, "nmf channel %d: %d HALS iteration(s), %s; remainder relative "
+                   "error %.4g (NNDSVD start %.4g) (%.3f s)", c, ns.iterations,
+                   ns.converged ? "converged" : "stopped at --iters",
+                   ns.norm > 0 ? sqrt(ns.objective / ns.norm) : 0.0,
+                   ns.norm > 0 ? sqrt(ns.initial / ns.norm) : 0.0, op_now() - t1);
+        else
+            op_error_prefix(err, "channel %d: ", c);
+        op_channel_tag(tag, sizeof tag, "PROF.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, prof, (uint64_t)cols * sizeof *prof, err);
+        else
+            free(prof);
+        op_channel_tag(tag, sizeof tag, "SCALE.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, scale, (uint64_t)rows * sizeof *scale, err);
+        else
+            free(scale);
+        op_channel_tag(tag, sizeof tag, "W.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, w, (uint64_t)rows * (uint64_t)terms * sizeof *w, err);
+        else
+            free(w);
+        op_channel_tag(tag, sizeof tag, "H.", &ds->info, c);
+        if (st == OP_OK)
+            st = sections_add(out, tag, h, (uint64_t)cols * (uint64_t)terms * sizeof *h, err);
+        else
+            free(h);
+    }
+    op_progress_end(prog);
+    free(q);
+    return st;
+}
+
 static op_status write_material(const char *path, const op_material_info *info,
                                 const section_list *s, const float *albedo,
                                 uint64_t albedo_count, op_error *err)
@@ -555,11 +796,21 @@ int op_cmd_factor(int argc, char **argv)
                terms, (long long)mn, (long long)mn);
         terms = (int)mn;
     }
+    int clusters = a.clusters;
+    if (a.method == OP_METHOD_KCTA && clusters > ds.rows) {
+        op_log(OP_LOG_WARN, "-C %d exceeds the %lld rows; using %lld", clusters,
+               (long long)ds.rows, (long long)ds.rows);
+        clusters = (int)ds.rows;
+    }
+    if (a.method == OP_METHOD_KCTA && a.km > clusters) {
+        st = op_error_set(&err, OP_ERR_INPUT, "--km %d exceeds the %d clusters", a.km, clusters);
+        goto done;
+    }
     op_material_info info = ds.info;
     info.method = a.method;
     info.terms = terms;
     info.degree = a.degree;
-    info.clusters = 0;
+    info.clusters = a.method == OP_METHOD_KCTA ? clusters : 0;
     info.shifted = a.method == OP_METHOD_RAW ? 0 : a.shift;
     info.log_a = a.method == OP_METHOD_SVD ? a.log_a : 0.0;
     info.log_b = a.method == OP_METHOD_SVD ? a.log_b : 0.0;
@@ -576,6 +827,10 @@ int op_cmd_factor(int argc, char **argv)
         st = factor_svd(&a, &ds, terms, &secs, &prep, &err);
     else if (a.method == OP_METHOD_TUCKER)
         st = factor_tucker(&a, &ds, terms, &secs, &err);
+    else if (a.method == OP_METHOD_KCTA)
+        st = factor_kcta(&a, &ds, terms, clusters, &secs, &prep, &err);
+    else if (a.method == OP_METHOD_NMF)
+        st = factor_nmf(&a, &ds, terms, &secs, &prep, &err);
     else
         st = factor_raw(&ds, &secs, &err);
     if (st != OP_OK)

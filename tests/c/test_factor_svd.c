@@ -228,7 +228,7 @@ static void bad_arguments(void **state)
     snprintf(out, sizeof out, "%s", op_test_tmp_path("bad.opm"));
     snprintf(other, sizeof other, "%s", op_test_tmp_path("x.opm"));
     const char *cases[][6] = {
-        {"--method", "nmf", NULL},
+        {"--method", "dipole", NULL},
         {"--method", "svd", "-T", "0", NULL},
         {"--method", "svd", "-T", "2.5", NULL},
         {"--method", "svd", "--log-a", "0", NULL},

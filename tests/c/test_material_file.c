@@ -392,6 +392,110 @@ static void hostile_values(void **state)
     free(b.p);
 }
 
+/* kcta and nmf: a good file of each, then every invariant broken in turn. */
+static void hostile_kcta_nmf(void **state)
+{
+    static const char km_meta[] = "method=kcta\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
+                                  "size_x_cm=1\nsize_y_cm=1\nterms=1\nclusters=2\nshifted=0\n";
+    uint32_t par[2] = {2, 2};
+    float basis[2 * 9], coef[6 * 2];
+    uint16_t idx[6 * 2];
+    for (int j = 0; j < 9; j++) {
+        basis[j] = j == 4;      /* cluster 0: the centre */
+        basis[9 + j] = j == 0;  /* cluster 1: the corner */
+    }
+    for (int r = 0; r < 6; r++) {
+        idx[2 * r] = (uint16_t)(r % 2);
+        idx[2 * r + 1] = (uint16_t)(1 - r % 2);
+        coef[2 * r] = 0.5f;
+        coef[2 * r + 1] = -0.25f; /* negative sums clamp to 0 */
+    }
+    sec k[4] = {{"META", km_meta, strlen(km_meta)}, {"KCTA", par, sizeof par},
+                {"BASIS.Y", basis, sizeof basis}, {"KIDX.Y", idx, sizeof idx}};
+    sec k5[5] = {k[0], k[1], k[2], k[3], {"KCOEF.Y", coef, sizeof coef}};
+    blob b = build(k5, 5);
+    op_material *m;
+    op_error err = {0};
+    OP_ASSERT_OK(op_material_open(save(&b, b.n), &m, &err), err);
+    assert_float_equal(op_material_eval(m, 0, 0, 0, 0, 0), 0.5f, 1e-7);  /* row 0: cluster 0 */
+    assert_float_equal(op_material_eval(m, 0, 0, 0, -1, -1), 0.0f, 0);   /* -0.25 clamped */
+    assert_float_equal(op_material_eval(m, 0, 1, 0, -1, -1), 0.5f, 1e-7); /* row 1: cluster 1 */
+    op_material_close(m);
+    free(b.p);
+    idx[3] = 2; /* cluster out of range */
+    b = build(k5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    assert_non_null(strstr(err.message, "KIDX.Y"));
+    free(b.p);
+    idx[3] = 1;
+    idx[2] = 1; /* the same cluster twice in row 1 */
+    b = build(k5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    idx[2] = 0;
+    par[0] = 3; /* K_m above C */
+    b = build(k5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    par[0] = 2;
+    par[1] = 4; /* index width disagrees with the section size */
+    b = build(k5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    par[1] = 2;
+    coef[5] = NAN;
+    b = build(k5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    coef[5] = -0.25f;
+    coef[4] = 1e30f;
+    basis[4] = 1e30f; /* row 2's cluster 0 term would overflow */
+    b = build(k5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    coef[4] = 0.5f;
+    basis[4] = 1.0f;
+    b = build(k, 4); /* KCOEF.Y missing */
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+
+    static const char nm_meta[] = "method=nmf\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
+                                  "size_x_cm=1\nsize_y_cm=1\nterms=1\n";
+    float prof[9], scale[6], w[6], h[9];
+    for (int j = 0; j < 9; j++)
+        prof[j] = 1.0f / 9, h[j] = 1.0f;
+    for (int r = 0; r < 6; r++)
+        scale[r] = 0.9f, w[r] = 2.0f;
+    sec n5[5] = {{"META", nm_meta, strlen(nm_meta)}, {"PROF.Y", prof, sizeof prof},
+                 {"SCALE.Y", scale, sizeof scale}, {"W.Y", w, sizeof w}, {"H.Y", h, sizeof h}};
+    b = build(n5, 5);
+    OP_ASSERT_OK(op_material_open(save(&b, b.n), &m, &err), err);
+    assert_float_equal(op_material_eval(m, 0, 2, 1, 1, 0), 0.2f, 1e-6);
+    op_material_close(m);
+    free(b.p);
+    w[3] = -1.0f; /* negative factor */
+    b = build(n5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    assert_non_null(strstr(err.message, "W.Y"));
+    free(b.p);
+    w[3] = 2.0f;
+    h[2] = INFINITY;
+    b = build(n5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    h[2] = 3e38f;
+    scale[0] = 3e38f; /* would overflow */
+    b = build(n5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+    h[2] = 1.0f;
+    scale[0] = 0.9f;
+    n5[1].bytes -= 4; /* profile one value short */
+    b = build(n5, 5);
+    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    free(b.p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -402,6 +506,7 @@ int main(void)
         cmocka_unit_test(hostile_section_tables),
         cmocka_unit_test(wrong_meta),
         cmocka_unit_test(hostile_values),
+        cmocka_unit_test(hostile_kcta_nmf),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,0 +1,251 @@
+/* op_method_kcta.c - K-clustered tensor approximation (Tsai and Shih 2012) of each channel's
+ * preprocessed matrix, clustered along the rows.
+ *
+ * With C = info.clusters, T = info.terms (rank per cluster), n = K*K columns:
+ *   "KCTA"     2 u32: K_m (clusters per row, 1 to min(C, 64)) and the index width in bytes
+ *              (2 or 4)
+ * and per channel c (tag suffix R, G, B or Y):
+ *   "BASIS.c"  C x n x T float32: cluster bases, each n x T row-major (orthonormal columns)
+ *   "KIDX.c"   rows x K_m indices (u16 or u32 as "KCTA" says), each < C, distinct in a row
+ *   "KCOEF.c"  rows x K_m x T float32: each row's coefficients on its clusters
+ *   "SHIFT.c", "MAX.c" as for svd, only when info.shifted
+ *   "ALBEDO"   optional, channels x rows float32 (row sums of the reconstruction)
+ * Rd(row, col) = max * max(0, sum_k KCOEF[row][k] . BASIS[KIDX[row][k]][j]), with
+ * j = (col - shift) mod n. docs/formats.md is the specification. */
+#include "op_material_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct kcta_state {
+    int clusters, km, terms, cols, ibytes;
+    int64_t rows;
+    const float *basis[3], *coef[3], *max[3];
+    const void *idx[3];
+    const uint32_t *shift[3];
+    const float *albedo;
+} kcta_state;
+
+static inline uint32_t cluster_of(const kcta_state *s, int c, int64_t row, int k)
+{
+    size_t q = (size_t)row * s->km + k;
+    return s->ibytes == 2 ? ((const uint16_t *)s->idx[c])[q] : ((const uint32_t *)s->idx[c])[q];
+}
+
+/* Checks the index section of channel c: size, range, distinct clusters within each row. */
+static op_status load_indices(const op_material *m, kcta_state *s, int c, op_error *err)
+{
+    char tag[16];
+    uint64_t bytes = 0, count = (uint64_t)s->rows * (uint64_t)s->km;
+    op_channel_tag(tag, sizeof tag, "KIDX.", &m->info, c);
+    s->idx[c] = op_material_section(m, tag, &bytes);
+    if (!s->idx[c])
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
+    if (bytes != count * (uint64_t)s->ibytes)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected %llu",
+                            m->path, tag, (unsigned long long)bytes,
+                            (unsigned long long)(count * (uint64_t)s->ibytes));
+    for (int64_t r = 0; r < s->rows; r++)
+        for (int k = 0; k < s->km; k++) {
+            uint32_t v = cluster_of(s, c, r, k);
+            if (v >= (uint32_t)s->clusters)
+                return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld names cluster "
+                                    "%u of %d", m->path, tag, (long long)r, v, s->clusters);
+            for (int k2 = 0; k2 < k; k2++)
+                if (cluster_of(s, c, r, k2) == v)
+                    return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld names "
+                                        "cluster %u twice", m->path, tag, (long long)r, v);
+        }
+    return OP_OK;
+}
+
+static op_status load_shift(const op_material *m, kcta_state *s, int c, op_error *err)
+{
+    char tag[16];
+    uint64_t bytes = 0;
+    op_channel_tag(tag, sizeof tag, "SHIFT.", &m->info, c);
+    s->shift[c] = op_material_section(m, tag, &bytes);
+    if (!s->shift[c])
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
+    if (bytes != (uint64_t)s->rows * sizeof(uint32_t))
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected %llu",
+                            m->path, tag, (unsigned long long)bytes,
+                            (unsigned long long)((uint64_t)s->rows * sizeof(uint32_t)));
+    for (int64_t r = 0; r < s->rows; r++)
+        if (s->shift[c][r] >= (uint32_t)s->cols)
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld shifts by %u >= %d",
+                                m->path, tag, (long long)r, s->shift[c][r], s->cols);
+    op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
+    return op_material_float_section(m, tag, (uint64_t)s->rows, 1, &s->max[c], err);
+}
+
+/* Rejects factors whose reconstruction could overflow a float: the sum is bounded by
+ * sum_k sum_t |coef| * max_j |basis[cluster][j][t]|. */
+static op_status check_range(const op_material *m, const kcta_state *s, int c, op_error *err)
+{
+    const int T = s->terms, n = s->cols;
+    double *bmax = calloc((size_t)s->clusters * T, sizeof *bmax);
+    if (!bmax)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    for (int q = 0; q < s->clusters; q++)
+        for (int j = 0; j < n; j++)
+            for (int t = 0; t < T; t++)
+                bmax[(size_t)q * T + t] = fmax(bmax[(size_t)q * T + t],
+                                               fabs(s->basis[c][((size_t)q * n + j) * T + t]));
+    op_status st = OP_OK;
+    for (int64_t r = 0; r < s->rows && st == OP_OK; r++) {
+        double bound = 0;
+        for (int k = 0; k < s->km; k++) {
+            const float *y = s->coef[c] + ((size_t)r * s->km + k) * T;
+            const double *b = bmax + (size_t)cluster_of(s, c, r, k) * T;
+            for (int t = 0; t < T; t++)
+                bound += fabs(y[t]) * b[t];
+        }
+        double scale = s->max[c] ? s->max[c][r] : 1.0;
+        if (!(bound < 1e36) || !(bound * scale < 1e36))
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: channel %d row %lld: factors too large "
+                              "(reconstruction would overflow)", m->path, c, (long long)r);
+    }
+    free(bmax);
+    return st;
+}
+
+static op_status kcta_prepare(op_material *m, op_error *err)
+{
+    const op_material_info *in = &m->info;
+    if (in->terms < 1 || in->terms > 4096 || in->clusters < 1 || in->clusters > 65536 ||
+        (int64_t)in->clusters * in->terms > 65536)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: kcta needs 1 to 4096 terms, 1 to 65536 "
+                            "clusters and clusters * terms <= 65536, META says %d and %d",
+                            m->path, in->terms, in->clusters);
+    kcta_state *s = calloc(1, sizeof *s);
+    if (!s)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    s->clusters = in->clusters;
+    s->terms = in->terms;
+    s->cols = op_material_cols(m);
+    s->rows = op_material_rows(m);
+    op_status st = OP_OK;
+    uint64_t bytes = 0;
+    const uint32_t *par = op_material_section(m, "KCTA", &bytes);
+    if (!par)
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' is missing", m->path);
+    else if (bytes != 2 * sizeof(uint32_t))
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' holds %llu bytes, expected 8",
+                          m->path, (unsigned long long)bytes);
+    else if (par[0] < 1 || par[0] > 64 || par[0] > (uint32_t)s->clusters ||
+             (par[1] != 2 && par[1] != 4) || (par[1] == 2 && s->clusters > 65536))
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' says K_m = %u and index width "
+                          "%u (need 1 <= K_m <= min(64, %d) and width 2 or 4)", m->path, par[0],
+                          par[1], s->clusters);
+    if (st == OP_OK) {
+        s->km = (int)par[0];
+        s->ibytes = (int)par[1];
+    }
+    uint64_t rows = (uint64_t)s->rows, T = (uint64_t)s->terms;
+    for (int c = 0; c < in->channels && st == OP_OK; c++) {
+        char tag[16];
+        op_channel_tag(tag, sizeof tag, "BASIS.", in, c);
+        st = op_material_float_section(m, tag, (uint64_t)s->clusters * (uint64_t)s->cols * T, 0,
+                                       &s->basis[c], err);
+        if (st == OP_OK) {
+            op_channel_tag(tag, sizeof tag, "KCOEF.", in, c);
+            st = op_material_float_section(m, tag, rows * (uint64_t)s->km * T, 0, &s->coef[c],
+                                           err);
+        }
+        if (st == OP_OK)
+            st = load_indices(m, s, c, err);
+        if (st == OP_OK && in->shifted)
+            st = load_shift(m, s, c, err);
+        if (st == OP_OK)
+            st = check_range(m, s, c, err);
+    }
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
+        st = op_material_float_section(m, "ALBEDO", rows * (uint64_t)in->channels, 1, &s->albedo,
+                                       err);
+    if (st != OP_OK) {
+        free(s);
+        return st;
+    }
+    m->state = s;
+    return OP_OK;
+}
+
+/* The reconstruction of entry j of the shifted, normalized row, clamped at 0. */
+static inline float entry(const kcta_state *s, int c, int64_t row, int j)
+{
+    const int T = s->terms;
+    float x = 0.0f;
+    for (int k = 0; k < s->km; k++) {
+        const float *y = s->coef[c] + ((size_t)row * s->km + k) * T;
+        const float *b = s->basis[c] + ((size_t)cluster_of(s, c, row, k) * s->cols + j) * T;
+        for (int t = 0; t < T; t++)
+            x += y[t] * b[t];
+    }
+    return x > 0.0f ? x : 0.0f;
+}
+
+static float kcta_eval(const op_material *m, int channel, int64_t row, int col)
+{
+    const kcta_state *s = m->state;
+    if (!s->shift[channel])
+        return entry(s, channel, row, col);
+    int j = col - (int)s->shift[channel][row];
+    if (j < 0)
+        j += s->cols;
+    return s->max[channel][row] * entry(s, channel, row, j);
+}
+
+static void kcta_eval_row(const op_material *m, int channel, int64_t row, float *out)
+{
+    const kcta_state *s = m->state;
+    const int n = s->cols;
+    if (!s->shift[channel]) {
+        for (int j = 0; j < n; j++)
+            out[j] = entry(s, channel, row, j);
+        return;
+    }
+    int sh = (int)s->shift[channel][row];
+    float mx = s->max[channel][row];
+    for (int j = 0; j < n - sh; j++)
+        out[j + sh] = mx * entry(s, channel, row, j);
+    for (int j = n - sh; j < n; j++)
+        out[j + sh - n] = mx * entry(s, channel, row, j);
+}
+
+static op_status kcta_albedo(const op_material *m, float *out, op_error *err)
+{
+    const kcta_state *s = m->state;
+    if (s->albedo) {
+        memcpy(out, s->albedo, (size_t)s->rows * (size_t)m->info.channels * sizeof *out);
+        return OP_OK;
+    }
+    float *row = malloc((size_t)s->cols * sizeof *row);
+    if (!row)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    for (int c = 0; c < m->info.channels; c++)
+        for (int64_t r = 0; r < s->rows; r++) {
+            kcta_eval_row(m, c, r, row);
+            double sum = 0;
+            for (int j = 0; j < s->cols; j++)
+                sum += row[j];
+            out[c * s->rows + r] = (float)sum;
+        }
+    free(row);
+    return OP_OK;
+}
+
+static void kcta_destroy(op_material *m)
+{
+    free(m->state);
+    m->state = NULL;
+}
+
+const op_method_ops op_method_kcta_ops = {
+    .prepare = kcta_prepare,
+    .eval = kcta_eval,
+    .eval_row = kcta_eval_row,
+    .albedo = kcta_albedo,
+    .destroy = kcta_destroy,
+};

@@ -1,0 +1,149 @@
+/* op_method_nmf.c - the non-negative matrix factorization baseline of Peers et al. 2006: a
+ * homogeneous approximation (radial profile times row albedo) times a non-negative
+ * factorization of the remainder.
+ *
+ * With T = info.terms, n = K*K columns, per channel c (tag suffix R, G, B or Y), every value
+ * finite and >= 0:
+ *   "PROF.c"   n float32: the radial profile p_j (sums to 1)
+ *   "SCALE.c"  rows float32: each row's albedo s_i
+ *   "W.c"      rows x T float32        "H.c"   n x T float32
+ *   "ALBEDO"   optional, channels x rows float32 (row sums of the reconstruction)
+ * Rd(row, col) = SCALE[row] * PROF[col] * (W[row] . H[col]); never negative by construction.
+ * docs/formats.md is the specification. */
+#include "op_material_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct nmf_state {
+    int terms, cols;
+    int64_t rows;
+    const float *prof[3], *scale[3], *w[3], *h[3];
+    const float *albedo;
+} nmf_state;
+
+/* Rejects factors whose reconstruction could overflow a float. */
+static op_status check_range(const op_material *m, const nmf_state *s, int c, op_error *err)
+{
+    const int T = s->terms;
+    double hmax[4096], pmax = 0;
+    for (int t = 0; t < T; t++)
+        hmax[t] = 0;
+    for (int j = 0; j < s->cols; j++) {
+        pmax = fmax(pmax, s->prof[c][j]);
+        for (int t = 0; t < T; t++)
+            hmax[t] = fmax(hmax[t], s->h[c][(size_t)j * T + t]);
+    }
+    for (int64_t r = 0; r < s->rows; r++) {
+        double bound = 0;
+        for (int t = 0; t < T; t++)
+            bound += (double)s->w[c][(size_t)r * T + t] * hmax[t];
+        if (!(bound < 1e36) || !(bound * pmax < 1e36) || !(bound * pmax * s->scale[c][r] < 1e36))
+            return op_error_set(err, OP_ERR_FORMAT, "%s: channel %d row %lld: factors too large "
+                                "(reconstruction would overflow)", m->path, c, (long long)r);
+    }
+    return OP_OK;
+}
+
+static op_status nmf_prepare(op_material *m, op_error *err)
+{
+    const op_material_info *in = &m->info;
+    if (in->terms < 1 || in->terms > 4096)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: nmf needs 1 to 4096 terms, META says %d",
+                            m->path, in->terms);
+    nmf_state *s = calloc(1, sizeof *s);
+    if (!s)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    s->terms = in->terms;
+    s->cols = op_material_cols(m);
+    s->rows = op_material_rows(m);
+    uint64_t rows = (uint64_t)s->rows, n = (uint64_t)s->cols, T = (uint64_t)s->terms;
+    op_status st = OP_OK;
+    for (int c = 0; c < in->channels && st == OP_OK; c++) {
+        char tag[16];
+        op_channel_tag(tag, sizeof tag, "PROF.", in, c);
+        st = op_material_float_section(m, tag, n, 1, &s->prof[c], err);
+        if (st == OP_OK) {
+            op_channel_tag(tag, sizeof tag, "SCALE.", in, c);
+            st = op_material_float_section(m, tag, rows, 1, &s->scale[c], err);
+        }
+        if (st == OP_OK) {
+            op_channel_tag(tag, sizeof tag, "W.", in, c);
+            st = op_material_float_section(m, tag, rows * T, 1, &s->w[c], err);
+        }
+        if (st == OP_OK) {
+            op_channel_tag(tag, sizeof tag, "H.", in, c);
+            st = op_material_float_section(m, tag, n * T, 1, &s->h[c], err);
+        }
+        if (st == OP_OK)
+            st = check_range(m, s, c, err);
+    }
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
+        st = op_material_float_section(m, "ALBEDO", rows * (uint64_t)in->channels, 1, &s->albedo,
+                                       err);
+    if (st != OP_OK) {
+        free(s);
+        return st;
+    }
+    m->state = s;
+    return OP_OK;
+}
+
+static inline float entry(const nmf_state *s, int c, int64_t row, int col)
+{
+    const int T = s->terms;
+    const float *w = s->w[c] + (size_t)row * T, *h = s->h[c] + (size_t)col * T;
+    float x = 0.0f;
+    for (int t = 0; t < T; t++)
+        x += w[t] * h[t];
+    return s->scale[c][row] * s->prof[c][col] * x;
+}
+
+static float nmf_eval(const op_material *m, int channel, int64_t row, int col)
+{
+    return entry(m->state, channel, row, col);
+}
+
+static void nmf_eval_row(const op_material *m, int channel, int64_t row, float *out)
+{
+    const nmf_state *s = m->state;
+    for (int j = 0; j < s->cols; j++)
+        out[j] = entry(s, channel, row, j);
+}
+
+static op_status nmf_albedo(const op_material *m, float *out, op_error *err)
+{
+    const nmf_state *s = m->state;
+    if (s->albedo) {
+        memcpy(out, s->albedo, (size_t)s->rows * (size_t)m->info.channels * sizeof *out);
+        return OP_OK;
+    }
+    float *row = malloc((size_t)s->cols * sizeof *row);
+    if (!row)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    for (int c = 0; c < m->info.channels; c++)
+        for (int64_t r = 0; r < s->rows; r++) {
+            nmf_eval_row(m, c, r, row);
+            double sum = 0;
+            for (int j = 0; j < s->cols; j++)
+                sum += row[j];
+            out[c * s->rows + r] = (float)sum;
+        }
+    free(row);
+    return OP_OK;
+}
+
+static void nmf_destroy(op_material *m)
+{
+    free(m->state);
+    m->state = NULL;
+}
+
+const op_method_ops op_method_nmf_ops = {
+    .prepare = nmf_prepare,
+    .eval = nmf_eval,
+    .eval_row = nmf_eval_row,
+    .albedo = nmf_albedo,
+    .destroy = nmf_destroy,
+};
