@@ -108,6 +108,16 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
         b->twosided = 1;
         return OP_OK;
     }
+    if (strcmp(node->type, "mask") == 0) {
+        op_v3 opacity;
+        GET_OR_FAIL(read_reflectance(node, "opacity", NULL, 0.5, &opacity, err));
+        op_node *inner = op_node_child(node, "bsdf", 0);
+        if (inner)
+            GET_OR_FAIL(op_bsdf_build(inner, b, err));
+        b->opacity = b->masked ? v3_mul(b->opacity, opacity) : opacity;
+        b->masked = 1;
+        return OP_OK;
+    }
     double int_ior = 1.5046, ext_ior = 1.00028;
     if (strcmp(node->type, "diffuse") == 0) {
         b->type = OP_BSDF_DIFFUSE;
@@ -186,7 +196,7 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
         return OP_OK;
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
-                        "(diffuse, dielectric, conductor, plastic, roughplastic, twosided)",
+                        "(diffuse, dielectric, conductor, plastic, roughplastic, twosided, mask)",
                         node->file, node->line, node->type);
 }
 
@@ -403,6 +413,32 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
     if (flip)
         s->wo.z = -s->wo.z;
     return 1;
+}
+
+float op_bsdf_opacity_prob(const op_bsdf *b)
+{
+    if (!b->masked)
+        return 1.0f;
+    return (b->opacity.x + b->opacity.y + b->opacity.z) * (1.0f / 3.0f);
+}
+
+op_v3 op_bsdf_hit_weight(const op_bsdf *b)
+{
+    float p = op_bsdf_opacity_prob(b);
+    return p > 0.0f ? v3_scale(b->masked ? b->opacity : v3s(1.0f), 1.0f / p) : v3s(0.0f);
+}
+
+op_v3 op_bsdf_pass_weight(const op_bsdf *b)
+{
+    float p = op_bsdf_opacity_prob(b);
+    return p < 1.0f ? v3_scale(op_bsdf_transmittance(b), 1.0f / (1.0f - p)) : v3s(0.0f);
+}
+
+op_v3 op_bsdf_transmittance(const op_bsdf *b)
+{
+    if (!b->masked)
+        return v3s(0.0f);
+    return v3_sub(v3s(1.0f), b->opacity);
 }
 
 op_v3 op_bsdf_albedo(const op_bsdf *b)

@@ -1,7 +1,13 @@
 /* bsdf.h - surface scattering models: diffuse, dielectric, conductor, plastic, roughplastic
- * (GGX), each optionally two-sided. All work in the local shading frame (z = normal); wi points
- * away from the surface toward where the light goes (the viewer), wo toward where it comes from.
- * Values returned are f * |cos(wo)|. */
+ * (GGX), each optionally two-sided, and Mitsuba's `mask` (cut-out opacity) around any of them.
+ * All work in the local shading frame (z = normal); wi points away from the surface toward where
+ * the light goes (the viewer), wo toward where it comes from. Values returned are f * |cos(wo)|.
+ *
+ * A mask is not a scattering lobe: the integrator lets a ray pass straight through a masked
+ * surface with probability 1 - op_bsdf_opacity_prob() (weight op_bsdf_pass_weight(), not a
+ * bounce), and shadow rays are attenuated by 1 - opacity; otherwise the nested model applies,
+ * weighted by op_bsdf_hit_weight(). The eval/sample functions below describe the nested model
+ * only. */
 #ifndef OP_BSDF_H
 #define OP_BSDF_H
 
@@ -26,6 +32,8 @@ typedef struct op_bsdf {
     int mirror;            /* conductor "none": a perfect mirror */
     float alpha;           /* roughplastic GGX roughness */
     int nonlinear;
+    int masked;            /* wrapped in a mask: opacity below applies */
+    op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
 } op_bsdf;
 
 typedef struct op_bsdf_sample {
@@ -35,8 +43,9 @@ typedef struct op_bsdf_sample {
     int delta;    /* sampled a specular component */
 } op_bsdf_sample;
 
-/* Builds b from a <bsdf> node (twosided unwraps its child). Out-of-range reflectances are
- * clamped to [0, 1] with a warning. */
+/* Builds b from a <bsdf> node (twosided and mask unwrap their child; a mask without a child
+ * wraps the default diffuse; nested masks multiply their opacities). Out-of-range reflectances
+ * and opacities are clamped to [0, 1] with a warning. */
 op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err);
 /* The default material of shapes without a BSDF: diffuse 0.5. */
 void op_bsdf_default(op_bsdf *b);
@@ -48,6 +57,17 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf);
 /* Samples wo; returns 0 when the sample is absorbed. */
 int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
                        op_bsdf_sample *s);
+/* Mask: the probability that a ray stops at the surface (mean opacity; 1 when not masked, 0 for
+ * a fully transparent mask). */
+float op_bsdf_opacity_prob(const op_bsdf *b);
+/* Mask: the throughput factor of a ray that stopped at the surface (opacity / prob) or passed
+ * through it ((1 - opacity) / (1 - prob)); both are 1 for grey opacities. */
+op_v3 op_bsdf_hit_weight(const op_bsdf *b);
+op_v3 op_bsdf_pass_weight(const op_bsdf *b);
+/* Mask: the fraction of light that crosses the surface along a shadow ray (1 - opacity; 0 when
+ * not masked). */
+op_v3 op_bsdf_transmittance(const op_bsdf *b);
+
 /* A colour for the albedo debug view. */
 op_v3 op_bsdf_albedo(const op_bsdf *b);
 

@@ -51,9 +51,64 @@ op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w)
     return v3_add(p, v3_scale(ng, v3_dot(ng, w) >= 0.0f ? eps : -eps));
 }
 
+/* The most masked surfaces one ray segment may pass through before it counts as absorbed
+ * (guards against rays trapped in coincident cut-out surfaces). */
+#define OP_MAX_PASSES 256
+
+/* The BSDF of shape i when it is a mask, else NULL (translucent shapes are never masked). */
+static const op_bsdf *shape_mask(const op_scene *s, int i)
+{
+    const op_shape_rec *sh = &s->shapes[i];
+    if (sh->sss >= 0 || !s->bsdfs[sh->bsdf].masked)
+        return NULL;
+    return &s->bsdfs[sh->bsdf];
+}
+
+/* Whether a ray that reached masked surface bsdf passes through it: always for opacity 0, never
+ * for 1, else with probability 1 - opacity drawn from the path's own stream (so the image does
+ * not depend on threads). */
+static int mask_passes(const op_bsdf *mask, op_rng *rng)
+{
+    float p = op_bsdf_opacity_prob(mask);
+    if (p <= 0.0f)
+        return 1;
+    if (p >= 1.0f)
+        return 0;
+    return op_rng_float(rng) >= p;
+}
+
+/* Transmittance of the segment org + t dir, t in (0, tmax): 0 when an opaque surface lies on
+ * it, else the product of 1 - opacity over the masked surfaces it crosses (exact, no sampling).
+ */
+static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax)
+{
+    if (!s->has_masks)
+        return op_accel_occluded(s->accel, org, dir, 0.0f, tmax) ? v3s(0.0f) : v3s(1.0f);
+    op_v3 T = v3s(1.0f);
+    op_v3 end = v3_add(org, v3_scale(dir, isinf(tmax) ? 0.0f : tmax));
+    for (int k = 0; k < OP_MAX_PASSES; k++) {
+        op_ray_hit hit;
+        if (!op_accel_intersect(s->accel, org, dir, 0.0f, tmax, &hit))
+            return T;
+        const op_bsdf *mask = shape_mask(s, hit.shape);
+        if (!mask)
+            return v3s(0.0f);
+        T = v3_mul(T, op_bsdf_transmittance(mask));
+        if (v3_is_black(T))
+            return T;
+        op_v3 p = v3_add(org, v3_scale(dir, hit.t));
+        org = op_offset_origin(p, v3_norm(hit.ng), dir);
+        if (!isinf(tmax)) {
+            tmax = v3_dot(v3_sub(end, org), dir);
+            if (tmax <= 0.0f)
+                return T;
+        }
+    }
+    return v3s(0.0f);
+}
+
 /* The white Lambertian used for irradiance estimates. */
-static const op_bsdf white_bsdf = {OP_BSDF_DIFFUSE, 0, {1.0f, 1.0f, 1.0f}, {0, 0, 0}, 0.0f,
-                                   {0, 0, 0}, {0, 0, 0}, 0, 0.0f, 0};
+static const op_bsdf white_bsdf = {.type = OP_BSDF_DIFFUSE, .reflectance = {1.0f, 1.0f, 1.0f}};
 
 /* Next-event estimation at it: one sample of every emitter (scenes have few emitters, and
  * sampling each avoids the noise of choosing between a strong and a weak one). */
@@ -77,16 +132,19 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
             continue;
         op_v3 org = op_offset_origin(it->p, it->ng, ls.wi);
         float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-        if (op_accel_occluded(s->accel, org, ls.wi, 0.0f, tmax))
+        op_v3 tr = shadow_transmittance(s, org, ls.wi, tmax);
+        if (v3_is_black(tr))
             continue;
         float w = ls.pdf > 0.0f ? op_mis(ls.pdf, bsdf_pdf) : 1.0f;
-        sum = v3_add(sum, v3_scale(v3_mul(f, ls.value), w));
+        sum = v3_add(sum, v3_scale(v3_mul(v3_mul(f, ls.value), tr), w));
     }
     return sum;
 }
 
 /* The path-tracing loop. With start != NULL the path begins at that surface with bsdf
- * start_bsdf seen from direction wi (world, pointing away from the surface). */
+ * start_bsdf seen from direction wi (world, pointing away from the surface). A ray that passes
+ * through a masked surface goes on in the same direction without counting a bounce; dist_acc
+ * keeps the length of the straight segment since the last bounce for the emitters' MIS. */
 static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
                    const op_isect *start, const op_bsdf *start_bsdf, op_rng *rng, float *alpha)
 {
@@ -95,7 +153,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
     int max_depth = ig->type == OP_INT_DIRECT ? 2 : ig->max_depth;
     op_v3 L = v3s(0.0f), beta = v3s(1.0f);
     float prev_pdf = 0.0f;
-    int prev_delta = 1, depth = 0;
+    int prev_delta = 1, depth = 0, at_start = start != NULL, passes = 0;
+    float dist_acc = 0.0f;
     if (alpha)
         *alpha = 0.0f;
     op_isect it;
@@ -103,7 +162,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
     for (;;) {
         const op_bsdf *bsdf;
         op_v3 wi_world;
-        if (start && depth == 0) {
+        if (at_start) {
+            at_start = 0;
             it = *start;
             bsdf = start_bsdf;
             wi_world = it.ns;
@@ -120,8 +180,6 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                 }
                 break;
             }
-            if (alpha)
-                *alpha = 1.0f;
             op_isect_from_hit(s, &hit, org, dir, &it);
             wi_world = v3_neg(dir);
             const op_shape_rec *sh = &s->shapes[it.shape];
@@ -135,10 +193,26 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                 if (!v3_is_black(le)) {
                     float w = 1.0f;
                     if (!prev_delta)
-                        w = op_mis(prev_pdf, op_emitter_area_pdf(e, nw, dir, hit.t));
+                        w = op_mis(prev_pdf, op_emitter_area_pdf(e, nw, dir, dist_acc + hit.t));
                     L = v3_add(L, v3_scale(v3_mul(beta, le), w));
                 }
             }
+            const op_bsdf *mask = shape_mask(s, it.shape);
+            if (mask && mask_passes(mask, rng)) {
+                beta = v3_mul(beta, op_bsdf_pass_weight(mask));
+                if (v3_is_black(beta) || ++passes > OP_MAX_PASSES)
+                    break;
+                dist_acc += hit.t;
+                org = op_offset_origin(it.p, it.ng, dir);
+                tmin = 0.0f;
+                if (!isinf(tmax))
+                    tmax -= hit.t;
+                continue;
+            }
+            if (mask)
+                beta = v3_mul(beta, op_bsdf_hit_weight(mask));
+            if (alpha)
+                *alpha = 1.0f;
             if (max_depth >= 0 && depth + 2 > max_depth)
                 break;
             if (sh->sss >= 0) {
@@ -171,6 +245,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             break;
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
+        dist_acc = 0.0f;
+        passes = 0;
         depth++;
         if (depth >= ig->rr_depth) {
             float q = fminf(v3_max(beta), 0.95f);
@@ -186,18 +262,28 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
     return L;
 }
 
-/* The debug views. */
+/* The debug views; masked surfaces are seen through as by the path tracer (stochastically
+ * where partly opaque). */
 static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
-                        float *alpha)
+                        op_rng *rng, float *alpha)
 {
     const op_scene *s = ctx->scene;
     op_ray_hit hit;
-    *alpha = 0.0f;
-    if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit))
-        return v3s(0.0f);
-    *alpha = 1.0f;
     op_isect it;
-    op_isect_from_hit(s, &hit, org, dir, &it);
+    *alpha = 0.0f;
+    for (int k = 0;; k++) {
+        if (k > OP_MAX_PASSES || !op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit))
+            return v3s(0.0f);
+        op_isect_from_hit(s, &hit, org, dir, &it);
+        const op_bsdf *mask = shape_mask(s, it.shape);
+        if (!mask || !mask_passes(mask, rng))
+            break;
+        org = op_offset_origin(it.p, it.ng, dir);
+        tmin = 0.0f;
+        if (!isinf(tmax))
+            tmax -= hit.t;
+    }
+    *alpha = 1.0f;
     const op_shape_rec *sh = &s->shapes[it.shape];
     switch (s->integrator.type) {
     case OP_INT_NORMALS:
@@ -216,7 +302,7 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
 {
     op_integrator_type t = ctx->scene->integrator.type;
     if (t == OP_INT_NORMALS || t == OP_INT_UV || t == OP_INT_ALBEDO)
-        return debug_view(ctx, org, dir, tmin, tmax, alpha);
+        return debug_view(ctx, org, dir, tmin, tmax, rng, alpha);
     return trace(ctx, org, dir, tmin, tmax, NULL, NULL, rng, alpha);
 }
 

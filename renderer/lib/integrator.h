@@ -2,7 +2,10 @@
  * importance sampling, Russian roulette), direct lighting (the path tracer at depth 2), the
  * debug views (normals, uv, albedo), and the irradiance estimate the subsurface pass uses.
  * Translucent shapes: a camera path that reaches one takes the cached exitance M/pi there and
- * ends; during the irradiance pass they act as diffuse surfaces of the material's mean albedo. */
+ * ends; during the irradiance pass they act as diffuse surfaces of the material's mean albedo.
+ * Masked surfaces (bsdf.h): camera, indirect and debug rays pass through them with probability
+ * 1 - opacity (not a bounce), shadow rays are attenuated by 1 - opacity; an emitter's own
+ * emission is seen by rays that reach its front, whether they then pass through or not. */
 #ifndef OP_INTEGRATOR_H
 #define OP_INTEGRATOR_H
 

@@ -6,6 +6,7 @@
 #include "accel.h"
 #include "bsdf.h"
 #include "camera.h"
+#include "dipole.h"
 #include "emitter.h"
 #include "film.h"
 #include "opaline_render.h"
@@ -34,6 +35,8 @@ typedef struct op_sss_desc {
     double density;        /* irradiance points per material pixel area */
     int max_points;
     op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
+    int is_dipole;         /* 1: the classical dipole below instead of a material (material NULL) */
+    op_sss_dipole dipole;      /* coefficients per scene unit (docs/subsurface-rendering.md) */
 } op_sss_desc;
 
 typedef struct op_shape_rec {
@@ -54,6 +57,7 @@ struct op_scene {
     int nshapes;
     op_bsdf *bsdfs;
     int nbsdfs;
+    int has_masks; /* some shape's bsdf is a mask: shadow rays must look through surfaces */
     op_emitter *emitters;
     int nemitters;
     int env; /* index of the environment emitter, or -1 */

@@ -1,6 +1,8 @@
 /* scene_build.c - the scene builder (see scene_build.h). */
 #include "scene_build.h"
 
+#include "subsurface.h"
+
 #include <errno.h>
 #include <libgen.h>
 #include <stdio.h>
@@ -167,28 +169,93 @@ static op_status open_material(builder *b, const char *path, op_material **out, 
     return OP_OK;
 }
 
+/* The homogeneous dipole: a named medium or explicit coefficients, all in 1/mm, turned into
+ * coefficients per scene unit (metres, times `scale`: 1000 / scale per mm). */
+static op_status build_dipole(op_node *node, op_sss_desc *d, op_error *err)
+{
+    const char *name;
+    double sa[3], ss[3], g = 0.0, eta = 1.5046, ext, in;
+    int explicit_ss = op_node_has(node, "sigmaA") || op_node_has(node, "sigmaS");
+    int explicit_ta = op_node_has(node, "sigmaT") || op_node_has(node, "albedo");
+    GET_OR_FAIL(op_node_string(node, "material", NULL, &name, err));
+    if ((explicit_ss && explicit_ta) || ((explicit_ss || explicit_ta) && name))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: give either "
+                            "a material, or sigmaA and sigmaS, or sigmaT and albedo", node->file,
+                            node->line);
+    if (explicit_ss) {
+        GET_OR_FAIL(op_node_color(node, "sigmaA", NULL, sa, err));
+        GET_OR_FAIL(op_node_color(node, "sigmaS", NULL, ss, err));
+    } else if (explicit_ta) {
+        double st[3], al[3];
+        GET_OR_FAIL(op_node_color(node, "sigmaT", NULL, st, err));
+        GET_OR_FAIL(op_node_color(node, "albedo", NULL, al, err));
+        for (int c = 0; c < 3; c++) {
+            if (!(al[c] >= 0.0 && al[c] <= 1.0))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: "
+                                    "albedo %g is not in [0, 1]", node->file, node->line, al[c]);
+            ss[c] = al[c] * st[c];
+            sa[c] = st[c] - ss[c];
+        }
+    } else {
+        if (!name)
+            name = "Skin1";
+        if (!op_sss_dipole_lookup(name, ss, sa, &eta))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: unknown "
+                                "material \"%s\" (%s; or give sigmaA and sigmaS)", node->file,
+                                node->line, name, op_sss_dipole_names());
+    }
+    if (explicit_ss || explicit_ta) {
+        GET_OR_FAIL(op_node_float(node, "g", 0.0, &g, err));
+        if (!(g > -1.0 && g < 1.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: g %g must "
+                                "be in (-1, 1)", node->file, node->line, g);
+    }
+    GET_OR_FAIL(op_node_float(node, "intIOR", eta, &in, err));
+    GET_OR_FAIL(op_node_float(node, "extIOR", 1.0, &ext, err));
+    eta = ext > 0.0 ? in / ext : 0.0;
+    if (!(eta >= 1.0 && eta <= 3.0))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: intIOR / "
+                            "extIOR = %g must be in [1, 3] (the dipole's boundary fit)",
+                            node->file, node->line, eta);
+    double per_unit = 1000.0 / d->scale; /* 1/mm -> 1/scene unit */
+    d->is_dipole = 1;
+    d->dipole.eta = eta;
+    double alb[3];
+    for (int c = 0; c < 3; c++) {
+        if (!(sa[c] >= 0.0 && ss[c] >= 0.0 && isfinite(sa[c]) && isfinite(ss[c]) &&
+              sa[c] + ss[c] * (1.0 - g) > 0.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: channel "
+                                "%d: sigmaA %g and sigmaS %g must be >= 0, finite, and not both 0",
+                                node->file, node->line, c, sa[c], ss[c]);
+        d->dipole.sigma_a[c] = sa[c] * per_unit;
+        d->dipole.sigma_sp[c] = ss[c] * (1.0 - g) * per_unit;
+        alb[c] = fmin(op_sss_dipole_total(&d->dipole, c), 1.0);
+    }
+    d->albedo_mean = v3((float)alb[0], (float)alb[1], (float)alb[2]);
+    return OP_OK;
+}
+
 static op_status add_subsurface(builder *b, op_node *node, int *index, op_error *err)
 {
     op_scene *s = b->s;
     node->used = 1;
     const char *t = node->type;
-    op_method want = op_method_from_name(t);
-    if (strcmp(t, "dipole") == 0)
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\"> is not "
-                            "supported by this renderer yet (use svd, tucker or raw)", node->file,
-                            node->line);
-    if (want == OP_METHOD_COUNT)
+    char low[32];
+    size_t nl = 0;
+    for (; t[nl] && nl + 1 < sizeof low; nl++)
+        low[nl] = (char)(t[nl] >= 'A' && t[nl] <= 'Z' ? t[nl] - 'A' + 'a' : t[nl]);
+    low[nl] = '\0';
+    int dipole = strcmp(low, "dipole") == 0;
+    op_method want = op_method_from_name(low);
+    if (!dipole && want == OP_METHOD_COUNT)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: unknown type "
-                            "(svd, tucker, raw)", node->file, node->line, t);
+                            "(svd, tucker, kcta, nmf, raw, dipole)", node->file, node->line, t);
     if (!grow((void **)&s->sss, &b->cap_sss, s->nsss, sizeof *s->sss))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_sss_desc *d = &s->sss[s->nsss];
-    const char *name;
+    memset(d, 0, sizeof *d);
+    const char *name = NULL;
     long long irr, maxp;
-    GET_OR_FAIL(op_node_string(node, "material", NULL, &name, err));
-    if (!name)
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\"> needs <string "
-                            "name=\"material\">", node->file, node->line, t);
     GET_OR_FAIL(op_node_float(node, "scale", 1.0, &d->scale, err));
     GET_OR_FAIL(op_node_int(node, "irrSamples", 16, &irr, err));
     GET_OR_FAIL(op_node_float(node, "density", 1.0, &d->density, err));
@@ -202,17 +269,51 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
                             "maxPoints in 1..5e7, density in (0, 64]", node->file, node->line);
     d->irr_samples = (int)irr;
     d->max_points = (int)maxp;
+    if (dipole) {
+        GET_OR_FAIL(build_dipole(node, d, err));
+        *index = s->nsss++;
+        return OP_OK;
+    }
+    GET_OR_FAIL(op_node_string(node, "material", NULL, &name, err));
+    if (!name)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\"> needs <string "
+                            "name=\"material\">", node->file, node->line, t);
+    /* the plugin's long names ("SVD S10 Div100 Add1 for Rd Chess4x4 ...") name a preset */
+    char preset[256];
+    double log_a = 0.0, log_b = 0.0;
+    op_method long_method = OP_METHOD_COUNT;
+    int is_long = op_sss_parse_long_name(name, preset, sizeof preset, &long_method, &log_a, &log_b);
     char path[4096];
-    op_status st = op_resolve_material(name, b->dir, path, sizeof path, err);
+    op_status st = op_resolve_material(is_long ? preset : name, b->dir, path, sizeof path, err);
     if (st == OP_OK)
         st = open_material(b, path, &d->material, err);
-    if (st)
+    if (st) {
+        if (is_long)
+            return op_error_prefix(err, "%s:%d: <subsurface>: \"%s\" names preset %s: ", node->file,
+                                   node->line, name, preset);
         return op_error_prefix(err, "%s:%d: <subsurface>: ", node->file, node->line);
+    }
     const op_material_info *info = op_material_get_info(d->material);
     if (info->method != want)
-        op_log(OP_LOG_WARN, "%s:%d: <subsurface type=\"%s\">: %s holds a %s material; rendering "
-               "it as %s", node->file, node->line, t, path, op_method_name(info->method),
-               op_method_name(info->method));
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: %s holds a %s "
+                            "material (its META says method=%s): the type must agree with it",
+                            node->file, node->line, t, path, op_method_name(info->method),
+                            op_method_name(info->method));
+    if (is_long) {
+        if (long_method != info->method)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: \"%s\" names a %s "
+                                "material, but %s holds a %s material", node->file, node->line,
+                                name, op_method_name(long_method), path,
+                                op_method_name(info->method));
+        if ((log_a > 0.0 && fabs(log_a - info->log_a) > 1e-9 * fabs(log_a)) ||
+            (log_b > 0.0 && fabs(log_b - info->log_b) > 1e-9 * fabs(log_b)))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: \"%s\" asks for Div%g "
+                                "Add%g (A = %g, B = %g) but %s was made with A = %g, B = %g",
+                                node->file, node->line, name, log_a, log_b, log_a, log_b, path,
+                                info->log_a, info->log_b);
+        op_log(OP_LOG_DEBUG, "%s:%d: material \"%s\" is preset %s (%s)", node->file, node->line,
+               name, preset, path);
+    }
     size_t px = (size_t)info->width * (size_t)info->height;
     float *alb = malloc(px * (size_t)info->channels * sizeof(float));
     if (!alb)
@@ -456,6 +557,9 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     for (int i = 0; i < s->nemitters; i++)
         if (s->emitters[i].type == OP_EM_AREA)
             s->emitters[i].mesh = &s->shapes[s->emitters[i].shape].mesh;
+    for (int i = 0; i < s->nshapes; i++)
+        if (s->shapes[i].sss < 0 && s->bsdfs[s->shapes[i].bsdf].masked)
+            s->has_masks = 1;
     if (s->nshapes == 0)
         op_log(OP_LOG_WARN, "%s: the scene has no shapes", s->path);
     if (s->nemitters == 0 && s->integrator.type <= OP_INT_DIRECT)

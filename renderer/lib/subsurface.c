@@ -1,8 +1,12 @@
 /* subsurface.c - irradiance points, exitance gathering and interpolation (see subsurface.h). */
 #include "subsurface.h"
 
+#include <ctype.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
+#include <time.h>
 
 #include "parallel.h"
 
@@ -35,6 +39,7 @@ typedef struct sss_shape {
     sss_grid gather, interp;
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
+    float *table; /* dipole: its kernel row per channel (3 K^2), Rd integrated over each pixel */
 } sss_shape;
 
 struct op_sss_cache {
@@ -163,18 +168,68 @@ static float wrap(float x, int n)
     return f >= (float)n || f < 0.0f ? 0.0f : f;
 }
 
+/* The dipole as a one-pixel homogeneous material: pixels of side px = max(the smallest mean free
+ * path, R / 15), R the radius holding all but 0.1 % of Rd's integral, so the kernel has at most
+ * 31 x 31 offsets; each offset's value is Rd integrated over its pixel (midpoint rule, 8 x 8
+ * per pixel, 48 x 48 for the 3 x 3 around the peak), the measured materials' convention. */
+static op_status dipole_table(sss_shape *ss, op_error *err)
+{
+    const op_sss_dipole *d = &ss->desc->dipole;
+    double R = op_sss_dipole_radius(d, 1e-3), mfp = INFINITY;
+    for (int c = 0; c < 3; c++)
+        mfp = fmin(mfp, 1.0 / (d->sigma_a[c] + d->sigma_sp[c]));
+    double px = fmax(mfp, R / 15.0);
+    int half = (int)ceil(R / px - 0.5);
+    if (half < 1)
+        half = 1;
+    int K = 2 * half + 1;
+    ss->width = ss->height = 1;
+    ss->kernel = K;
+    ss->channels = 3;
+    ss->px = ss->py = (float)px;
+    ss->table = malloc(3 * (size_t)K * K * sizeof *ss->table);
+    if (!ss->table)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for the dipole kernel");
+    for (int oy = -half; oy <= half; oy++)
+        for (int ox = -half; ox <= half; ox++) {
+            int n = abs(ox) <= 1 && abs(oy) <= 1 ? 48 : 8;
+            double sum[3] = {0, 0, 0};
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    double x = (ox - 0.5 + (i + 0.5) / n) * px, y = (oy - 0.5 + (j + 0.5) / n) * px;
+                    double r = sqrt(x * x + y * y);
+                    for (int c = 0; c < 3; c++)
+                        sum[c] += op_sss_dipole_rd(d, c, r);
+                }
+            for (int c = 0; c < 3; c++)
+                ss->table[(size_t)c * K * K + (size_t)(oy + half) * K + (ox + half)] =
+                    (float)(sum[c] * px * px / ((double)n * n));
+        }
+    return OP_OK;
+}
+
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
                              op_error *err)
 {
     const op_trimesh *m = &sh->mesh;
-    const op_material_info *info = op_material_get_info(ss->desc->material);
-    ss->width = info->width;
-    ss->height = info->height;
-    ss->kernel = info->kernel;
-    ss->channels = info->channels;
-    double sx = info->size_x_cm * 0.01 * ss->desc->scale, sy = info->size_y_cm * 0.01 * ss->desc->scale;
-    ss->px = (float)(sx / info->width);
-    ss->py = (float)(sy / info->height);
+    double sx, sy; /* one tile of the material in scene units */
+    if (ss->desc->is_dipole) {
+        op_status st = dipole_table(ss, err);
+        if (st)
+            return st;
+        sx = ss->px;
+        sy = ss->py;
+    } else {
+        const op_material_info *info = op_material_get_info(ss->desc->material);
+        ss->width = info->width;
+        ss->height = info->height;
+        ss->kernel = info->kernel;
+        ss->channels = info->channels;
+        sx = info->size_x_cm * 0.01 * ss->desc->scale;
+        sy = info->size_y_cm * 0.01 * ss->desc->scale;
+        ss->px = (float)(sx / info->width);
+        ss->py = (float)(sy / info->height);
+    }
     ss->a_pix = ss->px * ss->py;
     double want = (double)m->area / ss->a_pix * ss->desc->density;
     int n = want < 1.0 ? 1 : (want > ss->desc->max_points ? ss->desc->max_points : (int)ceil(want));
@@ -244,6 +299,7 @@ typedef struct build_job {
     int *task_shape, *task_first;
     float **rows; /* per thread: one kernel row per channel */
     int scatter_shape;
+    atomic_int nomem; /* a scatter task ran out of memory */
 } build_job;
 
 enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
@@ -274,10 +330,49 @@ static void irradiance_task(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)(last - first));
 }
 
+/* The kernel value at the receiver r of the source s (its rows rr, rg, rb), interpolated
+ * bilinearly between the four kernel offsets around the offset s -> r in material pixels, in s's
+ * frame. Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
+static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r, const float *rr,
+                     const float *rg, const float *rb, float v[3])
+{
+    if (v3_dot(s->n, r->n) <= 0.0f)
+        return 0;
+    int K = ss->kernel, half = K / 2;
+    op_v3 d = v3_sub(r->p, s->p);
+    float dx = v3_dot(d, s->tu) / ss->px, dy = v3_dot(d, s->tv) / ss->py;
+    float flx = floorf(dx), fly = floorf(dy);
+    int ox = (int)flx, oy = (int)fly;
+    if (ox < -half - 1 || ox > half || oy < -half - 1 || oy > half)
+        return 0;
+    float tx = dx - flx, ty = dy - fly;
+    float wx[2] = {1.0f - tx, tx}, wy[2] = {1.0f - ty, ty};
+    v[0] = v[1] = v[2] = 0.0f;
+    for (int b = 0; b < 2; b++) {
+        int oyb = oy + b;
+        if (oyb < -half || oyb > half)
+            continue;
+        for (int a = 0; a < 2; a++) {
+            int oxa = ox + a;
+            if (oxa < -half || oxa > half)
+                continue;
+            int col = (oyb + half) * K + (oxa + half);
+            float w = wx[a] * wy[b];
+            v[0] += w * rr[col];
+            v[1] += w * rg[col];
+            v[2] += w * rb[col];
+        }
+    }
+    return 1;
+}
+
 /* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
- * acc[3 j + c] += E_i,c Rd_c(pixel(i), offset(i -> j)) over the receivers j in i's footprint.
- * Chunks are fixed ranges of points, summed in order afterwards, so the result does not depend
- * on the thread count. */
+ * acc[3 j + c] += E_i,c g_i,c Rd_c(pixel(i), offset(i -> j)) over the receivers j in i's
+ * footprint, where g_i,c (clamped to [1/2, 2]) makes the receivers of i get exactly the row's
+ * sum (the albedo of i's pixel) times A_pixel / A_i: each source hands on exactly its energy
+ * whatever the local arrangement of the points (see docs/subsurface-rendering.md). Chunks are
+ * fixed ranges of points, summed in order afterwards, so the result does not depend on the
+ * thread count. */
 static void scatter_task(void *user, int task, int thread)
 {
     build_job *job = user;
@@ -288,59 +383,84 @@ static void scatter_task(void *user, int task, int thread)
     if (last > ss->n)
         last = ss->n;
     float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->n;
-    int K = ss->kernel, half = K / 2;
+    int K = ss->kernel;
     float *rows = job->rows[thread];
-    float inv_px = 1.0f / ss->px, inv_py = 1.0f / ss->py;
+    float expect = ss->a_pix / ss->a_i; /* receivers per kernel pixel */
+    /* the receivers of one source and their kernel values, kept between the two steps */
+    int cap = 0, nrec = 0;
+    int *rec = NULL;
+    float *val = NULL;
     for (int i = first; i < last; i++) {
         const sss_point *s = &ss->pts[i];
         if (v3_is_black(s->e))
             continue;
         int x = (int)s->fx, y = (int)s->fy;
-        for (int c = 0; c < ss->channels; c++)
-            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
+        if (ss->table)
+            rows = ss->table;
+        else
+            for (int c = 0; c < ss->channels; c++)
+                op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
         const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
                     *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
+        double total[3] = {0, 0, 0}, got[3] = {0, 0, 0};
+        for (int k = 0; k < K * K; k++) {
+            total[0] += rr[k];
+            total[1] += rg[k];
+            total[2] += rb[k];
+        }
+        float v[3];
+        nrec = 0;
         GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
-            const sss_point *r = &ss->pts[j];
-            if (v3_dot(s->n, r->n) <= 0.0f)
+            if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
                 continue;
-            op_v3 d = v3_sub(r->p, s->p);
-            /* the offset in material pixels, in the source's frame; Rd is interpolated
-             * bilinearly between the four kernel offsets around it */
-            float dx = v3_dot(d, s->tu) * inv_px, dy = v3_dot(d, s->tv) * inv_py;
-            float flx = floorf(dx), fly = floorf(dy);
-            int ox = (int)flx, oy = (int)fly;
-            if (ox < -half - 1 || ox > half || oy < -half - 1 || oy > half)
-                continue;
-            float tx = dx - flx, ty = dy - fly;
-            float wx[2] = {1.0f - tx, tx}, wy[2] = {1.0f - ty, ty};
-            float vr = 0.0f, vg = 0.0f, vb = 0.0f;
-            for (int b = 0; b < 2; b++) {
-                int oyb = oy + b;
-                if (oyb < -half || oyb > half)
-                    continue;
-                for (int a = 0; a < 2; a++) {
-                    int oxa = ox + a;
-                    if (oxa < -half || oxa > half)
-                        continue;
-                    int col = (oyb + half) * K + (oxa + half);
-                    float w = wx[a] * wy[b];
-                    vr += w * rr[col];
-                    vg += w * rg[col];
-                    vb += w * rb[col];
+            if (nrec == cap) {
+                int nc = cap ? 2 * cap : 1024;
+                int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
+                float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
+                if (r2)
+                    rec = r2;
+                if (!v2) { /* out of memory: this source's light is lost, reported below */
+                    atomic_store(&job->nomem, 1);
+                    break;
                 }
+                val = v2;
+                cap = nc;
             }
-            acc[3 * (size_t)j] += s->e.x * vr;
-            acc[3 * (size_t)j + 1] += s->e.y * vg;
-            acc[3 * (size_t)j + 2] += s->e.z * vb;
+            rec[nrec] = j;
+            memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
+            got[0] += v[0];
+            got[1] += v[1];
+            got[2] += v[2];
         });
+        float g[3];
+        for (int c = 0; c < 3; c++) {
+            double q = got[c] > 0.0 ? total[c] * expect / got[c] : 1.0;
+            g[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q);
+        }
+        op_v3 e = v3(s->e.x * g[0], s->e.y * g[1], s->e.z * g[2]);
+        for (int k = 0; k < nrec; k++) {
+            size_t j = (size_t)rec[k];
+            acc[3 * j] += e.x * val[3 * (size_t)k];
+            acc[3 * j + 1] += e.y * val[3 * (size_t)k + 1];
+            acc[3 * j + 2] += e.z * val[3 * (size_t)k + 2];
+        }
     }
+    free(rec);
+    free(val);
     op_progress_advance(job->prog, (uint64_t)(last - first));
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
                              op_sss_cache **out, op_error *err)
 {
+    double t0 = now_s(), t1 = t0;
     op_sss_cache *c = calloc(1, sizeof *c);
     if (!c)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -396,6 +516,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
             st = op_parallel_for(opt->threads, (int)total, irradiance_task, &job, opt->cancel, err);
             op_progress_end(job.prog);
         }
+        t1 = now_s();
         int threads = op_parallel_threads(opt->threads);
         if (st == OP_OK && !(job.rows = calloc((size_t)threads, sizeof *job.rows)))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -421,6 +542,8 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
             if (st == OP_OK)
                 st = op_parallel_for(opt->threads, ss->nchunks, scatter_task, &job, opt->cancel,
                                      err);
+            if (st == OP_OK && atomic_load(&job.nomem))
+                st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
             if (st == OP_OK) {
                 float k = ss->a_i / ss->a_pix;
                 for (int j = 0; j < ss->n; j++) {
@@ -442,6 +565,9 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     }
     free(job.task_shape);
     free(job.task_first);
+    if (st == OP_OK && total > 0)
+        op_log(OP_LOG_INFO, "subsurface pre-pass: %.3f s (irradiance %.3f s, scattering %.3f s)",
+               now_s() - t0, t1 - t0, now_s() - t1);
     if (st) {
         op_sss_cache_free(c);
         return st;
@@ -456,6 +582,7 @@ void op_sss_cache_free(op_sss_cache *c)
         return;
     for (int i = 0; i < c->n; i++) {
         free(c->shapes[i].pts);
+        free(c->shapes[i].table);
         grid_free(&c->shapes[i].gather);
         grid_free(&c->shapes[i].interp);
     }
@@ -485,4 +612,70 @@ op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
         m = v3_add(m, v3_scale(q->m, w));
     });
     return wsum > 0.0f ? v3_scale(m, 1.0f / wsum) : v3s(0.0f);
+}
+
+int op_sss_parse_long_name(const char *name, char *out, size_t n, op_method *method, double *a,
+                           double *b)
+{
+    char buf[512], res[512];
+    if (strlen(name) >= sizeof buf)
+        return 0;
+    strcpy(buf, name);
+    char *tok[64], *save = NULL;
+    int nt = 0;
+    for (char *t = strtok_r(buf, " \t", &save); t && nt < 64; t = strtok_r(NULL, " \t", &save))
+        tok[nt++] = t;
+    int forat = -1;
+    for (int i = 1; i + 1 < nt; i++)
+        if (strcasecmp(tok[i], "for") == 0 && strcasecmp(tok[i + 1], "Rd") == 0) {
+            forat = i;
+            break;
+        }
+    if (forat < 1 || forat + 2 >= nt)
+        return 0;
+    char low[32];
+    size_t ml = strlen(tok[0]);
+    if (ml == 0 || ml >= sizeof low)
+        return 0;
+    for (size_t i = 0; i <= ml; i++)
+        low[i] = (char)tolower((unsigned char)tok[0][i]);
+    op_method m = op_method_from_name(low);
+    if (m == OP_METHOD_COUNT)
+        return 0;
+    double A = 0.0, B = 0.0;
+    size_t k = 0;
+    for (size_t i = 0; i < ml; i++)
+        res[k++] = (char)toupper((unsigned char)tok[0][i]);
+    for (int i = 1; i < forat; i++) {
+        const char *t = tok[i];
+        size_t letters = 0;
+        while (isalpha((unsigned char)t[letters]))
+            letters++;
+        char *end;
+        double v = strtod(t + letters, &end);
+        if (letters == 0 || end == t + letters || *end || !isfinite(v))
+            return 0;
+        if (letters == 3 && strncasecmp(t, "Div", 3) == 0) {
+            A = v;
+        } else if (letters == 3 && strncasecmp(t, "Add", 3) == 0) {
+            B = v;
+        } else {
+            int w = snprintf(res + k, sizeof res - k, "_%c%s", toupper((unsigned char)t[0]), t + 1);
+            if (w < 0 || (size_t)w >= sizeof res - k)
+                return 0;
+            k += (size_t)w;
+        }
+    }
+    const char *nm = tok[forat + 2];
+    for (const char *p = nm; *p; p++)
+        if (!isalnum((unsigned char)*p) && *p != '_' && *p != '-')
+            return 0;
+    int w = snprintf(res + k, sizeof res - k, "_%s", nm);
+    if (w < 0 || (size_t)w >= sizeof res - k || k + (size_t)w >= n)
+        return 0;
+    memcpy(out, res, k + (size_t)w + 1);
+    *method = m;
+    *a = A;
+    *b = B;
+    return 1;
 }

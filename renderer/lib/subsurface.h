@@ -31,4 +31,13 @@ op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n);
 /* How many irradiance points a translucent shape got (for tests and logs). */
 int op_sss_cache_points(const op_sss_cache *c, int sss);
 
+/* The long material names of the Blender/Mitsuba plugin (Onel, Kurt, Ozturk), e.g.
+ * "SVD S10 Div100 Add1 for Rd Chess4x4 v1(277x277x39x39)": "<METHOD> <params> for Rd <Name> ...",
+ * where each param is letters followed by a number. Returns 1 when name has that form, writing
+ * the preset name (METHOD, the params other than Div and Add, and Name joined by '_', e.g.
+ * "SVD_S10_Chess4x4", "TUCKER_T15_P7_Chess4x4") to out, the method to *method, and Div (A) and
+ * Add (B) to *a and *b (0 when absent); returns 0 otherwise (out untouched). */
+int op_sss_parse_long_name(const char *name, char *out, size_t n, op_method *method, double *a,
+                           double *b);
+
 #endif

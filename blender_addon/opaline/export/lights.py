@@ -170,9 +170,10 @@ def export_light(light, matrix, blender_version, warn):
         s.add(transform_matrix("toWorld", rows))
         em = s.add(Element("emitter", {"type": "area"}))
         em.rgb("radiance", area_radiance(light.energy, area, color, blender_version))
-        # The back of an area light is black in Cycles and in opaline.
-        bs = s.add(Element("bsdf", {"type": "diffuse"}))
-        bs.rgb("reflectance", (0.0, 0.0, 0.0))
+        # A Cycles light object is invisible from behind, reflects nothing and casts no shadow:
+        # a fully transparent mask (the emitter stays one-sided, seen only from its front).
+        bs = s.add(Element("bsdf", {"type": "mask"}))
+        bs.float("opacity", 0.0)
         return s
     warn("light %s of type %s is not supported; skipped" % (name, kind))
     return None

@@ -1,0 +1,208 @@
+/* test_render_dipole.c - <subsurface type="dipole">: the profile Rd(r) against an independent
+ * evaluation of Jensen et al.'s formula, the closed-form total against numerical integration,
+ * and a flat slab under uniform irradiance whose exitance is the total diffuse reflectance, in
+ * metre and millimetre scenes; the named media, the explicit coefficients and the errors. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dipole.h"
+#include "opaline_render.h"
+#include "render_scene.h"
+#include "subsurface.h"
+#include "test_support.h"
+
+/* Skin1 from Jensen et al. 2001 (1/mm), eta 1.3, written out here independently of dipole.c. */
+static const double skin_sp[3] = {0.74, 0.88, 1.01}, skin_a[3] = {0.032, 0.17, 0.48};
+
+static double ref_rd(double sp, double sa, double eta, double r)
+{
+    double st = sa + sp, alpha = sp / st, str = sqrt(3.0 * sa * st);
+    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
+    double A = (1.0 + fdr) / (1.0 - fdr), zr = 1.0 / st, zv = zr * (1.0 + 4.0 * A / 3.0);
+    double dr = sqrt(r * r + zr * zr), dv = sqrt(r * r + zv * zv);
+    return alpha / (4.0 * M_PI) *
+           (zr * (str + 1.0 / dr) * exp(-str * dr) / (dr * dr) +
+            zv * (str + 1.0 / dv) * exp(-str * dv) / (dv * dv));
+}
+
+static double ref_total(double sp, double sa, double eta)
+{
+    double alpha = sp / (sa + sp);
+    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
+    double A = (1.0 + fdr) / (1.0 - fdr), s = sqrt(3.0 * (1.0 - alpha));
+    return 0.5 * alpha * (1.0 + exp(-4.0 / 3.0 * A * s)) * exp(-s);
+}
+
+static void test_profile(void **state)
+{
+    (void)state;
+    op_sss_dipole d;
+    double eta = 0.0;
+    assert_true(op_sss_dipole_lookup("sKiN1", d.sigma_sp, d.sigma_a, &eta));
+    d.eta = eta;
+    assert_true(fabs(eta - 1.3) < 1e-12);
+    assert_false(op_sss_dipole_lookup("Skin3", d.sigma_sp, d.sigma_a, &eta));
+    static const double radii[] = {0.0, 0.1, 0.5, 1.0, 2.5, 7.0};
+    for (int c = 0; c < 3; c++) {
+        for (size_t k = 0; k < sizeof radii / sizeof radii[0]; k++) {
+            double want = ref_rd(skin_sp[c], skin_a[c], 1.3, radii[k]);
+            double got = op_sss_dipole_rd(&d, c, radii[k]);
+            if (fabs(got - want) > 1e-9 * want)
+                fail_msg("channel %d, r = %g mm: Rd %.9g, expected %.9g", c, radii[k], got, want);
+        }
+        /* the closed-form total is the integral of the profile (trapezoid on a fine log grid) */
+        double sum = 0.0, prev_r = 0.0, prev_f = 0.0;
+        for (int i = 0; i <= 200000; i++) {
+            double r = 1e-5 * pow(1e7, i / 200000.0);
+            double f = 2.0 * M_PI * r * ref_rd(skin_sp[c], skin_a[c], 1.3, r);
+            sum += 0.5 * (f + prev_f) * (r - prev_r);
+            prev_r = r;
+            prev_f = f;
+        }
+        double total = op_sss_dipole_total(&d, c), closed = ref_total(skin_sp[c], skin_a[c], 1.3);
+        if (fabs(total - closed) > 1e-9 || fabs(sum - closed) > 1e-4 * closed)
+            fail_msg("channel %d: Rd_total %.6f, closed form %.6f, integral %.6f", c, total, closed,
+                     sum);
+    }
+    /* the radius holds all but the asked fraction */
+    double R = op_sss_dipole_radius(&d, 1e-3);
+    assert_true(R > 5.0 && R < 100.0);
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* A flat square of half-side `half` scene units facing +z under irradiance 1 along -z, with the
+ * dipole element body given. */
+static const char *slab_scene(const char *name, double half, const char *body)
+{
+    static char path[1024];
+    char text[4096];
+    snprintf(path, sizeof path, "%s", op_test_tmp_path(name));
+    snprintf(text, sizeof text,
+             "<scene version=\"0.6.0\"><integrator type=\"path\"/>"
+             " <emitter type=\"directional\"><vector name=\"direction\" x=\"0\" y=\"0\" z=\"-1\"/>"
+             "  <rgb name=\"irradiance\" value=\"1\"/></emitter>"
+             " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"%g\"/>"
+             "  </transform><subsurface type=\"dipole\">%s"
+             "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
+             "</scene>",
+             half, body);
+    write_text(path, text);
+    return path;
+}
+
+/* Mean exitance over the centre (a square of half-side `inner`) of the slab scene at path. */
+static void slab_exitance(const char *path, double inner, double out[3])
+{
+    op_error err = {0};
+    op_scene *scene = NULL;
+    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_sss_build_options o = {2, 0, NULL, NULL, NULL};
+    op_sss_cache *cache = NULL;
+    st = op_sss_cache_build(scene, &o, &cache, &err);
+    OP_ASSERT_OK(st, err);
+    out[0] = out[1] = out[2] = 0.0;
+    int n = 0;
+    for (int j = 0; j < 9; j++)
+        for (int i = 0; i < 9; i++) {
+            op_v3 p = v3((float)(inner * (i / 4.0 - 1.0)), (float)(inner * (j / 4.0 - 1.0)), 0.0f);
+            op_v3 m = op_sss_exitance(cache, 0, p, v3(0.0f, 0.0f, 1.0f));
+            out[0] += m.x;
+            out[1] += m.y;
+            out[2] += m.z;
+            n++;
+        }
+    for (int c = 0; c < 3; c++)
+        out[c] /= n;
+    op_sss_cache_free(cache);
+    op_scene_free(scene);
+}
+
+static void test_slab_total_reflectance(void **state)
+{
+    (void)state;
+    /* metres: an 8 cm square, Skin1 by default; the footprint (2.1 cm) stays inside */
+    double m[3], mm[3];
+    slab_exitance(slab_scene("m.xml", 0.04, ""), 0.015, m);
+    /* the same in a millimetre scene: scale = 1000 scene units per metre */
+    slab_exitance(slab_scene("mm.xml", 40.0, "<string name=\"material\" value=\"skin1\"/>"
+                                             "<float name=\"scale\" value=\"1000\"/>"),
+                  15.0, mm);
+    for (int c = 0; c < 3; c++) {
+        double want = ref_total(skin_sp[c], skin_a[c], 1.3);
+        if (fabs(m[c] - want) > 0.03 * want || fabs(mm[c] - want) > 0.03 * want)
+            fail_msg("channel %d: exitance %.4f (m), %.4f (mm); Rd_total %.4f", c, m[c], mm[c],
+                     want);
+    }
+    /* explicit coefficients: sigmaT/albedo and sigmaA/sigmaS with g describe the same medium */
+    char body[1024];
+    snprintf(body, sizeof body,
+             "<rgb name=\"sigmaT\" value=\"%g, %g, %g\"/><rgb name=\"albedo\" value=\"%g, %g, %g\"/>"
+             "<float name=\"intIOR\" value=\"1.3\"/>",
+             skin_sp[0] + skin_a[0], skin_sp[1] + skin_a[1], skin_sp[2] + skin_a[2],
+             skin_sp[0] / (skin_sp[0] + skin_a[0]), skin_sp[1] / (skin_sp[1] + skin_a[1]),
+             skin_sp[2] / (skin_sp[2] + skin_a[2]));
+    double e[3];
+    slab_exitance(slab_scene("ta.xml", 0.04, body), 0.015, e);
+    snprintf(body, sizeof body,
+             "<rgb name=\"sigmaA\" value=\"%g, %g, %g\"/><rgb name=\"sigmaS\" value=\"%g, %g, %g\"/>"
+             "<float name=\"g\" value=\"0.5\"/><float name=\"intIOR\" value=\"1.3\"/>",
+             skin_a[0], skin_a[1], skin_a[2], 2 * skin_sp[0], 2 * skin_sp[1], 2 * skin_sp[2]);
+    double f[3];
+    slab_exitance(slab_scene("as.xml", 0.04, body), 0.015, f);
+    for (int c = 0; c < 3; c++) {
+        assert_true(fabs(e[c] - m[c]) < 1e-3 * m[c]);
+        assert_true(fabs(f[c] - m[c]) < 1e-3 * m[c]);
+    }
+    /* marble: far longer footprint (its coarser kernel keeps the cost bounded) */
+    double mb[3];
+    slab_exitance(slab_scene("marble.xml", 0.06, "<string name=\"material\" value=\"Marble\"/>"),
+                  0.02, mb);
+    static const double msp[3] = {2.19, 2.62, 3.00}, ma[3] = {0.0021, 0.0041, 0.0071};
+    for (int c = 0; c < 3; c++) {
+        double want = ref_total(msp[c], ma[c], 1.5);
+        if (fabs(mb[c] - want) > 0.03 * want)
+            fail_msg("marble channel %d: exitance %.4f, Rd_total %.4f", c, mb[c], want);
+    }
+}
+
+static void expect_error(const char *body, const char *needle)
+{
+    op_error err = {0};
+    op_scene *scene = NULL;
+    op_status st = op_scene_load(slab_scene("bad.xml", 0.05, body), NULL, 0, &scene, &err);
+    assert_int_equal(st, OP_ERR_INPUT);
+    if (!strstr(err.message, needle))
+        fail_msg("message \"%s\" lacks \"%s\"", err.message, needle);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    expect_error("<string name=\"material\" value=\"Skin9\"/>", "Skin9");
+    expect_error("<string name=\"material\" value=\"Skin1\"/><rgb name=\"sigmaA\" value=\"1\"/>",
+                 "either");
+    expect_error("<rgb name=\"sigmaA\" value=\"0\"/><rgb name=\"sigmaS\" value=\"0\"/>",
+                 "not both 0");
+    expect_error("<float name=\"intIOR\" value=\"0.5\"/>", "[1, 3]");
+}
+
+int main(void)
+{
+    op_log_set_level(OP_LOG_WARN);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_profile),
+        cmocka_unit_test(test_slab_total_reflectance),
+        cmocka_unit_test(test_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
