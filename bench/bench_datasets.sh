@@ -29,7 +29,7 @@ for name in chess4x4 chess8x8 marble-closeup veined-marble; do
         { cat "$work/log" >&2; exit 1; }
     t1=$(now)
     size=$(stat -c %s "$work/$name.opm")
-    printf '  %-15s %7.2f s  (%s MB written)\n' "$name" "$(echo "$t1 - $t0" | bc -l)" \
+    printf '  %-15s %7.2f s  (%s MB written)\n' "$name" "$(awk -v a="$t0" -v b="$t1" 'BEGIN { print b - a }')" \
         "$((size / 1000000))"
     rm -f "$work/$name.opm"
 done

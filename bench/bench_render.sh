@@ -42,26 +42,27 @@ XML
 }
 
 now() { date +%s.%N; }
+calc() { awk "BEGIN { print $1 }"; } # floating-point arithmetic without bc
 run() { # $1 name, $2 integrator, $3 spp; prints seconds
   scene "$2" "$3" > "$T/$1.xml"
   local t0 t1
   t0=$(now)
   "$RENDER" -q -t "$THREADS" -o "$T/$1.exr" "$T/$1.xml"
   t1=$(now)
-  echo "$t1 - $t0" | bc -l
+  calc "$t1 - $t0"
 }
 
 PIX=$((640 * 480))
 # scene load (OBJ parse + BVH build) is measured alone with --check and subtracted
 scene '<integrator type="normals"/>' 1 > "$T/load.xml"
 t0=$(now); "$RENDER" -q --check "$T/load.xml"; t1=$(now)
-LOAD=$(echo "$t1 - $t0" | bc -l)
+LOAD=$(calc "$t1 - $t0")
 SPP_RAY=32
 SPP_PATH=8
 TR=$(run rays '<integrator type="normals"/>' $SPP_RAY)
 TP=$(run path '<integrator type="path"><integer name="maxDepth" value="8"/></integrator>' $SPP_PATH)
 printf 'bunny 640x480, %s threads, scene load %.2f s\n' "$THREADS" "$LOAD"
 printf 'primary rays: %.2f Mrays/s (%d spp in %.2f s)\n' \
-  "$(echo "$PIX * $SPP_RAY / ($TR - $LOAD) / 1000000" | bc -l)" $SPP_RAY "$TR"
+  "$(calc "$PIX * $SPP_RAY / ($TR - $LOAD) / 1000000")" $SPP_RAY "$TR"
 printf 'path tracing: %.3f M samples/s (%d spp in %.2f s)\n' \
-  "$(echo "$PIX * $SPP_PATH / ($TP - $LOAD) / 1000000" | bc -l)" $SPP_PATH "$TP"
+  "$(calc "$PIX * $SPP_PATH / ($TP - $LOAD) / 1000000")" $SPP_PATH "$TP"
