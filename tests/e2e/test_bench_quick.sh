@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# test_bench_quick.sh - keeps bench/bench_methods.sh working: its quick mode (tiny datasets,
+# every method, one run each) must finish and write sane runs.csv, results.json and tables.md.
+# Needs python3 only (numpy, scikit-learn and matplotlib parts run when present, else are
+# skipped by the benchmark with a message). Exit 77 (skip) when python3 is absent.
+set -euo pipefail
+command -v python3 >/dev/null || { echo "python3 not installed: skipped"; exit 77; }
+src=${OPALINE_SOURCE_DIR:-$(cd "$(dirname "$0")/../.." && pwd)}
+bin=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR must name the built binaries}
+tmp=${OPALINE_TEST_TMP:-${TMPDIR:-/tmp}}
+out=$(mktemp -d "$tmp/bench_quick.XXXXXX")
+trap 'rm -rf "$out"' EXIT
+
+bash "$src/bench/bench_methods.sh" --quick --build "$bin/.." --out "$out" > "$out/stdout.txt" ||
+  { cat "$out/stdout.txt" "$out/commands.log" >&2; exit 1; }
+for f in runs.csv results.json tables.md baselines.csv; do
+  [ -s "$out/$f" ] || { echo "FAIL: $f missing or empty" >&2; exit 1; }
+done
+grep -q "^## Goals" "$out/stdout.txt" || { echo "FAIL: no goals in the output" >&2; exit 1; }
+
+python3 - "$out" <<'PY'
+import csv, json, math, os, sys
+out = sys.argv[1]
+res = json.load(open(os.path.join(out, "results.json")))
+rows = list(csv.DictReader(open(os.path.join(out, "runs.csv"))))
+def fail(msg):
+    sys.exit("FAIL: " + msg)
+datasets = {"chess4x4", "chess8x8", "veined-marble", "chess4x4-mc"}
+if set(res["datasets"]) != datasets:
+    fail(f"datasets {sorted(res['datasets'])}")
+if len(rows) != len(res["runs"]) or len(rows) != 7 * len(datasets):
+    fail(f"{len(rows)} CSV rows, {len(res['runs'])} runs in the JSON, expected {7 * 4}")
+for key in ("cpu", "python", "opaline_factor"):
+    if key not in res["environment"]:
+        fail(f"environment lacks {key}")
+for ds in datasets:
+    got = {r["method"] for r in rows if r["dataset"] == ds}
+    if got != {"raw", "svd", "tucker", "kcta", "nmf"}:
+        fail(f"{ds}: methods {sorted(got)}")
+    by = {r["label"]: r for r in rows if r["dataset"] == ds}
+    raw = by["raw"]
+    for r in by.values():
+        size, cr, rmse = int(r["size_bytes"]), float(r["compression_ratio"]), float(r["rmse"])
+        ft, ev = float(r["factor_seconds"]), float(r["eval_ns"])
+        if not (size > 0 and math.isfinite(rmse) and rmse >= 0 and ft >= 0 and ev > 0):
+            fail(f"{ds} {r['label']}: size {size}, RMSE {rmse}, factor {ft} s, eval {ev} ns")
+        if abs(cr - int(r["original_bytes"]) / size) > 1e-6 * cr:
+            fail(f"{ds} {r['label']}: compression ratio {cr} is not original / size")
+        if r["method"] != "raw" and not (size < int(raw["size_bytes"]) and rmse > 0):
+            fail(f"{ds} {r['label']}: a factored material ({size} bytes, RMSE {rmse}) should be "
+                 f"smaller than the dataset ({raw['size_bytes']}) and inexact")
+    if float(raw["rmse"]) > 1e-3 * float(by["svd T=4"]["rmse"]):
+        fail(f"{ds}: raw RMSE {raw['rmse']} is not ~0")
+    # svd: more terms, less error, larger file (nmf minimizes the remainder's error, not Rd's, so
+    # its RMSE of Rd need not fall with T)
+    for m in ("svd",):
+        lo, hi = by[f"{m} T=2"], by[f"{m} T=4"]
+        if not (float(hi["rmse"]) <= float(lo["rmse"]) * 1.0001 and
+                int(hi["size_bytes"]) > int(lo["size_bytes"])):
+            fail(f"{ds} {m}: T=4 (RMSE {hi['rmse']}, {hi['size_bytes']} B) vs T=2 "
+                 f"(RMSE {lo['rmse']}, {lo['size_bytes']} B)")
+names = [g["goal"] for g in res["goals"]]
+if not any("Embree" in n for n in names) or not any("0.5 x NMF" in n for n in names):
+    fail(f"goals incomplete: {names}")
+if res["baselines"]:  # numpy present: opaline's svd against the LAPACK optimum
+    for b in res["baselines"]:
+        if "optimal_log_domain_error" in b:
+            e = b["entries"][0]["error_over_optimal"]
+            if not (e is not None and e <= 1.01):
+                fail(f"{b['dataset']}: opaline svd error {e} x optimum")
+elif not any("numpy" in n for n in res["notes"]):
+    fail("no baselines and no note saying why")
+print(f"ok: {len(rows)} configurations on {len(datasets)} datasets, "
+      f"{len(res['baselines'])} baseline comparisons, {len(res['plots'])} plots, "
+      f"{res['seconds']:.1f} s")
+PY
