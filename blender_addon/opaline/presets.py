@@ -9,6 +9,11 @@ OPALINE_PRESETS_DIR (set by the test harness). The first folder holding a name w
 
 import json
 import os
+import struct
+
+# The measured subsurface types opaline-render accepts (<subsurface type="...">), i.e. the
+# methods of the .opm container (docs/formats.md); `dipole` is not a file method.
+METHODS = ("svd", "tucker", "kcta", "nmf", "raw")
 
 _PREVIEWS = None          # bpy.utils.previews collection (thumbnails)
 _ENUM_ITEMS = []          # kept alive: Blender needs the strings of dynamic enums to persist
@@ -32,15 +37,8 @@ class Preset:
 
     @property
     def method(self):
-        """svd | tucker | raw, from the report, else from the name's prefix."""
-        m = str(self.report.get("method", "")).lower()
-        if m in ("svd", "tucker", "raw"):
-            return m
-        up = self.name.upper()
-        for p in ("SVD", "TUCKER", "RAW"):
-            if up.startswith(p):
-                return p.lower()
-        return "raw"
+        """One of METHODS: from the report, else the .opm's META, else the name's prefix."""
+        return method_of(self.opm, self.report)
 
     def summary(self):
         """One line for the panel and tool tips: method, terms, size, error."""
@@ -59,6 +57,64 @@ class Preset:
         elif "rmse" in r:
             parts.append("RMSE %.3g" % float(r["rmse"]))
         return ", ".join(parts)
+
+
+def opm_meta_method(path):
+    """The `method` of the META section of the .opm container at path (docs/formats.md), or
+    None when the file cannot be read or has none. Reads the header and the section table only,
+    not the (possibly large) data."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(40)
+            if len(head) < 40 or head[:8] != b"OPALINEM":
+                return None
+            nsec, = struct.unpack_from("<I", head, 12)
+            table, = struct.unpack_from("<Q", head, 24)
+            if not 1 <= nsec <= 4096:
+                return None
+            fh.seek(table)
+            ents = fh.read(32 * nsec)
+            for i in range(len(ents) // 32):
+                tag = ents[32 * i:32 * i + 8].rstrip(b"\0")
+                if tag != b"META":
+                    continue
+                off, size = struct.unpack_from("<QQ", ents, 32 * i + 8)
+                if size > 1 << 20:
+                    return None
+                fh.seek(off)
+                for line in fh.read(size).decode("utf-8", "replace").splitlines():
+                    k, _, v = line.partition("=")
+                    if k.strip() == "method":
+                        return v.strip().lower()
+    except (OSError, ValueError, struct.error):
+        return None
+    return None
+
+
+def method_of(opm_path, report=None):
+    """The subsurface type (one of METHODS) of the material file opm_path: the factor report's
+    `method` (report, or NAME.json beside the file), else the file's own META, else the name's
+    prefix (SVD_..., TUCKER_..., KCTA_..., NMF_...), else raw."""
+    if report is None:
+        report = {}
+        jp = os.path.splitext(opm_path)[0] + ".json"
+        if os.path.isfile(jp):
+            try:
+                with open(jp, "r", encoding="utf-8") as fh:
+                    report = json.load(fh)
+            except (OSError, ValueError):
+                report = {}
+    m = str(report.get("method", "") if isinstance(report, dict) else "").lower()
+    if m in METHODS:
+        return m
+    m = opm_meta_method(opm_path)
+    if m in METHODS:
+        return m
+    up = os.path.basename(opm_path).upper()
+    for p in METHODS:
+        if up.startswith(p.upper()):
+            return p
+    return "raw"
 
 
 def human_size(n):

@@ -34,7 +34,8 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
     kind: EnumProperty(
         name="Kind",
         items=[('PRESET', "Factored preset", "A factored measured material from the preset "
-                "folders (svd, tucker or raw)", 'MATERIAL', 0),
+                "folders (svd, tucker, kcta, nmf or raw: the type is read from the preset)",
+                'MATERIAL', 0),
                ('DIPOLE', "Dipole material type", "A homogeneous medium from the Jensen et al. "
                 "2001 table, rendered with the dipole model", 'SHADING_RENDERED', 1),
                ('FILE', "Material file", "An .opm material file", 'FILE', 2)],
@@ -50,8 +51,13 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
                              description="An .opm file written by opaline-factor")
     file_method: EnumProperty(
         name="Method",
-        items=[('AUTO', "Auto", "From the file's report (NAME.json beside it) or its name"),
-               ('svd', "SVD", ""), ('tucker', "Tucker", ""), ('raw', "Raw", "")],
+        items=[('AUTO', "Auto", "From the file's report (NAME.json beside it), the file's "
+                "own header, or its name"),
+               ('svd', "SVD", "Truncated SVD of the log-shifted Rd (Onel, Kurt, Ozturk)"),
+               ('tucker', "Tucker", "Tucker factorization with a polynomial fit"),
+               ('kcta', "K-CTA", "Clustered tensor approximation"),
+               ('nmf', "NMF", "Non-negative matrix factorization"),
+               ('raw', "Raw", "The measured Rd, not factored")],
         default='AUTO')
     scale: FloatProperty(name="Physical scale", default=1.0, min=1e-6, soft_min=0.01,
                          soft_max=100.0,

@@ -2,7 +2,8 @@
  * opaline_render.h - the opaline renderer library.
  *
  * Loads a Mitsuba 0.5/0.6-style scene (XML) and path traces it, with opaline's measured
- * heterogeneous subsurface materials (<subsurface type="svd|tucker|raw">) on shapes.
+ * heterogeneous subsurface materials on shapes (<subsurface type="svd|tucker|kcta|nmf|raw">,
+ * and the classical dipole, type="dipole"; see docs/subsurface-rendering.md).
  *
  * Use: op_scene_load() a scene, op_renderer_new() with options, op_renderer_render() it (as
  * many times as wanted), read op_renderer_image(), write it with op_scene_write_image(), free
@@ -82,6 +83,19 @@ void op_renderer_free(op_renderer *r);
  * when the cancel flag stopped it: the image then holds the finished tiles (others black, alpha
  * 0). The scene must outlive the call only. */
 op_status op_renderer_render(op_renderer *r, const op_scene *scene, op_error *err);
+
+/* What the last render computed for its subsurface pre-pass (all zero before the first render
+ * and for scenes without translucent shapes). The pre-pass computes only what camera paths
+ * need: see docs/subsurface-rendering.md. */
+typedef struct op_render_stats {
+    long long sss_points;    /* irradiance points laid, on the translucent shapes the camera reaches */
+    long long sss_sources;   /* points whose irradiance was computed */
+    long long sss_receivers; /* points whose exitance was computed */
+    int sss_shapes_reached;  /* translucent shapes some camera segment reaches */
+    double sss_seconds;      /* the pre-pass's wall time */
+} op_render_stats;
+
+void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);
 
 /* The last rendered image (width * height * 4 floats), or NULL before the first render. */
 const op_image *op_renderer_image(const op_renderer *r);

@@ -77,6 +77,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         e->type = OP_EM_AREA;
         e->mesh = mesh;
         e->shape = shape;
+        int visible;
+        GET_OR_FAIL(op_node_bool(node, "visibleToCamera", 1, &visible, err));
+        e->camera_hidden = !visible;
         return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
     }
     if (strcmp(t, "directional") == 0) {

@@ -183,8 +183,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             op_isect_from_hit(s, &hit, org, dir, &it);
             wi_world = v3_neg(dir);
             const op_shape_rec *sh = &s->shapes[it.shape];
-            if (sh->emitter >= 0 && !(depth == 0 && ig->hide_emitters && !start)) {
-                const op_emitter *e = &s->emitters[sh->emitter];
+            const op_emitter *e = sh->emitter >= 0 ? &s->emitters[sh->emitter] : NULL;
+            if (e && !(depth == 0 && !start && (ig->hide_emitters || e->camera_hidden))) {
                 /* emission leaves the front (winding) side */
                 op_v3 a, b, c;
                 op_trimesh_tri(&sh->mesh, it.prim, &a, &b, &c);
@@ -216,9 +216,9 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             if (max_depth >= 0 && depth + 2 > max_depth)
                 break;
             if (sh->sss >= 0) {
-                if (ctx->sss) {
+                op_v3 m;
+                if (ctx->sss && op_sss_lookup(ctx->sss, sh->sss, it.p, it.ns, &m)) {
                     /* the measured Rd already holds the boundary: L_o = M / pi */
-                    op_v3 m = op_sss_exitance(ctx->sss, sh->sss, it.p, it.ns);
                     if (v3_dot(wi_world, it.ng) > 0.0f)
                         L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
                     break;
@@ -304,6 +304,57 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
     if (t == OP_INT_NORMALS || t == OP_INT_UV || t == OP_INT_ALBEDO)
         return debug_view(ctx, org, dir, tmin, tmax, rng, alpha);
     return trace(ctx, org, dir, tmin, tmax, NULL, NULL, rng, alpha);
+}
+
+int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float tmax,
+                      int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine)
+{
+    const op_integrator *ig = &s->integrator;
+    int max_depth = ig->type == OP_INT_DIRECT ? 2 : ig->max_depth;
+    float len = 0.0f;
+    int passes = 0;
+    for (int depth = 0;;) {
+        op_ray_hit hit;
+        if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit))
+            return 0;
+        op_isect_from_hit(s, &hit, org, dir, it);
+        len += hit.t;
+        const op_shape_rec *sh = &s->shapes[it->shape];
+        const op_bsdf *mask = shape_mask(s, it->shape);
+        if (mask && op_bsdf_opacity_prob(mask) < 1.0f) {
+            if (++passes > OP_MAX_PASSES)
+                return 0;
+            org = op_offset_origin(it->p, it->ng, dir);
+            tmin = 0.0f;
+            if (!isinf(tmax))
+                tmax -= hit.t;
+            continue;
+        }
+        if (max_depth >= 0 && depth + 2 > max_depth)
+            return 0;
+        if (sh->sss >= 0) {
+            *dist = len;
+            *cosine = fabsf(v3_dot(dir, it->ng));
+            return 1;
+        }
+        const op_bsdf *bsdf = &s->bsdfs[sh->bsdf];
+        if (!op_bsdf_is_smooth_only(bsdf) || depth >= max_bounces)
+            return 0;
+        op_v3 wi_l = op_frame_to_local(&it->frame, v3_neg(dir));
+        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+        op_bsdf_sample bs;
+        if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
+            return 0;
+        op_v3 wo = op_frame_to_world(&it->frame, bs.wo);
+        if ((v3_dot(wo, it->ng) > 0.0f) != (bs.wo.z > 0.0f))
+            return 0;
+        depth++;
+        passes = 0;
+        org = op_offset_origin(it->p, it->ng, wo);
+        dir = wo;
+        tmin = 0.0f;
+        tmax = INFINITY;
+    }
 }
 
 op_v3 op_irradiance(const op_trace_ctx *ctx, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng)

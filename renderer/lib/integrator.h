@@ -2,7 +2,9 @@
  * importance sampling, Russian roulette), direct lighting (the path tracer at depth 2), the
  * debug views (normals, uv, albedo), and the irradiance estimate the subsurface pass uses.
  * Translucent shapes: a camera path that reaches one takes the cached exitance M/pi there and
- * ends; during the irradiance pass they act as diffuse surfaces of the material's mean albedo.
+ * ends; during the irradiance pass, and where the cache has no exitance (parts no camera
+ * segment reaches, see subsurface.h), they act as diffuse surfaces of the material's mean
+ * albedo.
  * Masked surfaces (bsdf.h): camera, indirect and debug rays pass through them with probability
  * 1 - opacity (not a bounce), shadow rays are attenuated by 1 - opacity; an emitter's own
  * emission is seen by rays that reach its front, whether they then pass through or not. */
@@ -39,6 +41,14 @@ op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w);
  * geometry, 0 when it escaped. */
 op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax, op_rng *rng,
             float *alpha);
+/* Follows the camera segment of a path from the camera ray (org, dir, tmin, tmax) the way the
+ * path tracer would: through masked surfaces (every mask that is not fully opaque is passed) and
+ * along smooth (delta) bounces, at most max_bounces of them, drawing choices from rng. Returns 1
+ * and fills *it, *dist (the path's length to it) and *cosine (|cos| between the last segment
+ * and the surface) when it ends on a translucent shape whose exitance the path tracer would use
+ * there (within maxDepth); 0 otherwise. */
+int op_camera_sss_hit(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
+                      int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
 /* One-sample estimate of the irradiance at surface point p (normals ng, ns): pi times the
  * radiance a white Lambertian surface would reflect there, with direct and indirect light. */
 op_v3 op_irradiance(const op_trace_ctx *ctx, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);

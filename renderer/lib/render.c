@@ -77,7 +77,13 @@ struct op_renderer {
     op_render_options opt;
     op_image img;
     int has_image;
+    op_render_stats stats;
 };
+
+void op_renderer_get_stats(const op_renderer *r, op_render_stats *st)
+{
+    *st = r->stats;
+}
 
 void op_render_options_init(op_render_options *opt)
 {
@@ -176,6 +182,7 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     const op_render_options *opt = &r->opt;
     op_image_free(&r->img);
     r->has_image = 0;
+    memset(&r->stats, 0, sizeof r->stats);
     op_status st = op_image_alloc(&r->img, s->film.width, s->film.height, 4, err);
     if (st)
         return st;
@@ -194,10 +201,17 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     int it = s->integrator.type;
     if (s->nsss > 0 && (it == OP_INT_PATH || it == OP_INT_DIRECT)) {
         op_sss_build_options so = {opt->threads, opt->seed, opt->cancel, opt->progress,
-                                   opt->progress_user};
+                                   opt->progress_user, 0};
         st = op_sss_cache_build(s, &so, &sss, err);
         if (st)
             return st;
+        op_sss_stats ss;
+        op_sss_cache_stats(sss, &ss);
+        r->stats.sss_points = ss.points;
+        r->stats.sss_sources = ss.sources;
+        r->stats.sss_receivers = ss.receivers;
+        r->stats.sss_shapes_reached = ss.shapes_reached;
+        r->stats.sss_seconds = ss.seconds;
         job.ctx.sss = sss;
     }
     int threads = op_parallel_threads(opt->threads);

@@ -40,11 +40,18 @@ typedef struct sss_shape {
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     float *table; /* dipole: its kernel row per channel (3 K^2), Rd integrated over each pixel */
+    int reached;           /* some camera segment reaches the shape: points are laid */
+    unsigned char *bmark;  /* per gather bucket: holds a receiver */
+    unsigned char *recv;   /* per point: its exitance is computed (a receiver) */
+    int32_t *rmap;         /* per point: its index among the receivers, or -1 */
+    int *src;              /* the points whose irradiance is computed (sources), ascending */
+    int nsrc, nrecv;
 } sss_shape;
 
 struct op_sss_cache {
     sss_shape *shapes;
     int n;
+    double seconds; /* the build's wall time */
 };
 
 static uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask)
@@ -311,10 +318,11 @@ static void irradiance_task(void *user, int task, int thread)
     sss_shape *ss = &job->cache->shapes[job->task_shape[task]];
     op_trace_ctx ctx = {job->scene, NULL};
     int first = job->task_first[task], last = first + POINTS_PER_TASK;
-    if (last > ss->n)
-        last = ss->n;
+    if (last > ss->nsrc)
+        last = ss->nsrc;
     int spp = ss->desc->irr_samples;
-    for (int k = first; k < last; k++) {
+    for (int l = first; l < last; l++) {
+        int k = ss->src[l];
         sss_point *q = &ss->pts[k];
         op_v3 sum = v3s(0.0f);
         for (int s = 0; s < spp; s++) {
@@ -382,7 +390,7 @@ static void scatter_task(void *user, int task, int thread)
     int first = chunk * job->chunk, last = first + job->chunk;
     if (last > ss->n)
         last = ss->n;
-    float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->n;
+    float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->nrecv;
     int K = ss->kernel;
     float *rows = job->rows[thread];
     float expect = ss->a_pix / ss->a_i; /* receivers per kernel pixel */
@@ -392,7 +400,7 @@ static void scatter_task(void *user, int task, int thread)
     float *val = NULL;
     for (int i = first; i < last; i++) {
         const sss_point *s = &ss->pts[i];
-        if (v3_is_black(s->e))
+        if (v3_is_black(s->e)) /* also every point that is not a source */
             continue;
         int x = (int)s->fx, y = (int)s->fy;
         if (ss->table)
@@ -413,6 +421,11 @@ static void scatter_task(void *user, int task, int thread)
         GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
             if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
                 continue;
+            got[0] += v[0];
+            got[1] += v[1];
+            got[2] += v[2];
+            if (ss->rmap[j] < 0)
+                continue; /* counts for the normalization only */
             if (nrec == cap) {
                 int nc = cap ? 2 * cap : 1024;
                 int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
@@ -426,11 +439,8 @@ static void scatter_task(void *user, int task, int thread)
                 val = v2;
                 cap = nc;
             }
-            rec[nrec] = j;
+            rec[nrec] = ss->rmap[j];
             memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
-            got[0] += v[0];
-            got[1] += v[1];
-            got[2] += v[2];
         });
         float g[3];
         for (int c = 0; c < 3; c++) {
@@ -450,6 +460,133 @@ static void scatter_task(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)(last - first));
 }
 
+/* One translucent hit of a camera segment: the shape, the point, and the length one radian of
+ * ray angle spans there (path length / |cos|). */
+typedef struct cam_hit {
+    op_v3 p;
+    float span;
+    int sss;
+} cam_hit;
+
+typedef struct cam_row {
+    cam_hit *h;
+    int n, cap;
+} cam_row;
+
+typedef struct cam_job {
+    const op_scene *scene;
+    uint64_t seed;
+    int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
+    cam_row *rows;
+    atomic_int nomem;
+} cam_job;
+
+enum { CAM_MAX_BOUNCES = 8 };
+
+/* Traces the camera segments through the pixel corners of one row of the ray grid. */
+static void camera_task(void *user, int task, int thread)
+{
+    (void)thread;
+    cam_job *job = user;
+    const op_scene *s = job->scene;
+    cam_row *row = &job->rows[task];
+    float fy = (float)(s->film.crop_y - job->ext + task);
+    for (int ix = 0; ix < job->gw; ix++) {
+        float fx = (float)(s->film.crop_x - job->ext + ix);
+        op_v3 org, dir;
+        float tmin, tmax, dist, cosine;
+        op_camera_ray(&s->camera, fx, fy, &org, &dir, &tmin, &tmax);
+        op_rng rng = op_rng_seed(job->seed ^ 0x43414d4552414d4bull,
+                                 (uint64_t)task * (uint64_t)job->gw + (uint64_t)ix, 0);
+        op_isect it;
+        if (!op_camera_sss_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it, &dist,
+                               &cosine))
+            continue;
+        if (row->n == row->cap) {
+            int nc = row->cap ? 2 * row->cap : 64;
+            cam_hit *h = realloc(row->h, (size_t)nc * sizeof *h);
+            if (!h) {
+                atomic_store(&job->nomem, 1);
+                return;
+            }
+            row->h = h;
+            row->cap = nc;
+        }
+        cam_hit *h = &row->h[row->n++];
+        h->p = it.p;
+        h->span = dist / fmaxf(cosine, 0.05f);
+        h->sss = s->shapes[it.shape].sss;
+    }
+}
+
+/* Marks as receivers the points within r of p (exactly: a hashed cell mark would also catch
+ * the far cells that share its bucket). */
+static void mark_near(sss_shape *ss, op_v3 p, float r)
+{
+    float r2 = r * r;
+    GRID_FOR_EACH(&ss->interp, p, r, i, {
+        op_v3 d = v3_sub(ss->pts[i].p, p);
+        if (v3_dot(d, d) <= r2)
+            ss->recv[i] = 1;
+    });
+}
+
+/* From the receivers marked in recv: their indices, the gather buckets that hold one, and the
+ * sources (points whose gather box, the one scatter_task visits, holds such a bucket). */
+static op_status select_points(sss_shape *ss, op_error *err)
+{
+    const sss_grid *g = &ss->gather;
+    ss->rmap = malloc((size_t)ss->n * sizeof *ss->rmap);
+    ss->src = malloc((size_t)ss->n * sizeof *ss->src);
+    ss->bmark = calloc((size_t)g->mask + 1, 1);
+    if (!ss->rmap || !ss->src || !ss->bmark)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    ss->nrecv = ss->nsrc = 0;
+    for (int j = 0; j < ss->n; j++) {
+        const int32_t *cg = g->coord + 3 * j;
+        ss->rmap[j] = ss->recv[j] ? ss->nrecv++ : -1;
+        if (ss->recv[j])
+            ss->bmark[cell_hash(cg[0], cg[1], cg[2], g->mask)] = 1;
+    }
+    for (int i = 0; i < ss->n; i++) {
+        int32_t lo[3], hi[3], need = 0;
+        cell_of(g, v3_sub(ss->pts[i].p, v3s(ss->radius)), lo);
+        cell_of(g, v3_add(ss->pts[i].p, v3s(ss->radius)), hi);
+        for (int32_t z = lo[2]; z <= hi[2] && !need; z++)
+            for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
+                for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
+                    need = ss->bmark[cell_hash(x, y, z, g->mask)];
+        if (need)
+            ss->src[ss->nsrc++] = i;
+    }
+    return OP_OK;
+}
+
+/* The camera pass: one segment per pixel corner of the film (widened by the filter's reach), so
+ * that every sample position lies within one grid spacing of a traced ray. Fills *rows (gh rows
+ * of hits) and marks the translucent shapes reached. */
+static op_status camera_pass(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
+                             cam_job *job, int *gh, op_error *err)
+{
+    const op_film *film = &scene->film;
+    memset(job, 0, sizeof *job);
+    job->scene = scene;
+    job->seed = opt->seed;
+    job->ext = (int)ceilf(fmaxf(film->filter_radius - 0.5f, 0.0f));
+    job->gw = film->width + 2 * job->ext + 1;
+    *gh = film->height + 2 * job->ext + 1;
+    job->rows = calloc((size_t)*gh, sizeof *job->rows);
+    if (!job->rows)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    op_status st = op_parallel_for(opt->threads, *gh, camera_task, job, opt->cancel, err);
+    if (st == OP_OK && atomic_load(&job->nomem))
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface camera pass");
+    for (int r = 0; st == OP_OK && r < *gh; r++)
+        for (int k = 0; k < job->rows[r].n; k++)
+            c->shapes[job->rows[r].h[k].sss].reached = 1;
+    return st;
+}
+
 static double now_s(void)
 {
     struct timespec ts;
@@ -460,7 +597,7 @@ static double now_s(void)
 op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
                              op_sss_cache **out, op_error *err)
 {
-    double t0 = now_s(), t1 = t0;
+    double t0 = now_s(), t1 = t0, tc = t0;
     op_sss_cache *c = calloc(1, sizeof *c);
     if (!c)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -471,6 +608,20 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
     op_status st = OP_OK;
+    cam_job cam;
+    memset(&cam, 0, sizeof cam);
+    int gh = 0;
+    if (opt->everywhere) {
+        for (int i = 0; i < c->n; i++)
+            c->shapes[i].reached = 1;
+    } else {
+        st = camera_pass(scene, c, opt, &cam, &gh, err);
+    }
+    tc = now_s();
+    /* the angle between neighbouring grid rays, bounded over the image plane */
+    const op_camera *cm = &scene->camera;
+    float pix = 2.0f * fmaxf(cm->tan_x / (float)cm->full_width, cm->tan_y / (float)cm->full_height) *
+                (1.0f + cm->tan_x * cm->tan_x + cm->tan_y * cm->tan_y);
     long long total = 0;
     for (int s = 0; s < scene->nshapes && st == OP_OK; s++) {
         const op_shape_rec *sh = &scene->shapes[s];
@@ -478,6 +629,11 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
             continue;
         sss_shape *ss = &c->shapes[sh->sss];
         ss->desc = &scene->sss[sh->sss];
+        if (!ss->reached) {
+            op_log(OP_LOG_INFO, "%s: no camera segment reaches this translucent shape: no "
+                   "irradiance points", sh->label);
+            continue;
+        }
         st = make_points(scene, sh, ss, err);
         if (st)
             break;
@@ -487,32 +643,58 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
         if (st == OP_OK)
             st = grid_build(&ss->interp, ss->pts, ss->n, scene->bmin, ss->h, err);
-        total += (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+        if (st == OP_OK && !(ss->recv = calloc((size_t)ss->n, 1)))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        if (st)
+            break;
+        if (opt->everywhere) {
+            memset(ss->recv, 1, (size_t)ss->n);
+        } else {
+            /* a sample lies within one grid spacing (pix * span) of a traced hit; the points
+             * its interpolation uses lie within h of the sample */
+            for (int r = 0; r < gh; r++)
+                for (int k = 0; k < cam.rows[r].n; k++) {
+                    const cam_hit *hh = &cam.rows[r].h[k];
+                    if (hh->sss == sh->sss)
+                        mark_near(ss, hh->p, ss->h + pix * hh->span);
+                }
+        }
+        st = select_points(ss, err);
+        if (st)
+            break;
+        total += (ss->nsrc + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
         op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
-               "of %.3g x %.3g scene units", sh->label, ss->n, ss->a_pix / ss->a_i, ss->width,
-               ss->height, ss->px, ss->py);
+               "of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
+               sh->label, ss->n, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
+               ss->nrecv, ss->nsrc);
     }
+    for (int r = 0; r < gh; r++)
+        free(cam.rows[r].h);
+    free(cam.rows);
     build_job job;
     memset(&job, 0, sizeof job);
     job.scene = scene;
     job.cache = c;
     job.seed = opt->seed;
+    double tp = now_s();
+    t1 = tp;
     if (st == OP_OK && total > 0) {
         job.task_shape = malloc((size_t)total * sizeof(int));
         job.task_first = malloc((size_t)total * sizeof(int));
         if (!job.task_shape || !job.task_first)
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         int t = 0;
-        uint64_t npts = 0;
+        uint64_t nsrc = 0, nrecv = 0;
         for (int s = 0; st == OP_OK && s < c->n; s++) {
-            npts += (uint64_t)c->shapes[s].n;
-            for (int k = 0; k < c->shapes[s].n; k += POINTS_PER_TASK) {
+            nsrc += (uint64_t)c->shapes[s].nsrc;
+            nrecv += (uint64_t)c->shapes[s].nrecv;
+            for (int k = 0; k < c->shapes[s].nsrc; k += POINTS_PER_TASK) {
                 job.task_shape[t] = s;
                 job.task_first[t++] = k;
             }
         }
         if (st == OP_OK) {
-            job.prog = op_progress_begin("irradiance", npts, opt->progress, opt->progress_user);
+            job.prog = op_progress_begin("irradiance", nsrc, opt->progress, opt->progress_user);
             st = op_parallel_for(opt->threads, (int)total, irradiance_task, &job, opt->cancel, err);
             op_progress_end(job.prog);
         }
@@ -521,22 +703,27 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         if (st == OP_OK && !(job.rows = calloc((size_t)threads, sizeof *job.rows)))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         if (st == OP_OK)
-            job.prog = op_progress_begin("subsurface", npts, opt->progress, opt->progress_user);
+            job.prog = op_progress_begin("subsurface", (uint64_t)nsrc, opt->progress,
+                                         opt->progress_user);
         for (int s = 0; st == OP_OK && s < c->n; s++) {
             sss_shape *ss = &c->shapes[s];
+            if (ss->nrecv == 0 || ss->nsrc == 0)
+                continue;
             int K = ss->kernel;
             for (int i = 0; i < threads && st == OP_OK; i++) {
                 free(job.rows[i]);
                 if (!(job.rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
                     st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
             }
+            /* the chunks are fixed ranges of all the points, whatever the camera needs, so a
+             * receiver's sum runs in the same order as in the full computation */
             ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
             if (ss->nchunks > MAX_CHUNKS)
                 ss->nchunks = MAX_CHUNKS;
             job.chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
             ss->nchunks = (ss->n + job.chunk - 1) / job.chunk;
             if (st == OP_OK &&
-                !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->n, sizeof(float))))
+                !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->nrecv, sizeof(float))))
                 st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
             job.scatter_shape = s;
             if (st == OP_OK)
@@ -547,10 +734,13 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
             if (st == OP_OK) {
                 float k = ss->a_i / ss->a_pix;
                 for (int j = 0; j < ss->n; j++) {
+                    int rj = ss->rmap[j];
+                    if (rj < 0)
+                        continue;
                     double m[3] = {0, 0, 0};
                     for (int ch = 0; ch < ss->nchunks; ch++)
                         for (int q = 0; q < 3; q++)
-                            m[q] += ss->acc[((size_t)ch * ss->n + j) * 3 + q];
+                            m[q] += ss->acc[((size_t)ch * ss->nrecv + (size_t)rj) * 3 + q];
                     ss->pts[j].m = v3((float)m[0] * k, (float)m[1] * k, (float)m[2] * k);
                 }
             }
@@ -565,9 +755,12 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     }
     free(job.task_shape);
     free(job.task_first);
-    if (st == OP_OK && total > 0)
-        op_log(OP_LOG_INFO, "subsurface pre-pass: %.3f s (irradiance %.3f s, scattering %.3f s)",
-               now_s() - t0, t1 - t0, now_s() - t1);
+    double te = now_s();
+    c->seconds = te - t0;
+    if (st == OP_OK && c->n > 0)
+        op_log(OP_LOG_INFO, "subsurface pre-pass: %.3f s (camera pass %.3f s, points %.3f s, "
+               "irradiance %.3f s, scattering %.3f s)", te - t0, tc - t0, tp - tc, t1 - tp,
+               te - t1);
     if (st) {
         op_sss_cache_free(c);
         return st;
@@ -581,10 +774,16 @@ void op_sss_cache_free(op_sss_cache *c)
     if (!c)
         return;
     for (int i = 0; i < c->n; i++) {
-        free(c->shapes[i].pts);
-        free(c->shapes[i].table);
-        grid_free(&c->shapes[i].gather);
-        grid_free(&c->shapes[i].interp);
+        sss_shape *ss = &c->shapes[i];
+        free(ss->pts);
+        free(ss->table);
+        free(ss->bmark);
+        free(ss->recv);
+        free(ss->rmap);
+        free(ss->src);
+        free(ss->acc);
+        grid_free(&ss->gather);
+        grid_free(&ss->interp);
     }
     free(c->shapes);
     free(c);
@@ -595,23 +794,50 @@ int op_sss_cache_points(const op_sss_cache *c, int sss)
     return sss >= 0 && sss < c->n ? c->shapes[sss].n : 0;
 }
 
-op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
+void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
+{
+    memset(st, 0, sizeof *st);
+    for (int i = 0; i < c->n; i++) {
+        st->points += c->shapes[i].n;
+        st->sources += c->shapes[i].nsrc;
+        st->receivers += c->shapes[i].nrecv;
+        st->shapes_reached += c->shapes[i].reached;
+    }
+    st->seconds = c->seconds;
+}
+
+int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
 {
     const sss_shape *ss = &c->shapes[sss];
+    *out = v3s(0.0f);
     if (!ss->pts)
-        return v3s(0.0f);
+        return 0;
     float h2 = ss->h * ss->h, wsum = 0.0f;
     op_v3 m = v3s(0.0f);
+    int ok = 1;
     GRID_FOR_EACH(&ss->interp, p, ss->h, i, {
         const sss_point *q = &ss->pts[i];
         op_v3 d = v3_sub(q->p, p);
         float w = 1.0f - v3_dot(d, d) / h2;
         if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
             continue;
+        if (!ss->recv[i])
+            ok = 0;
         wsum += w;
         m = v3_add(m, v3_scale(q->m, w));
     });
-    return wsum > 0.0f ? v3_scale(m, 1.0f / wsum) : v3s(0.0f);
+    if (!ok)
+        return 0;
+    if (wsum > 0.0f)
+        *out = v3_scale(m, 1.0f / wsum);
+    return 1;
+}
+
+op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
+{
+    op_v3 m;
+    op_sss_lookup(c, sss, p, n, &m);
+    return m;
 }
 
 int op_sss_parse_long_name(const char *name, char *out, size_t n, op_method *method, double *a,

@@ -5,6 +5,17 @@
  * path tracer, and the exitance at each point j is gathered from the points i within the
  * material's kernel footprint: M_j = sum_i E_i A_i Rd(pixel(i), offset(i -> j)) / A_pixel.
  * The camera pass interpolates M between the points near a hit; the radiance leaving is M / pi.
+ *
+ * The work follows what the camera needs: a first pass traces one camera segment (through masks
+ * and smooth bounces) per pixel corner and marks as receivers the points within the
+ * interpolation radius plus a pixel footprint of each translucent hit. Points are laid only on
+ * shapes that some camera segment reaches, exitance is computed only at the marked points
+ * (receivers), irradiance only at the points whose kernel footprint holds a receiver
+ * (sources). A receiver's M is bit-identical to the one the full computation gives, because
+ * point layout, irradiance streams and summation order do not depend on the marking. Where a
+ * path finds no exitance (op_sss_lookup returns 0: parts seen only after diffuse bounces, or
+ * sub-pixel slivers the corner rays missed) the surface acts as the irradiance pass's diffuse
+ * stand-in of mean albedo.
  * docs/subsurface-rendering.md describes the scheme, its mappings and its limits. Everything
  * depends on point indices only, so the result is the same for any thread count. */
 #ifndef OP_SUBSURFACE_H
@@ -18,18 +29,33 @@ typedef struct op_sss_build_options {
     atomic_int *cancel;
     op_progress_fn progress;
     void *progress_user;
+    int everywhere; /* 1: every point of every translucent shape, no camera pass */
 } op_sss_build_options;
 
-/* Builds the cache for every translucent shape of scene. */
+/* What a build computed, summed over the translucent shapes. */
+typedef struct op_sss_stats {
+    long long points;    /* irradiance points laid (on shapes a camera segment reaches) */
+    long long sources;   /* points whose irradiance was computed */
+    long long receivers; /* points whose exitance was computed */
+    int shapes_reached;  /* translucent shapes a camera segment reaches */
+    double seconds;      /* the build's wall time */
+} op_sss_stats;
+
+/* Builds the cache for the translucent shapes of scene (see above for which parts). */
 op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
                              op_sss_cache **out, op_error *err);
 void op_sss_cache_free(op_sss_cache *c);
 
-/* Exitance M at surface point p (shading normal n) of the shape with subsurface index sss. */
+/* Exitance M at surface point p (shading normal n) of the shape with subsurface index sss,
+ * interpolated between the points near p. Returns 0 (and *m black) when some of those points
+ * have no computed exitance; then the caller uses the diffuse stand-in. */
+int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *m);
+/* op_sss_lookup's M, black where it has none. */
 op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n);
 
 /* How many irradiance points a translucent shape got (for tests and logs). */
 int op_sss_cache_points(const op_sss_cache *c, int sss);
+void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st);
 
 /* The long material names of the Blender/Mitsuba plugin (Onel, Kurt, Ozturk), e.g.
  * "SVD S10 Div100 Add1 for Rd Chess4x4 v1(277x277x39x39)": "<METHOD> <params> for Rd <Name> ...",

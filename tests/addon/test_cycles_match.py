@@ -1,7 +1,8 @@
 """The proof that the light and world conversions are right: a small Lambertian scene (a
 diffuse floor seen from above) rendered by Cycles and by opaline from its export agree in mean
 pixel value within 5 % for each light type (point, spot, sun, area square / rectangle / disk)
-and for the world colour.
+and for the world colour, and with an area light facing the camera, its surface seen or hidden
+by the light object's camera visibility (visibleToCamera).
 
 Each case also evaluates the exported XML analytically (direct light on a Lambertian plane,
 Mitsuba's emitter definitions, area lights integrated numerically) and compares that with
@@ -225,6 +226,35 @@ class TestCyclesMatch(unittest.TestCase):
         self.build("disk")
         S.add_light('AREA', (0.0, 0.0, 1.0), energy=60.0, shape='DISK', size=0.6)
         self.compare("disk")
+
+    def seen_light(self, name, visible):
+        """A disk light facing the camera (its front fills ~13 % of the image) over a floor lit
+        by a sun; the light object's camera visibility on or off (Blender 3.4's default)."""
+        self.build(name)
+        S.add_light('SUN', (0, 0, 5), (math.radians(20), 0, 0), energy=2.0, angle=0.0)
+        ob = S.add_light('AREA', (0.0, 0.0, 2.0), (math.pi, 0, 0), energy=40.0, shape='DISK',
+                         size=1.0)
+        ob.visible_camera = visible
+        xml = os.path.join(self.dir, "scene.xml")
+        S.export(xml, samples=16)
+        text = open(xml).read()
+        self.assertEqual('name="visibleToCamera" value="false"' in text, not visible)
+        if S.renderer() is None:
+            self.skipTest("opaline-render is not built")
+        cyc = S.mean_rgb_rgba(S.load_image_rgba(S.render_cycles(
+            os.path.join(self.dir, "cycles.exr"), samples=16))[2])
+        out = S.render_cli(self, xml, os.path.join(self.dir, "opaline.pfm"), samples=16)
+        ren = S.mean_rgb_rows(S.read_pfm(out)[2])
+        print("%-10s Cycles %.5f  opaline %.5f  ratio %.4f" % (name, cyc, ren, ren / cyc))
+        self.assertLess(S.approx_rel(ren, cyc), TOL, "%s: opaline %.5f vs Cycles %.5f" %
+                        (name, ren, cyc))
+        return ren
+
+    def test_area_seen_by_camera(self):
+        shown = self.seen_light("seen", True)
+        hidden = self.seen_light("unseen", False)
+        # the disk's front (radiance 40 / (4 pi 0.25) ~ 12.7) shows only when visible
+        self.assertGreater(shown, hidden * 1.5)
 
     def test_world(self):
         sc = self.build("world")

@@ -500,6 +500,65 @@ class TestMaterials(Base):
         s, _ = self.shape()
         self.assertEqual(s.find("subsurface").get("type"), "svd")
 
+    def test_every_subsurface_type(self):
+        """kcta and nmf presets (by report, by the .opm's own META, by name), every method in
+        the file Method menu, and every dipole medium reach the scene as their type."""
+        folder = self.fake_presets()
+        import struct
+        import opaline.presets as P
+
+        def opm(name, method):
+            # a container with only a META section: header, META at 64, table after it
+            meta = ("method=%s\nname=%s\n" % (method, name)).encode()
+            table = 64 + ((len(meta) + 63) // 64) * 64
+            head = b"OPALINEM" + struct.pack("<IIQQII", 1, 1, table + 32, table, 0, 0)
+            body = head.ljust(64, b"\0") + meta.ljust(table - 64, b"\0")
+            body += b"META".ljust(8, b"\0") + struct.pack("<QQII", 64, len(meta), 0, 0)
+            with open(os.path.join(folder, name + ".opm"), "wb") as f:
+                f.write(body)
+
+        opm("KCTA_C8_T4_Test", "kcta")
+        with open(os.path.join(folder, "KCTA_C8_T4_Test.json"), "w") as f:
+            f.write('{"method": "kcta", "terms": 4}')
+        opm("NmfFromMeta", "nmf")        # no report, no prefix: the file's META says nmf
+        opm("NMF_T8_Test", "nmf")
+        opm("TUCKER_T4_P2_Test", "tucker")
+        opm("RAW_Test", "raw")
+        P.clear()
+        expect = {"KCTA_C8_T4_Test": "kcta", "NmfFromMeta": "nmf", "NMF_T8_Test": "nmf",
+                  "TUCKER_T4_P2_Test": "tucker", "RAW_Test": "raw", "SVD_S10_Test": "svd"}
+        mat = bpy.data.materials.new("sss")
+        self.set_mat(mat)
+        o = mat.opaline
+        o.enabled = True
+        for name, typ in expect.items():
+            self.assertEqual(P.find(name).method, typ, name)
+            o.kind = 'PRESET'
+            o.preset = name
+            s, _ = self.shape()
+            self.assertEqual(s.find("subsurface").get("type"), typ, name)
+            o.kind = 'FILE'
+            o.filepath = os.path.join(folder, name + ".opm")
+            o.file_method = 'AUTO'
+            s, _ = self.shape()
+            self.assertEqual(s.find("subsurface").get("type"), typ, name)
+        items = [i.identifier for i in o.bl_rna.properties["file_method"].enum_items]
+        self.assertEqual(set(items), {"AUTO", "svd", "tucker", "kcta", "nmf", "raw"})
+        for m in ("svd", "tucker", "kcta", "nmf", "raw"):
+            o.file_method = m
+            s, _ = self.shape()
+            self.assertEqual(s.find("subsurface").get("type"), m)
+        o.kind = 'DIPOLE'
+        media = [i.identifier for i in o.bl_rna.properties["dipole_material"].enum_items]
+        self.assertEqual(media, ["Apple", "Chicken1", "Chicken2", "Cream", "Ketchup", "Marble",
+                                 "Potato", "Skimmilk", "Skin1", "Skin2", "Spectralon",
+                                 "Wholemilk"])
+        for m in media:
+            o.dipole_material = m
+            s, _ = self.shape()
+            sub = s.find("subsurface")
+            self.assertEqual((sub.get("type"), value(sub, "string", "material")), ("dipole", m))
+
     def test_unknown_preset_reports(self):
         mat = bpy.data.materials.new("sss")
         self.set_mat(mat)

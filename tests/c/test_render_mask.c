@@ -1,7 +1,8 @@
 /* test_render_mask.c - the mask BSDF (Mitsuba's cut-out opacity): a fully transparent shape
  * leaves the image unchanged and casts no shadow, opacity 0.5 halves both its shadow and its
  * coverage within noise, the result does not depend on the thread count, and an area light
- * wearing a transparent mask is invisible from behind (the add-on's Cycles lights). */
+ * wearing a transparent mask is invisible from behind (the add-on's Cycles lights); with
+ * visibleToCamera=false it is not seen directly but still lights the scene and shows in mirrors. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -210,6 +211,82 @@ static void test_area_light_from_behind(void **state)
         fail_msg("area light seen from behind: centre %.4f, expected %.4f", sum, expect);
 }
 
+/* The mean of channel 0 over the 4 x 4 centre pixels of img. */
+static double centre_mean(const op_image *img)
+{
+    double sum = 0.0;
+    for (int y = RES / 2 - 2; y < RES / 2 + 2; y++)
+        for (int x = RES / 2 - 2; x < RES / 2 + 2; x++)
+            sum += img->pixels[4 * (y * RES + x)];
+    return sum / 16.0;
+}
+
+/* The camera looks down from z = 4 at a mirror (reflectance 0.5) at z = 0 with a disk light of
+ * radius 0.5 and radiance 5 at z = 1 facing up (flip = 0: toward the camera) or down (flip = 1:
+ * toward the mirror), visible to the camera or not. */
+static op_renderer *render_disk_mirror(int flip, int visible)
+{
+    char text[4096];
+    int n = snprintf(
+        text, sizeof text,
+        "<scene version=\"0.6.0\">"
+        " <integrator type=\"path\"/>"
+        " <sensor type=\"perspective\"><float name=\"fov\" value=\"60\"/>"
+        "  <transform name=\"toWorld\"><lookat origin=\"0,0,4\" target=\"0,0,0\" up=\"0,1,0\"/>"
+        "  </transform>"
+        "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"%d\"/>"
+        "   <integer name=\"height\" value=\"%d\"/><rfilter type=\"box\"/></film></sensor>"
+        " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
+        "  <bsdf type=\"conductor\"><string name=\"material\" value=\"none\"/>"
+        "   <rgb name=\"specularReflectance\" value=\"0.5\"/></bsdf></shape>"
+        " <shape type=\"disk\"><transform name=\"toWorld\"><scale value=\"0.5\"/>"
+        "  <rotate x=\"1\" angle=\"%d\"/><translate z=\"1\"/></transform>"
+        "  <emitter type=\"area\"><rgb name=\"radiance\" value=\"5\"/>"
+        "   <boolean name=\"visibleToCamera\" value=\"%s\"/></emitter>"
+        "  <bsdf type=\"mask\"><float name=\"opacity\" value=\"0\"/></bsdf></shape>"
+        "</scene>",
+        RES, RES, flip ? 180 : 0, visible ? "true" : "false");
+    assert_true(n > 0 && n < (int)sizeof text);
+    return render_text(text, 4, 2);
+}
+
+static void test_area_light_hidden_from_camera(void **state)
+{
+    (void)state;
+    /* facing the camera: seen directly (5) unless hidden (then the black sky in the mirror) */
+    op_renderer *up_vis = render_disk_mirror(0, 1), *up_hid = render_disk_mirror(0, 0);
+    /* facing the mirror: seen only in it (0.5 * 5), hidden or not */
+    op_renderer *dn_vis = render_disk_mirror(1, 1), *dn_hid = render_disk_mirror(1, 0);
+    double uv = centre_mean(op_renderer_image(up_vis)), uh = centre_mean(op_renderer_image(up_hid));
+    double dv = centre_mean(op_renderer_image(dn_vis)), dh = centre_mean(op_renderer_image(dn_hid));
+    print_message("disk light centre: facing camera %.4f (hidden %.4f), facing mirror %.4f "
+                  "(hidden %.4f)\n", uv, uh, dv, dh);
+    if (fabs(uv - 5.0) > 1e-3 || uh != 0.0)
+        fail_msg("disk facing the camera: %.4f visible, %.4f hidden; expected 5 and 0", uv, uh);
+    if (fabs(dv - 2.5) > 1e-3 || fabs(dh - 2.5) > 1e-3)
+        fail_msg("disk seen in the mirror: %.4f visible, %.4f hidden; expected 2.5", dv, dh);
+    op_renderer_free(up_vis);
+    op_renderer_free(up_hid);
+    op_renderer_free(dn_vis);
+    op_renderer_free(dn_hid);
+
+    /* it still lights the scene: the disk from test_area_light_from_behind, hidden */
+    const char *extra =
+        " <shape type=\"disk\"><transform name=\"toWorld\"><scale value=\"0.5\"/>"
+        "  <rotate x=\"1\" angle=\"180\"/><translate z=\"1\"/></transform>"
+        "  <emitter type=\"area\"><rgb name=\"radiance\" value=\"5\"/>"
+        "   <boolean name=\"visibleToCamera\" value=\"false\"/></emitter>"
+        "  <bsdf type=\"mask\"><float name=\"opacity\" value=\"0\"/></bsdf></shape>";
+    op_renderer *r = render_plane("direct", extra, 64, 2);
+    double got = centre_mean(op_renderer_image(r)), expect = 0.0;
+    for (int y = RES / 2 - 2; y < RES / 2 + 2; y++)
+        for (int x = RES / 2 - 2; x < RES / 2 + 2; x++)
+            expect += disk_lit_plane(world_x(x), -world_x(y), 0.5, 1.0, 5.0) / 16.0;
+    op_renderer_free(r);
+    if (fabs(got / expect - 1.0) > 0.03)
+        fail_msg("hidden area light: plane centre %.4f, expected %.4f", got, expect);
+}
+
 static void test_mask_parse(void **state)
 {
     (void)state;
@@ -236,6 +313,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_transparent_and_half),
         cmocka_unit_test(test_area_light_from_behind),
+        cmocka_unit_test(test_area_light_hidden_from_camera),
         cmocka_unit_test(test_mask_parse),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -104,10 +104,14 @@ def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def export_light(light, matrix, blender_version, warn):
+def export_light(light, matrix, blender_version, warn, visible_camera=True):
     """The <emitter> or <shape> element for a Blender light datablock `light` placed by the 4x4
     world matrix `matrix` (a sequence of rows). Returns None (after warn()) for lights opaline
-    cannot represent. `warn(msg)` collects messages for the user."""
+    cannot represent. `warn(msg)` collects messages for the user. `visible_camera` is the light
+    object's camera visibility (Object.visible_camera, off by default for lights in Blender 3.x):
+    when off, an area light's emitting surface is hidden from camera rays
+    (visibleToCamera=false) while it still lights the scene and shows in reflections, as in
+    Cycles. Point, spot and sun lights are never seen by the camera anyway."""
     from .xml_writer import Element, transform_lookat, transform_matrix
 
     color = _vec(light.color)
@@ -170,6 +174,8 @@ def export_light(light, matrix, blender_version, warn):
         s.add(transform_matrix("toWorld", rows))
         em = s.add(Element("emitter", {"type": "area"}))
         em.rgb("radiance", area_radiance(light.energy, area, color, blender_version))
+        if not visible_camera:
+            em.boolean("visibleToCamera", False)
         # A Cycles light object is invisible from behind, reflects nothing and casts no shadow:
         # a fully transparent mask (the emitter stays one-sided, seen only from its front).
         bs = s.add(Element("bsdf", {"type": "mask"}))

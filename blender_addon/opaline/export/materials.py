@@ -188,18 +188,5 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn):
 
 
 def _method_of_file(path):
-    import json
-    jp = os.path.splitext(path)[0] + ".json"
-    if os.path.isfile(jp):
-        try:
-            with open(jp, "r", encoding="utf-8") as fh:
-                m = str(json.load(fh).get("method", "")).lower()
-            if m in ("svd", "tucker", "raw"):
-                return m
-        except (OSError, ValueError, AttributeError):
-            pass
-    up = os.path.basename(path).upper()
-    for p in ("SVD", "TUCKER"):
-        if up.startswith(p):
-            return p.lower()
-    return "raw"
+    from ..presets import method_of
+    return method_of(path)

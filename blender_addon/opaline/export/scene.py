@@ -181,7 +181,8 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
             continue
         mw = _rows(inst.matrix_world)
         if ob.type == 'LIGHT':
-            el = lights_mod.export_light(ob.data, mw, bversion, warn)
+            el = lights_mod.export_light(ob.data, mw, bversion, warn,
+                                          bool(getattr(ob, "visible_camera", True)))
             if el is not None:
                 root.add(el)
                 res.lights += 1
