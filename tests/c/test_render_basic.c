@@ -8,45 +8,12 @@
 #include "opaline_render.h"
 #include "test_support.h"
 
-/* Writes text to a fresh temporary scene file; returns its path (static storage rotates). */
-static const char *write_scene(const char *text)
-{
-    const char *path = op_test_tmp_path("scene.xml");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-    return path;
-}
-
-/* Renders the scene at path with the given spp (0: the scene's) and threads. */
-static op_renderer *render(const char *path, int spp, int threads, op_scene **scene_out)
-{
-    op_error err = {0};
-    op_scene *scene = NULL;
-    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.spp = spp;
-    opt.threads = threads;
-    op_renderer *r = op_renderer_new(&opt);
-    assert_non_null(r);
-    st = op_renderer_render(r, scene, &err);
-    OP_ASSERT_OK(st, err);
-    if (scene_out)
-        *scene_out = scene;
-    else
-        op_scene_free(scene);
-    return r;
-}
-
 static void test_white_furnace(void **state)
 {
     (void)state;
     /* A diffuse sphere of albedo 0.5 inside a uniform environment of radiance 1: every pixel on
      * the sphere is 0.5 (light reflected once leaves the convex sphere for good). */
-    const char *path = write_scene(
+    const char *path = op_test_write_temp("scene.xml", 
         "<scene version=\"0.6.0\">"
         " <integrator type=\"path\"/>"
         " <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/>"
@@ -58,7 +25,7 @@ static void test_white_furnace(void **state)
         " <shape type=\"sphere\"><float name=\"radius\" value=\"1\"/>"
         "  <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5\"/></bsdf></shape>"
         "</scene>");
-    op_renderer *r = render(path, 64, 2, NULL);
+    op_renderer *r = op_test_render(path, 64, 2, 0);
     const op_image *img = op_renderer_image(r);
     assert_non_null(img);
     double sum[3] = {0, 0, 0};
@@ -88,7 +55,7 @@ static void test_lambertian_plane(void **state)
     /* Camera straight down from z = 4 with up = +y: world +x is to the right of the image and
      * +y up. A point light at (0.5, 0, 1) of intensity 2 over a plane of albedo 0.6:
      * L(x) = 0.6 / pi * I * h / d^3. The light's offset to +x pins the orientation. */
-    const char *path = write_scene(
+    const char *path = op_test_write_temp("scene.xml", 
         "<scene version=\"0.6.0\">"
         " <integrator type=\"direct\"/>"
         " <sensor type=\"perspective\"><float name=\"fov\" value=\"60\"/>"
@@ -102,7 +69,7 @@ static void test_lambertian_plane(void **state)
         " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
         "  <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.6\"/></bsdf></shape>"
         "</scene>");
-    op_renderer *r = render(path, 0, 2, NULL);
+    op_renderer *r = op_test_render(path, 0, 2, 0);
     const op_image *img = op_renderer_image(r);
     int w = img->width, h = img->height;
     double tx = tan(30.0 * M_PI / 180.0), ty = tx * h / w;
@@ -137,7 +104,7 @@ static void test_bad_scenes(void **state)
     (void)state;
     op_error err = {0};
     op_scene *scene = NULL;
-    const char *path = write_scene("<scene version=\"0.6.0\">\n"
+    const char *path = op_test_write_temp("scene.xml", "<scene version=\"0.6.0\">\n"
                                    " <shape type=\"teapot\"/>\n"
                                    "</scene>\n");
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
@@ -146,7 +113,7 @@ static void test_bad_scenes(void **state)
     assert_non_null(strstr(err.message, ":2:"));
     assert_non_null(strstr(err.message, "teapot"));
 
-    path = write_scene("<scene version=\"0.6.0\"><shape type=\"sphere\">"
+    path = op_test_write_temp("scene.xml", "<scene version=\"0.6.0\"><shape type=\"sphere\">"
                        "<subsurface type=\"svd\"><string name=\"material\" "
                        "value=\"NoSuchPreset_XYZ\"/></subsurface></shape></scene>");
     st = op_scene_load(path, NULL, 0, &scene, &err);
@@ -158,7 +125,7 @@ static void test_clamping_and_info(void **state)
 {
     (void)state;
     /* reflectance 100 and cutoffAngle 200 (as in the plugin slides' scene) are clamped */
-    const char *path = write_scene(
+    const char *path = op_test_write_temp("scene.xml", 
         "<scene version=\"0.6.0\">"
         " <sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
         "  <integer name=\"height\" value=\"6\"/><string name=\"filename\" value=\"x.exr\"/>"

@@ -8,16 +8,6 @@
 #include "opaline_render.h"
 #include "test_support.h"
 
-static const char *write_file(const char *suffix, const char *text)
-{
-    const char *path = op_test_tmp_path(suffix);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-    return path;
-}
-
 /* A small closed box: white walls, a red and a green wall, an area light in the ceiling and a
  * diffuse cube, seen through the open front. */
 static const char *cornell =
@@ -49,39 +39,13 @@ static const char *cornell =
     "  <ref id=\"white\"/></shape>"
     "</scene>";
 
-static op_image render(const char *path, int spp, int threads, uint64_t seed)
-{
-    op_error err = {0};
-    op_scene *scene = NULL;
-    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.spp = spp;
-    opt.threads = threads;
-    opt.seed = seed;
-    opt.tile_size = 8;
-    op_renderer *r = op_renderer_new(&opt);
-    assert_non_null(r);
-    st = op_renderer_render(r, scene, &err);
-    OP_ASSERT_OK(st, err);
-    const op_image *img = op_renderer_image(r);
-    op_image copy = {0};
-    st = op_image_alloc(&copy, img->width, img->height, 4, &err);
-    OP_ASSERT_OK(st, err);
-    memcpy(copy.pixels, img->pixels, (size_t)img->width * img->height * 4 * sizeof(float));
-    op_renderer_free(r);
-    op_scene_free(scene);
-    return copy;
-}
-
 static void test_threads_bit_identical(void **state)
 {
     (void)state;
-    const char *path = write_file("cornell.xml", cornell);
+    const char *path = op_test_write_temp("cornell.xml", cornell);
     char keep[1024];
     snprintf(keep, sizeof keep, "%s", path);
-    op_image a = render(keep, 8, 1, 0), b = render(keep, 8, 2, 0), c = render(keep, 8, 3, 0);
+    op_image a = op_test_render_image(keep, 8, 1, 0), b = op_test_render_image(keep, 8, 2, 0), c = op_test_render_image(keep, 8, 3, 0);
     size_t n = (size_t)a.width * a.height * 4 * sizeof(float);
     assert_memory_equal(a.pixels, b.pixels, n);
     assert_memory_equal(a.pixels, c.pixels, n);
@@ -95,32 +59,20 @@ static void test_threads_bit_identical(void **state)
     op_image_free(&c);
 }
 
-static double rmse(const op_image *a, const op_image *ref)
-{
-    double s = 0;
-    size_t n = (size_t)a->width * a->height;
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++) {
-            double d = a->pixels[4 * i + c] - ref->pixels[4 * i + c];
-            s += d * d;
-        }
-    return sqrt(s / (3.0 * n));
-}
-
 static void test_error_falls_as_inverse_sqrt_spp(void **state)
 {
     (void)state;
-    const char *path = write_file("cornell.xml", cornell);
+    const char *path = op_test_write_temp("cornell.xml", cornell);
     char keep[1024];
     snprintf(keep, sizeof keep, "%s", path);
     /* an independent reference (another seed) with 32x the largest sample count */
-    op_image ref = render(keep, 1024, 2, 12345);
+    op_image ref = op_test_render_image(keep, 1024, 2, 12345);
     double e[3];
     int spp[3] = {2, 8, 32};
     /* (the light is hidden from the camera: its few edge pixels would dominate the error) */
     for (int i = 0; i < 3; i++) {
-        op_image img = render(keep, spp[i], 2, 7);
-        e[i] = rmse(&img, &ref);
+        op_image img = op_test_render_image(keep, spp[i], 2, 7);
+        e[i] = op_test_image_rmse(&img, &ref);
         op_image_free(&img);
     }
     double ratio1 = e[0] / e[1], ratio2 = e[1] / e[2];

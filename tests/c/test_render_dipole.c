@@ -71,14 +71,6 @@ static void test_profile(void **state)
     assert_true(R > 5.0 && R < 100.0);
 }
 
-static void write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-}
-
 /* A flat square of half-side `half` scene units facing +z under irradiance 1 along -z, with the
  * dipole element body given. */
 static const char *slab_scene(const char *name, double half, const char *body)
@@ -95,7 +87,7 @@ static const char *slab_scene(const char *name, double half, const char *body)
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
              half, body);
-    write_text(path, text);
+    op_test_write_text(path, text);
     return path;
 }
 

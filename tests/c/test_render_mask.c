@@ -17,24 +17,7 @@
  * returns the renderer, which owns the image. */
 static op_renderer *render_text(const char *text, int spp, int threads)
 {
-    const char *path = op_test_tmp_path("scene.xml");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-    op_error err = {0};
-    op_scene *scene = NULL;
-    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.spp = spp;
-    opt.threads = threads;
-    op_renderer *r = op_renderer_new(&opt);
-    assert_non_null(r);
-    st = op_renderer_render(r, scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_scene_free(scene);
+    op_renderer *r = op_test_render(op_test_write_temp("scene.xml", text), spp, threads, 0);
     const op_image *img = op_renderer_image(r);
     assert_non_null(img);
     assert_int_equal(img->width, RES);

@@ -89,19 +89,8 @@ static void sss_element(char *out, size_t n, const char *mat)
 
 static op_renderer *render(const char *path, int threads, op_render_stats *stats)
 {
-    op_error err = {0};
-    op_scene *scene = NULL;
-    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.threads = threads;
-    op_renderer *r = op_renderer_new(&opt);
-    assert_non_null(r);
-    st = op_renderer_render(r, scene, &err);
-    OP_ASSERT_OK(st, err);
+    op_renderer *r = op_test_render(path, 0, threads, 0);
     op_renderer_get_stats(r, stats);
-    op_scene_free(scene);
     return r;
 }
 

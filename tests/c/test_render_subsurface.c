@@ -50,14 +50,6 @@ static void write_homogeneous(const char *path)
     free(rd);
 }
 
-static void write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-}
-
 static op_image render(const char *path, int threads)
 {
     op_error err = {0};
@@ -67,20 +59,8 @@ static op_image render(const char *path, int threads)
     op_scene_info info;
     op_scene_get_info(scene, &info);
     assert_int_equal(info.subsurface_shapes, 1);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.threads = threads;
-    op_renderer *r = op_renderer_new(&opt);
-    st = op_renderer_render(r, scene, &err);
-    OP_ASSERT_OK(st, err);
-    const op_image *img = op_renderer_image(r);
-    op_image copy = {0};
-    st = op_image_alloc(&copy, img->width, img->height, 4, &err);
-    OP_ASSERT_OK(st, err);
-    memcpy(copy.pixels, img->pixels, (size_t)img->width * img->height * 4 * sizeof(float));
-    op_renderer_free(r);
     op_scene_free(scene);
-    return copy;
+    return op_test_render_image(path, 0, threads, 0);
 }
 
 static void test_flat_uniform_exitance(void **state)
@@ -108,7 +88,7 @@ static void test_flat_uniform_exitance(void **state)
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
              mat);
-    write_text(scene, text);
+    op_test_write_text(scene, text);
     op_image img = render(scene, 2);
     double sum[3] = {0, 0, 0};
     int n = 0;
@@ -146,7 +126,7 @@ static void test_preset_path_and_threads(void **state)
     snprintf(env, sizeof env, "/nonexistent:%s", dir);
     setenv("OPALINE_PRESETS_PATH", env, 1);
     snprintf(scene, sizeof scene, "%s", op_test_tmp_path("sphere.xml"));
-    write_text(scene,
+    op_test_write_text(scene,
                "<scene version=\"0.6.0\">"
                " <integrator type=\"path\"/>"
                " <sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>"

@@ -77,14 +77,6 @@ static int setup(void **state)
     return 0;
 }
 
-static void write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-}
-
 /* A scene in dir with one translucent shape: `shape` (an element's opening and its children
  * before the subsurface), the subsurface of type/material, then `rest` (lights, camera). */
 static const char *scene_file(const char *file, const char *shape, const char *type,
@@ -98,7 +90,7 @@ static const char *scene_file(const char *file, const char *shape, const char *t
              " %s<subsurface type=\"%s\"><string name=\"material\" value=\"%s\"/>"
              " <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape></scene>",
              rest, shape, type, material);
-    write_text(path, text);
+    op_test_write_text(path, text);
     return path;
 }
 
@@ -285,42 +277,6 @@ static void test_energy(void **state)
     }
 }
 
-/* Renders the scene at path (threads, spp 2) into a fresh image. */
-static op_image render(const char *path, int threads)
-{
-    op_error err = {0};
-    op_scene *scene = NULL;
-    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.threads = threads;
-    opt.spp = 2;
-    op_renderer *r = op_renderer_new(&opt);
-    st = op_renderer_render(r, scene, &err);
-    OP_ASSERT_OK(st, err);
-    const op_image *img = op_renderer_image(r);
-    op_image copy = {0};
-    st = op_image_alloc(&copy, img->width, img->height, 4, &err);
-    OP_ASSERT_OK(st, err);
-    memcpy(copy.pixels, img->pixels, (size_t)img->width * img->height * 4 * sizeof(float));
-    op_renderer_free(r);
-    op_scene_free(scene);
-    return copy;
-}
-
-static double image_rmse(const op_image *a, const op_image *b)
-{
-    double s = 0;
-    int n = a->width * a->height;
-    for (int i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++) {
-            double d = a->pixels[4 * i + c] - b->pixels[4 * i + c];
-            s += d * d;
-        }
-    return sqrt(s / (3.0 * n));
-}
-
 /* RMSE of the material at path against the raw dataset over every row and offset. */
 static double data_rmse(const char *path)
 {
@@ -363,7 +319,8 @@ static void test_rmse_falls_with_terms(void **state)
     (void)state;
     char rest[2048];
     snprintf(rest, sizeof rest, "%s%s", uniform_light, camera);
-    op_image raw = render(scene_file("r.xml", slab_shape(), "raw", "RAW_Chess4x4", rest), 2);
+    const char *raw_scene = scene_file("r.xml", slab_shape(), "raw", "RAW_Chess4x4", rest);
+    op_image raw = op_test_render_image(raw_scene, 2, 2, 0);
     static const char *names[] = {"SVD_S1_Chess4x4", "SVD_S2_Chess4x4", "SVD_S4_Chess4x4",
                                   "SVD_S8_Chess4x4"};
     double prev_img = INFINITY, prev_data = INFINITY;
@@ -371,8 +328,9 @@ static void test_rmse_falls_with_terms(void **state)
         char mat[1300];
         snprintf(mat, sizeof mat, "%s/%s.opm", dir, names[k]);
         double de = data_rmse(mat);
-        op_image img = render(scene_file("s.xml", slab_shape(), "svd", names[k], rest), 2);
-        double ie = image_rmse(&img, &raw);
+        const char *scene = scene_file("s.xml", slab_shape(), "svd", names[k], rest);
+        op_image img = op_test_render_image(scene, 2, 2, 0);
+        double ie = op_test_image_rmse(&img, &raw);
         printf("%s: data RMSE %.3g, image RMSE %.3g\n", names[k], de, ie);
         if (!(ie < prev_img) || !(de < prev_data))
             fail_msg("%s: image RMSE %.3g (before %.3g), data RMSE %.3g (before %.3g): not falling "
@@ -434,18 +392,20 @@ static void test_rigid_motion_and_threads(void **state)
     static const char *types[] = {"svd", "tucker"}, *mats[] = {"SVD_S4_Chess4x4",
                                                                  "TUCKER_T4_P2_Chess4x4"};
     for (int k = 0; k < 2; k++) {
-        op_image a = render(moved_scene("m0.xml", none, 0.0, t0, types[k], mats[k]), 2);
-        op_image b = render(moved_scene("m1.xml", ax, 37.0, t, types[k], mats[k]), 2);
+        const char *still = moved_scene("m0.xml", none, 0.0, t0, types[k], mats[k]);
+        op_image a = op_test_render_image(still, 2, 2, 0);
+        const char *moved = moved_scene("m1.xml", ax, 37.0, t, types[k], mats[k]);
+        op_image b = op_test_render_image(moved, 2, 2, 0);
         double mean = 0;
         for (int i = 0; i < a.width * a.height; i++)
             mean += a.pixels[4 * i];
         mean /= a.width * a.height;
-        double e = image_rmse(&a, &b);
+        double e = op_test_image_rmse(&a, &b);
         printf("%s: moved scene, RMSE %.3g of mean %.3g\n", types[k], e, mean);
         if (!(mean > 0.0) || e > 0.02 * mean)
             fail_msg("%s: the moved scene differs: RMSE %.3g, mean %.3g", types[k], e, mean);
         /* and one thread gives the same bits as two */
-        op_image c = render(moved_scene("m1.xml", ax, 37.0, t, types[k], mats[k]), 1);
+        op_image c = op_test_render_image(moved, 2, 1, 0);
         assert_memory_equal(b.pixels, c.pixels, (size_t)b.width * b.height * 4 * sizeof(float));
         op_image_free(&a);
         op_image_free(&b);

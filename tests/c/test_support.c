@@ -2,6 +2,7 @@
 #include "test_support.h"
 
 #include <dirent.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -47,4 +48,70 @@ int op_test_count_prefix(const char *dir, const char *prefix)
         n += strncmp(e->d_name, prefix, strlen(prefix)) == 0;
     closedir(d);
     return n;
+}
+
+void op_test_write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    assert_true(fputs(text, f) >= 0);
+    assert_int_equal(fclose(f), 0);
+}
+
+const char *op_test_write_temp(const char *suffix, const char *text)
+{
+    const char *path = op_test_tmp_path(suffix);
+    op_test_write_text(path, text);
+    return path;
+}
+
+op_renderer *op_test_render(const char *path, int spp, int threads, uint64_t seed)
+{
+    op_error err = {0};
+    op_scene *scene = NULL;
+    op_status st = op_scene_load(path, NULL, 0, &scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_render_options opt;
+    op_render_options_init(&opt);
+    opt.spp = spp;
+    opt.threads = threads;
+    opt.seed = seed;
+    opt.tile_size = 8; /* many tiles even in small test images, so threads really interleave */
+    op_renderer *r = op_renderer_new(&opt);
+    assert_non_null(r);
+    st = op_renderer_render(r, scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_scene_free(scene);
+    return r;
+}
+
+op_image op_test_render_image(const char *path, int spp, int threads, uint64_t seed)
+{
+    op_renderer *r = op_test_render(path, spp, threads, seed);
+    const op_image *img = op_renderer_image(r);
+    assert_non_null(img);
+    op_error err = {0};
+    op_image copy = {0};
+    op_status st = op_image_alloc(&copy, img->width, img->height, img->channels, &err);
+    OP_ASSERT_OK(st, err);
+    memcpy(copy.pixels, img->pixels,
+           (size_t)img->width * img->height * (size_t)img->channels * sizeof(float));
+    op_renderer_free(r);
+    return copy;
+}
+
+double op_test_image_rmse(const op_image *a, const op_image *b)
+{
+    assert_int_equal(a->width, b->width);
+    assert_int_equal(a->height, b->height);
+    assert_int_equal(a->channels, b->channels);
+    double s = 0;
+    size_t n = (size_t)a->width * a->height;
+    int ch = a->channels;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3 && c < ch; c++) {
+            double d = (double)a->pixels[ch * i + c] - b->pixels[ch * i + c];
+            s += d * d;
+        }
+    return sqrt(s / ((ch < 3 ? ch : 3) * (double)n));
 }

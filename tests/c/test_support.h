@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "opaline.h"
+#include "opaline_render.h"
 
 /* A fresh path under the test build's tmp folder: "<tmp>/<test name>-<counter>-<suffix>". */
 const char *op_test_tmp_path(const char *suffix);
@@ -17,6 +18,17 @@ const char *op_test_tmp_path(const char *suffix);
 const char *op_test_shared_path(const char *rel);
 /* How many entries of folder dir have names starting with prefix. */
 int op_test_count_prefix(const char *dir, const char *prefix);
+/* Writes text to path, failing the test when it cannot. */
+void op_test_write_text(const char *path, const char *text);
+/* Writes text to a fresh temporary file (op_test_tmp_path(suffix)) and returns its path. */
+const char *op_test_write_temp(const char *suffix, const char *text);
+/* Loads and renders the scene at path, failing the test on any error; spp, threads and seed 0
+ * keep the defaults. Tiles are 8 x 8. The caller frees the renderer (the scene is freed). */
+op_renderer *op_test_render(const char *path, int spp, int threads, uint64_t seed);
+/* The same, returning a copy of the image (free it with op_image_free). */
+op_image op_test_render_image(const char *path, int spp, int threads, uint64_t seed);
+/* RMSE over the R, G, B channels of two images of the same size and channel count. */
+double op_test_image_rmse(const op_image *a, const op_image *b);
 /* Fails the test with the error's message unless st is OP_OK. */
 #define OP_ASSERT_OK(st, err)                                                                      \
     do {                                                                                           \
