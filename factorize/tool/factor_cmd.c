@@ -308,6 +308,56 @@ static void *alloc_or_null(uint64_t bytes)
 }
 
 /* The raw method: the cleaned dataset itself. */
+/* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, into
+ * mat (rows x cols). The per-row shifts and maxima go to *shift and *max, owned by the caller
+ * (both NULL when not shifted). */
+static op_status prepare_channel(const factor_args *a, const dataset *ds, int c, float *mat,
+                                 uint32_t **shift, float **max, op_error *err)
+{
+    int64_t rows = ds->rows;
+    int cols = ds->cols;
+    *shift = NULL;
+    *max = NULL;
+    if (a->shift) {
+        *shift = alloc_or_null((uint64_t)rows * sizeof **shift);
+        *max = alloc_or_null((uint64_t)rows * sizeof **max);
+        if (!*shift || !*max) {
+            free(*shift);
+            free(*max);
+            *shift = NULL;
+            *max = NULL;
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        }
+        op_prep_find_peaks(ds->rd[c], rows, cols, *shift, *max);
+    }
+    op_prep_apply(ds->rd[c], rows, cols, *shift, *max, mat);
+    return OP_OK;
+}
+
+/* Hands channel c's per-row shifts and maxima to out as "SHIFT.c" and "MAX.c" when st is OP_OK
+ * (else frees them); returns the resulting status. Accepts NULL (not shifted). */
+static op_status add_peaks(section_list *out, const dataset *ds, int c, uint32_t *shift,
+                           float *max, op_status st, op_error *err)
+{
+    char tag[16];
+    uint64_t rows = (uint64_t)ds->rows;
+    if (!shift) {
+        free(max);
+        return st;
+    }
+    op_channel_tag(tag, sizeof tag, "SHIFT.", &ds->info, c);
+    if (st == OP_OK)
+        st = sections_add(out, tag, shift, rows * sizeof *shift, err);
+    else
+        free(shift);
+    op_channel_tag(tag, sizeof tag, "MAX.", &ds->info, c);
+    if (st == OP_OK)
+        st = sections_add(out, tag, max, rows * sizeof *max, err);
+    else
+        free(max);
+    return st;
+}
+
 static op_status factor_raw(const dataset *ds, section_list *out, op_error *err)
 {
     uint64_t count = (uint64_t)ds->rows * (uint64_t)ds->cols;
@@ -345,18 +395,9 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_now();
-        if (a->shift) {
-            shift = alloc_or_null((uint64_t)rows * sizeof *shift);
-            max = alloc_or_null((uint64_t)rows * sizeof *max);
-            if (!shift || !max) {
-                free(shift);
-                free(max);
-                st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-                break;
-            }
-            op_prep_find_peaks(ds->rd[c], rows, cols, shift, max);
-        }
-        op_prep_apply(ds->rd[c], rows, cols, shift, max, mat);
+        st = prepare_channel(a, ds, c, mat, &shift, &max, err);
+        if (st != OP_OK)
+            break;
         op_prep_log(mat, (uint64_t)rows * (uint64_t)cols, a->log_a, a->log_b);
         op_progress_advance(prog, 1);
         double t1 = op_now();
@@ -384,18 +425,7 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
             st = sections_add(out, tag, v, (uint64_t)cols * (uint64_t)terms * sizeof *v, err);
         else
             free(v);
-        if (a->shift) {
-            op_channel_tag(tag, sizeof tag, "SHIFT.", &ds->info, c);
-            if (st == OP_OK)
-                st = sections_add(out, tag, shift, (uint64_t)rows * sizeof *shift, err);
-            else
-                free(shift);
-            op_channel_tag(tag, sizeof tag, "MAX.", &ds->info, c);
-            if (st == OP_OK)
-                st = sections_add(out, tag, max, (uint64_t)rows * sizeof *max, err);
-            else
-                free(max);
-        }
+        st = add_peaks(out, ds, c, shift, max, st, err);
     }
     op_progress_end(prog);
     free(mat);
@@ -461,18 +491,9 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_now();
-        if (a->shift) {
-            shift = alloc_or_null((uint64_t)rows * sizeof *shift);
-            max = alloc_or_null((uint64_t)rows * sizeof *max);
-            if (!shift || !max) {
-                free(shift);
-                free(max);
-                st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-                break;
-            }
-            op_prep_find_peaks(ds->rd[c], rows, cols, shift, max);
-        }
-        op_prep_apply(ds->rd[c], rows, cols, shift, max, mat);
+        st = prepare_channel(a, ds, c, mat, &shift, &max, err);
+        if (st != OP_OK)
+            break;
         double t1 = op_now();
         *prep_seconds += t1 - t0;
         op_kcta_model md;
@@ -520,18 +541,7 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
             st = sections_add(out, tag, md.coef, nidx * (uint64_t)terms * sizeof(float), err);
         else
             free(md.coef);
-        if (a->shift) {
-            op_channel_tag(tag, sizeof tag, "SHIFT.", &ds->info, c);
-            if (st == OP_OK)
-                st = sections_add(out, tag, shift, (uint64_t)rows * sizeof *shift, err);
-            else
-                free(shift);
-            op_channel_tag(tag, sizeof tag, "MAX.", &ds->info, c);
-            if (st == OP_OK)
-                st = sections_add(out, tag, max, (uint64_t)rows * sizeof *max, err);
-            else
-                free(max);
-        }
+        st = add_peaks(out, ds, c, shift, max, st, err);
     }
     op_progress_end(prog);
     free(mat);
