@@ -384,10 +384,14 @@ static op_status open_file(const char *path, int with_method, op_material **out,
     if (st == OP_OK && !(m->ops = method_ops(m->info.method)))
         st = op_error_set(err, OP_ERR_FORMAT, "%s: method '%s' is not supported by this build",
                           path, op_method_name(m->info.method));
-    if (st == OP_OK)
-        st = m->ops->prepare(m, err);
-    if (st != OP_OK) {
+    if (st == OP_OK && (st = m->ops->prepare(m, err)) != OP_OK)
         m->ops = NULL; /* prepare cleans up after itself on failure */
+    /* Factorizers store the row sums of their reconstruction, so the albedo map is a copy. */
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
+        st = op_material_float_section(m, "ALBEDO",
+                                       (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels,
+                                       1, &m->albedo, err);
+    if (st != OP_OK) {
         op_material_close(m);
         return st;
     }
@@ -442,9 +446,11 @@ void op_material_eval_row(const op_material *m, int channel, int x, int y, float
 
 op_status op_material_albedo_map(const op_material *m, float *out, op_error *err)
 {
-    if (m->ops->albedo)
-        return m->ops->albedo(m, out, err);
     int64_t rows = op_material_rows(m);
+    if (m->albedo) {
+        memcpy(out, m->albedo, (size_t)rows * (size_t)m->info.channels * sizeof *out);
+        return OP_OK;
+    }
     int cols = op_material_cols(m);
     float *row = malloc((size_t)cols * sizeof *row);
     if (!row)

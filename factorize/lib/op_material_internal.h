@@ -6,13 +6,12 @@
 
 /* One evaluation method. prepare() checks the method's sections against m->info (sizes,
  * finiteness, ranges) and builds m->state; after it succeeds eval and eval_row must never fail
- * or return a negative or non-finite value for in-range arguments. albedo may be NULL (the
- * container then sums eval_row). */
+ * or return a negative or non-finite value for in-range arguments. The albedo map is the
+ * container's: the stored "ALBEDO" section when the file has one, else the sums of eval_row. */
 typedef struct op_method_ops {
     op_status (*prepare)(op_material *m, op_error *err);
     float (*eval)(const op_material *m, int channel, int64_t row, int col);
     void (*eval_row)(const op_material *m, int channel, int64_t row, float *out);
-    op_status (*albedo)(const op_material *m, float *out, op_error *err);
     void (*destroy)(op_material *m);
 } op_method_ops;
 
@@ -25,6 +24,7 @@ struct op_material {
     char path[1024];
     uint32_t nsections;
     const unsigned char *table;
+    const float *albedo;    /* the "ALBEDO" section (channels x rows), or NULL */
 };
 
 /* Helpers for method modules. */

@@ -24,7 +24,6 @@ typedef struct kcta_state {
     const float *basis[3], *coef[3], *max[3];
     const void *idx[3];
     const uint32_t *shift[3];
-    const float *albedo;
 } kcta_state;
 
 static inline uint32_t cluster_of(const kcta_state *s, int c, int64_t row, int k)
@@ -161,9 +160,6 @@ static op_status kcta_prepare(op_material *m, op_error *err)
         if (st == OP_OK)
             st = check_range(m, s, c, err);
     }
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
-        st = op_material_float_section(m, "ALBEDO", rows * (uint64_t)in->channels, 1, &s->albedo,
-                                       err);
     if (st != OP_OK) {
         free(s);
         return st;
@@ -214,28 +210,6 @@ static void kcta_eval_row(const op_material *m, int channel, int64_t row, float 
         out[j + sh - n] = mx * entry(s, channel, row, j);
 }
 
-static op_status kcta_albedo(const op_material *m, float *out, op_error *err)
-{
-    const kcta_state *s = m->state;
-    if (s->albedo) {
-        memcpy(out, s->albedo, (size_t)s->rows * (size_t)m->info.channels * sizeof *out);
-        return OP_OK;
-    }
-    float *row = malloc((size_t)s->cols * sizeof *row);
-    if (!row)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
-    for (int c = 0; c < m->info.channels; c++)
-        for (int64_t r = 0; r < s->rows; r++) {
-            kcta_eval_row(m, c, r, row);
-            double sum = 0;
-            for (int j = 0; j < s->cols; j++)
-                sum += row[j];
-            out[c * s->rows + r] = (float)sum;
-        }
-    free(row);
-    return OP_OK;
-}
-
 static void kcta_destroy(op_material *m)
 {
     free(m->state);
@@ -246,6 +220,5 @@ const op_method_ops op_method_kcta_ops = {
     .prepare = kcta_prepare,
     .eval = kcta_eval,
     .eval_row = kcta_eval_row,
-    .albedo = kcta_albedo,
     .destroy = kcta_destroy,
 };

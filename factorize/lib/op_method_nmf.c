@@ -20,7 +20,6 @@ typedef struct nmf_state {
     int terms, cols;
     int64_t rows;
     const float *prof[3], *scale[3], *w[3], *h[3];
-    const float *albedo;
 } nmf_state;
 
 /* Rejects factors whose reconstruction could overflow a float. */
@@ -79,9 +78,6 @@ static op_status nmf_prepare(op_material *m, op_error *err)
         if (st == OP_OK)
             st = check_range(m, s, c, err);
     }
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
-        st = op_material_float_section(m, "ALBEDO", rows * (uint64_t)in->channels, 1, &s->albedo,
-                                       err);
     if (st != OP_OK) {
         free(s);
         return st;
@@ -112,28 +108,6 @@ static void nmf_eval_row(const op_material *m, int channel, int64_t row, float *
         out[j] = entry(s, channel, row, j);
 }
 
-static op_status nmf_albedo(const op_material *m, float *out, op_error *err)
-{
-    const nmf_state *s = m->state;
-    if (s->albedo) {
-        memcpy(out, s->albedo, (size_t)s->rows * (size_t)m->info.channels * sizeof *out);
-        return OP_OK;
-    }
-    float *row = malloc((size_t)s->cols * sizeof *row);
-    if (!row)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
-    for (int c = 0; c < m->info.channels; c++)
-        for (int64_t r = 0; r < s->rows; r++) {
-            nmf_eval_row(m, c, r, row);
-            double sum = 0;
-            for (int j = 0; j < s->cols; j++)
-                sum += row[j];
-            out[c * s->rows + r] = (float)sum;
-        }
-    free(row);
-    return OP_OK;
-}
-
 static void nmf_destroy(op_material *m)
 {
     free(m->state);
@@ -144,6 +118,5 @@ const op_method_ops op_method_nmf_ops = {
     .prepare = nmf_prepare,
     .eval = nmf_eval,
     .eval_row = nmf_eval_row,
-    .albedo = nmf_albedo,
     .destroy = nmf_destroy,
 };

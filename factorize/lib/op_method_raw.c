@@ -51,6 +51,5 @@ const op_method_ops op_method_raw_ops = {
     .prepare = raw_prepare,
     .eval = raw_eval,
     .eval_row = raw_eval_row,
-    .albedo = NULL,
     .destroy = raw_destroy,
 };

@@ -24,7 +24,6 @@ typedef struct svd_state {
     const float *u[3], *v[3]; /* per channel, in the file */
     const uint32_t *shift[3]; /* NULL when not shifted */
     const float *max[3];      /* NULL when not shifted */
-    const float *albedo;      /* NULL when absent */
     /* Per channel and row, one cache-line-aligned record: U[row] (terms floats), then the
      * maximum and the shift (as a float holding a whole number), so that one evaluation
      * touches one record instead of three sections. */
@@ -151,9 +150,6 @@ static op_status svd_prepare(op_material *m, op_error *err)
         if (st == OP_OK)
             st = build_rows(m, s, c, err);
     }
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
-        st = op_material_float_section(m, "ALBEDO", (uint64_t)rows * (uint64_t)in->channels, 1,
-                                       &s->albedo, err);
     if (st != OP_OK) {
         free_state(s);
         return st;
@@ -213,30 +209,6 @@ static void svd_eval_row(const op_material *m, int channel, int64_t row, float *
         out[j + sh - n] = mx * entry(s, u, v + (size_t)j * T);
 }
 
-static op_status svd_albedo(const op_material *m, float *out, op_error *err)
-{
-    const svd_state *s = m->state;
-    int64_t rows = op_material_rows(m);
-    if (s->albedo) {
-        memcpy(out, s->albedo, (size_t)rows * (size_t)m->info.channels * sizeof *out);
-        return OP_OK;
-    }
-    float *row = malloc((size_t)s->cols * sizeof *row);
-    if (!row)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
-    for (int c = 0; c < m->info.channels; c++) {
-        for (int64_t r = 0; r < rows; r++) {
-            svd_eval_row(m, c, r, row);
-            double sum = 0;
-            for (int j = 0; j < s->cols; j++)
-                sum += row[j];
-            out[c * rows + r] = (float)sum;
-        }
-    }
-    free(row);
-    return OP_OK;
-}
-
 static void svd_destroy(op_material *m)
 {
     free_state(m->state);
@@ -247,6 +219,5 @@ const op_method_ops op_method_svd_ops = {
     .prepare = svd_prepare,
     .eval = svd_eval,
     .eval_row = svd_eval_row,
-    .albedo = svd_albedo,
     .destroy = svd_destroy,
 };

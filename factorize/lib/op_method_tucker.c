@@ -19,7 +19,7 @@
 typedef struct tucker_state {
     int terms, degree, cols;
     int64_t rows;
-    const float *u, *v, *range, *beta, *max, *albedo;
+    const float *u, *v, *range, *beta, *max;
     const uint32_t *shift;
 } tucker_state;
 
@@ -96,9 +96,6 @@ static op_status tucker_prepare(op_material *m, op_error *err)
     }
     if (st == OP_OK)
         st = check_range(m, s, err);
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
-        st = op_material_float_section(m, "ALBEDO", rows * (uint64_t)in->channels, 1, &s->albedo,
-                                       err);
     if (st != OP_OK) {
         free(s);
         return st;
@@ -155,28 +152,6 @@ static void tucker_eval_row(const op_material *m, int channel, int64_t row, floa
         out[j + sh - n] = mx * entry(s, channel, row, s->v + (size_t)j * T);
 }
 
-static op_status tucker_albedo(const op_material *m, float *out, op_error *err)
-{
-    const tucker_state *s = m->state;
-    if (s->albedo) {
-        memcpy(out, s->albedo, (size_t)s->rows * (size_t)m->info.channels * sizeof *out);
-        return OP_OK;
-    }
-    float *row = malloc((size_t)s->cols * sizeof *row);
-    if (!row)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
-    for (int c = 0; c < m->info.channels; c++)
-        for (int64_t r = 0; r < s->rows; r++) {
-            tucker_eval_row(m, c, r, row);
-            double sum = 0;
-            for (int j = 0; j < s->cols; j++)
-                sum += row[j];
-            out[c * s->rows + r] = (float)sum;
-        }
-    free(row);
-    return OP_OK;
-}
-
 static void tucker_destroy(op_material *m)
 {
     free(m->state);
@@ -187,6 +162,5 @@ const op_method_ops op_method_tucker_ops = {
     .prepare = tucker_prepare,
     .eval = tucker_eval,
     .eval_row = tucker_eval_row,
-    .albedo = tucker_albedo,
     .destroy = tucker_destroy,
 };
