@@ -488,6 +488,11 @@ static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
         long long es, bs;
         GET_OR_FAIL(op_node_int(n, "emitterSamples", 1, &es, err));
         GET_OR_FAIL(op_node_int(n, "bsdfSamples", 1, &bs, err));
+        if (es != 1 || bs != 1)
+            op_log(OP_LOG_WARN, "%s:%d: <integrator type=\"direct\">: emitterSamples %lld and "
+                   "bsdfSamples %lld are not supported: opaline takes one emitter sample (of "
+                   "every emitter) and one BSDF sample per pixel sample; raise the sampler's "
+                   "sampleCount instead", n->file, n->line, es, bs);
         return OP_OK;
     }
     GET_OR_FAIL(op_node_int(n, "maxDepth", -1, &md, err));
