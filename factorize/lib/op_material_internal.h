@@ -32,10 +32,30 @@ int64_t op_material_rows(const op_material *m);
 int op_material_cols(const op_material *m);
 /* The tag of a per-channel section: prefix + "R"/"G"/"B", or + "Y" for one channel. */
 void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_info *info, int c);
+/* Finds a section that must hold exactly `bytes` bytes; *out is set only on success. */
+op_status op_material_sized_section(const op_material *m, const char *tag, uint64_t bytes,
+                                    const void **out, op_error *err);
 /* Finds a section that must hold exactly `count` little-endian float32 values, all finite and,
  * when nonneg is set, >= 0. */
 op_status op_material_float_section(const op_material *m, const char *tag, uint64_t count,
                                     int nonneg, const float **out, op_error *err);
+/* op_material_float_section for channel c's section prefix + "R"/"G"/"B" (or "Y"). */
+op_status op_material_channel_floats(const op_material *m, const char *prefix, int c,
+                                     uint64_t count, int nonneg, const float **out,
+                                     op_error *err);
+/* Finds the per-row shift and maximum sections of a shifted material (paper section 4.1):
+ * "SHIFT.c" (rows u32, each < cols) and "MAX.c" (rows float32, finite, >= 0) of channel c, or
+ * the channel-less "SHIFT" and "MAX" when c < 0. *shift and *max are set only when valid. */
+op_status op_material_shift_sections(const op_material *m, int c, const uint32_t **shift,
+                                     const float **max, op_error *err);
+/* out[t] = max over j < n of |v[j * T + t]| for t < T, v being n x T row-major: the factor
+ * bound the methods' overflow checks start from. */
+void op_column_abs_max(const float *v, int n, int T, double *out);
+/* Ends a prepare() whose state is one block from malloc: keeps it as m->state when st is OP_OK,
+ * else frees it; returns st. */
+op_status op_method_keep_state(op_material *m, void *state, op_status st);
+/* A destroy() for methods whose state is one block from malloc. */
+void op_method_free_state(op_material *m);
 
 /* Opens a file's container and META only (header, section table, checksums, dimensions) without
  * the method's checks: sections may be read with op_material_section, but eval, eval_row and

@@ -36,15 +36,11 @@ static inline uint32_t cluster_of(const kcta_state *s, int c, int64_t row, int k
 static op_status load_indices(const op_material *m, kcta_state *s, int c, op_error *err)
 {
     char tag[16];
-    uint64_t bytes = 0, count = (uint64_t)s->rows * (uint64_t)s->km;
+    uint64_t count = (uint64_t)s->rows * (uint64_t)s->km;
     op_channel_tag(tag, sizeof tag, "KIDX.", &m->info, c);
-    s->idx[c] = op_material_section(m, tag, &bytes);
-    if (!s->idx[c])
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
-    if (bytes != count * (uint64_t)s->ibytes)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected %llu",
-                            m->path, tag, (unsigned long long)bytes,
-                            (unsigned long long)(count * (uint64_t)s->ibytes));
+    op_status st = op_material_sized_section(m, tag, count * (uint64_t)s->ibytes, &s->idx[c], err);
+    if (st != OP_OK)
+        return st;
     for (int64_t r = 0; r < s->rows; r++)
         for (int k = 0; k < s->km; k++) {
             uint32_t v = cluster_of(s, c, r, k);
@@ -59,26 +55,6 @@ static op_status load_indices(const op_material *m, kcta_state *s, int c, op_err
     return OP_OK;
 }
 
-static op_status load_shift(const op_material *m, kcta_state *s, int c, op_error *err)
-{
-    char tag[16];
-    uint64_t bytes = 0;
-    op_channel_tag(tag, sizeof tag, "SHIFT.", &m->info, c);
-    s->shift[c] = op_material_section(m, tag, &bytes);
-    if (!s->shift[c])
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
-    if (bytes != (uint64_t)s->rows * sizeof(uint32_t))
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected %llu",
-                            m->path, tag, (unsigned long long)bytes,
-                            (unsigned long long)((uint64_t)s->rows * sizeof(uint32_t)));
-    for (int64_t r = 0; r < s->rows; r++)
-        if (s->shift[c][r] >= (uint32_t)s->cols)
-            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld shifts by %u >= %d",
-                                m->path, tag, (long long)r, s->shift[c][r], s->cols);
-    op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
-    return op_material_float_section(m, tag, (uint64_t)s->rows, 1, &s->max[c], err);
-}
-
 /* Rejects factors whose reconstruction could overflow a float: the sum is bounded by
  * sum_k sum_t |coef| * max_j |basis[cluster][j][t]|. */
 static op_status check_range(const op_material *m, const kcta_state *s, int c, op_error *err)
@@ -88,10 +64,7 @@ static op_status check_range(const op_material *m, const kcta_state *s, int c, o
     if (!bmax)
         return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
     for (int q = 0; q < s->clusters; q++)
-        for (int j = 0; j < n; j++)
-            for (int t = 0; t < T; t++)
-                bmax[(size_t)q * T + t] = fmax(bmax[(size_t)q * T + t],
-                                               fabs(s->basis[c][((size_t)q * n + j) * T + t]));
+        op_column_abs_max(s->basis[c] + (size_t)q * n * T, n, T, bmax + (size_t)q * T);
     op_status st = OP_OK;
     for (int64_t r = 0; r < s->rows && st == OP_OK; r++) {
         double bound = 0;
@@ -125,16 +98,11 @@ static op_status kcta_prepare(op_material *m, op_error *err)
     s->terms = in->terms;
     s->cols = op_material_cols(m);
     s->rows = op_material_rows(m);
-    op_status st = OP_OK;
-    uint64_t bytes = 0;
-    const uint32_t *par = op_material_section(m, "KCTA", &bytes);
-    if (!par)
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' is missing", m->path);
-    else if (bytes != 2 * sizeof(uint32_t))
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' holds %llu bytes, expected 8",
-                          m->path, (unsigned long long)bytes);
-    else if (par[0] < 1 || par[0] > 64 || par[0] > (uint32_t)s->clusters ||
-             (par[1] != 2 && par[1] != 4) || (par[1] == 2 && s->clusters > 65536))
+    const void *p = NULL;
+    op_status st = op_material_sized_section(m, "KCTA", 2 * sizeof(uint32_t), &p, err);
+    const uint32_t *par = p;
+    if (st == OP_OK && (par[0] < 1 || par[0] > 64 || par[0] > (uint32_t)s->clusters ||
+                        (par[1] != 2 && par[1] != 4) || (par[1] == 2 && s->clusters > 65536)))
         st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' says K_m = %u and index width "
                           "%u (need 1 <= K_m <= min(64, %d) and width 2 or 4)", m->path, par[0],
                           par[1], s->clusters);
@@ -144,28 +112,20 @@ static op_status kcta_prepare(op_material *m, op_error *err)
     }
     uint64_t rows = (uint64_t)s->rows, T = (uint64_t)s->terms;
     for (int c = 0; c < in->channels && st == OP_OK; c++) {
-        char tag[16];
-        op_channel_tag(tag, sizeof tag, "BASIS.", in, c);
-        st = op_material_float_section(m, tag, (uint64_t)s->clusters * (uint64_t)s->cols * T, 0,
-                                       &s->basis[c], err);
-        if (st == OP_OK) {
-            op_channel_tag(tag, sizeof tag, "KCOEF.", in, c);
-            st = op_material_float_section(m, tag, rows * (uint64_t)s->km * T, 0, &s->coef[c],
-                                           err);
-        }
+        st = op_material_channel_floats(m, "BASIS.", c,
+                                        (uint64_t)s->clusters * (uint64_t)s->cols * T, 0,
+                                        &s->basis[c], err);
+        if (st == OP_OK)
+            st = op_material_channel_floats(m, "KCOEF.", c, rows * (uint64_t)s->km * T, 0,
+                                            &s->coef[c], err);
         if (st == OP_OK)
             st = load_indices(m, s, c, err);
         if (st == OP_OK && in->shifted)
-            st = load_shift(m, s, c, err);
+            st = op_material_shift_sections(m, c, &s->shift[c], &s->max[c], err);
         if (st == OP_OK)
             st = check_range(m, s, c, err);
     }
-    if (st != OP_OK) {
-        free(s);
-        return st;
-    }
-    m->state = s;
-    return OP_OK;
+    return op_method_keep_state(m, s, st);
 }
 
 /* The reconstruction of entry j of the shifted, normalized row, clamped at 0. */
@@ -210,15 +170,9 @@ static void kcta_eval_row(const op_material *m, int channel, int64_t row, float 
         out[j + sh - n] = mx * entry(s, channel, row, j);
 }
 
-static void kcta_destroy(op_material *m)
-{
-    free(m->state);
-    m->state = NULL;
-}
-
 const op_method_ops op_method_kcta_ops = {
     .prepare = kcta_prepare,
     .eval = kcta_eval,
     .eval_row = kcta_eval_row,
-    .destroy = kcta_destroy,
+    .destroy = op_method_free_state,
 };

@@ -27,13 +27,9 @@ static op_status check_range(const op_material *m, const nmf_state *s, int c, op
 {
     const int T = s->terms;
     double hmax[4096], pmax = 0;
-    for (int t = 0; t < T; t++)
-        hmax[t] = 0;
-    for (int j = 0; j < s->cols; j++) {
+    op_column_abs_max(s->h[c], s->cols, T, hmax); /* H >= 0: its column maxima */
+    for (int j = 0; j < s->cols; j++)
         pmax = fmax(pmax, s->prof[c][j]);
-        for (int t = 0; t < T; t++)
-            hmax[t] = fmax(hmax[t], s->h[c][(size_t)j * T + t]);
-    }
     for (int64_t r = 0; r < s->rows; r++) {
         double bound = 0;
         for (int t = 0; t < T; t++)
@@ -60,30 +56,17 @@ static op_status nmf_prepare(op_material *m, op_error *err)
     uint64_t rows = (uint64_t)s->rows, n = (uint64_t)s->cols, T = (uint64_t)s->terms;
     op_status st = OP_OK;
     for (int c = 0; c < in->channels && st == OP_OK; c++) {
-        char tag[16];
-        op_channel_tag(tag, sizeof tag, "PROF.", in, c);
-        st = op_material_float_section(m, tag, n, 1, &s->prof[c], err);
-        if (st == OP_OK) {
-            op_channel_tag(tag, sizeof tag, "SCALE.", in, c);
-            st = op_material_float_section(m, tag, rows, 1, &s->scale[c], err);
-        }
-        if (st == OP_OK) {
-            op_channel_tag(tag, sizeof tag, "W.", in, c);
-            st = op_material_float_section(m, tag, rows * T, 1, &s->w[c], err);
-        }
-        if (st == OP_OK) {
-            op_channel_tag(tag, sizeof tag, "H.", in, c);
-            st = op_material_float_section(m, tag, n * T, 1, &s->h[c], err);
-        }
+        st = op_material_channel_floats(m, "PROF.", c, n, 1, &s->prof[c], err);
+        if (st == OP_OK)
+            st = op_material_channel_floats(m, "SCALE.", c, rows, 1, &s->scale[c], err);
+        if (st == OP_OK)
+            st = op_material_channel_floats(m, "W.", c, rows * T, 1, &s->w[c], err);
+        if (st == OP_OK)
+            st = op_material_channel_floats(m, "H.", c, n * T, 1, &s->h[c], err);
         if (st == OP_OK)
             st = check_range(m, s, c, err);
     }
-    if (st != OP_OK) {
-        free(s);
-        return st;
-    }
-    m->state = s;
-    return OP_OK;
+    return op_method_keep_state(m, s, st);
 }
 
 static inline float entry(const nmf_state *s, int c, int64_t row, int col)
@@ -108,15 +91,9 @@ static void nmf_eval_row(const op_material *m, int channel, int64_t row, float *
         out[j] = entry(s, channel, row, j);
 }
 
-static void nmf_destroy(op_material *m)
-{
-    free(m->state);
-    m->state = NULL;
-}
-
 const op_method_ops op_method_nmf_ops = {
     .prepare = nmf_prepare,
     .eval = nmf_eval,
     .eval_row = nmf_eval_row,
-    .destroy = nmf_destroy,
+    .destroy = op_method_free_state,
 };

@@ -15,17 +15,10 @@ static op_status raw_prepare(op_material *m, op_error *err)
     if (!s)
         return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
     uint64_t count = (uint64_t)op_material_rows(m) * (uint64_t)op_material_cols(m);
-    for (int c = 0; c < m->info.channels; c++) {
-        char tag[16];
-        op_channel_tag(tag, sizeof tag, "RD.", &m->info, c);
-        op_status st = op_material_float_section(m, tag, count, 1, &s->rd[c], err);
-        if (st != OP_OK) {
-            free(s);
-            return st;
-        }
-    }
-    m->state = s;
-    return OP_OK;
+    op_status st = OP_OK;
+    for (int c = 0; c < m->info.channels && st == OP_OK; c++)
+        st = op_material_channel_floats(m, "RD.", c, count, 1, &s->rd[c], err);
+    return op_method_keep_state(m, s, st);
 }
 
 static float raw_eval(const op_material *m, int channel, int64_t row, int col)
@@ -41,15 +34,9 @@ static void raw_eval_row(const op_material *m, int channel, int64_t row, float *
     memcpy(out, s->rd[channel] + row * cols, (size_t)cols * sizeof *out);
 }
 
-static void raw_destroy(op_material *m)
-{
-    free(m->state);
-    m->state = NULL;
-}
-
 const op_method_ops op_method_raw_ops = {
     .prepare = raw_prepare,
     .eval = raw_eval,
     .eval_row = raw_eval_row,
-    .destroy = raw_destroy,
+    .destroy = op_method_free_state,
 };

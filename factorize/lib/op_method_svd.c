@@ -64,40 +64,13 @@ static void free_state(svd_state *s)
     free(s);
 }
 
-/* Checks the shift and maximum sections of one channel. */
-static op_status load_shift(const op_material *m, svd_state *s, int c, op_error *err)
-{
-    char tag[16];
-    int64_t rows = op_material_rows(m);
-    uint64_t bytes = 0;
-    op_channel_tag(tag, sizeof tag, "SHIFT.", &m->info, c);
-    const uint32_t *sh = op_material_section(m, tag, &bytes);
-    if (!sh)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
-    if (bytes != (uint64_t)rows * sizeof(uint32_t))
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected %llu",
-                            m->path, tag, (unsigned long long)bytes,
-                            (unsigned long long)rows * sizeof(uint32_t));
-    for (int64_t r = 0; r < rows; r++)
-        if (sh[r] >= (uint32_t)s->cols)
-            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld shifts by %u >= %d",
-                                m->path, tag, (long long)r, sh[r], s->cols);
-    s->shift[c] = sh;
-    op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
-    return op_material_float_section(m, tag, (uint64_t)rows, 1, &s->max[c], err);
-}
-
 /* Rejects factors whose reconstruction could overflow a float: |U[r] . V[j]| is bounded by
  * sum_t |U[r][t]| * max_j |V[j][t]|. */
 static op_status check_range(const op_material *m, const svd_state *s, int c, op_error *err)
 {
     int T = s->terms;
     double vmax[4096];
-    for (int t = 0; t < T; t++)
-        vmax[t] = 0;
-    for (int j = 0; j < s->cols; j++)
-        for (int t = 0; t < T; t++)
-            vmax[t] = fmax(vmax[t], fabs(s->v[c][(size_t)j * T + t]));
+    op_column_abs_max(s->v[c], s->cols, T, vmax);
     double limit = log(FLT_MAX) - 1.0 - log(fmax(s->a, 1.0));
     int64_t rows = op_material_rows(m);
     for (int64_t r = 0; r < rows; r++) {
@@ -134,17 +107,13 @@ static op_status svd_prepare(op_material *m, op_error *err)
     int64_t rows = op_material_rows(m);
     op_status st = OP_OK;
     for (int c = 0; c < in->channels && st == OP_OK; c++) {
-        char tag[16];
-        op_channel_tag(tag, sizeof tag, "U.", in, c);
-        st = op_material_float_section(m, tag, (uint64_t)rows * (uint64_t)s->terms, 0, &s->u[c],
-                                       err);
-        if (st == OP_OK) {
-            op_channel_tag(tag, sizeof tag, "V.", in, c);
-            st = op_material_float_section(m, tag, (uint64_t)s->cols * (uint64_t)s->terms, 0,
-                                           &s->v[c], err);
-        }
+        st = op_material_channel_floats(m, "U.", c, (uint64_t)rows * (uint64_t)s->terms, 0,
+                                        &s->u[c], err);
+        if (st == OP_OK)
+            st = op_material_channel_floats(m, "V.", c, (uint64_t)s->cols * (uint64_t)s->terms,
+                                            0, &s->v[c], err);
         if (st == OP_OK && in->shifted)
-            st = load_shift(m, s, c, err);
+            st = op_material_shift_sections(m, c, &s->shift[c], &s->max[c], err);
         if (st == OP_OK)
             st = check_range(m, s, c, err);
         if (st == OP_OK)

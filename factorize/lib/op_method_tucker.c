@@ -29,11 +29,7 @@ static op_status check_range(const op_material *m, const tucker_state *s, op_err
 {
     int T = s->terms, np = s->degree + 1;
     double vmax[4096];
-    for (int t = 0; t < T; t++)
-        vmax[t] = 0;
-    for (int j = 0; j < s->cols; j++)
-        for (int t = 0; t < T; t++)
-            vmax[t] = fmax(vmax[t], fabs(s->v[(size_t)j * T + t]));
+    op_column_abs_max(s->v, s->cols, T, vmax);
     double limit = log(FLT_MAX) - 4.0;
     for (int64_t r = 0; r < s->rows; r++) {
         double bound = 0;
@@ -77,31 +73,11 @@ static op_status tucker_prepare(op_material *m, op_error *err)
         st = op_material_float_section(m, "BETA",
                                        (uint64_t)in->channels * rows * (uint64_t)(s->degree + 1),
                                        0, &s->beta, err);
-    if (st == OP_OK && in->shifted) {
-        uint64_t bytes = 0;
-        s->shift = op_material_section(m, "SHIFT", &bytes);
-        if (!s->shift)
-            st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'SHIFT' is missing", m->path);
-        else if (bytes != rows * sizeof(uint32_t))
-            st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'SHIFT' holds %llu bytes, "
-                              "expected %llu", m->path, (unsigned long long)bytes,
-                              (unsigned long long)(rows * sizeof(uint32_t)));
-        for (uint64_t r = 0; st == OP_OK && r < rows; r++)
-            if (s->shift[r] >= (uint32_t)s->cols)
-                st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'SHIFT' row %llu shifts by "
-                                  "%u >= %d", m->path, (unsigned long long)r, s->shift[r],
-                                  s->cols);
-        if (st == OP_OK)
-            st = op_material_float_section(m, "MAX", rows, 1, &s->max, err);
-    }
+    if (st == OP_OK && in->shifted)
+        st = op_material_shift_sections(m, -1, &s->shift, &s->max, err);
     if (st == OP_OK)
         st = check_range(m, s, err);
-    if (st != OP_OK) {
-        free(s);
-        return st;
-    }
-    m->state = s;
-    return OP_OK;
+    return op_method_keep_state(m, s, st);
 }
 
 /* One entry of the shifted, normalized matrix for channel c, clamped at 0. */
@@ -152,15 +128,9 @@ static void tucker_eval_row(const op_material *m, int channel, int64_t row, floa
         out[j + sh - n] = mx * entry(s, channel, row, s->v + (size_t)j * T);
 }
 
-static void tucker_destroy(op_material *m)
-{
-    free(m->state);
-    m->state = NULL;
-}
-
 const op_method_ops op_method_tucker_ops = {
     .prepare = tucker_prepare,
     .eval = tucker_eval,
     .eval_row = tucker_eval_row,
-    .destroy = tucker_destroy,
+    .destroy = op_method_free_state,
 };

@@ -97,6 +97,28 @@ static op_status sections_add(section_list *s, const char *tag, void *data, uint
     return OP_OK;
 }
 
+/* Hands data to s as section tag when st is OP_OK, else frees it; returns the resulting status.
+ * Chained calls thus pass on the first failure and free everything after it. */
+static op_status sections_add_if(section_list *s, op_status st, const char *tag, void *data,
+                                 uint64_t bytes, op_error *err)
+{
+    if (st != OP_OK) {
+        free(data);
+        return st;
+    }
+    return sections_add(s, tag, data, bytes, err);
+}
+
+/* sections_add_if for channel c's section prefix + "R"/"G"/"B" (or "Y"). */
+static op_status channel_add_if(section_list *s, op_status st, const char *prefix,
+                                const dataset *ds, int c, void *data, uint64_t bytes,
+                                op_error *err)
+{
+    char tag[16];
+    op_channel_tag(tag, sizeof tag, prefix, &ds->info, c);
+    return sections_add_if(s, st, tag, data, bytes, err);
+}
+
 static op_status parse_number(const char *opt, const char *val, double lo, double hi,
                               double *out, op_error *err)
 {
@@ -122,10 +144,44 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
     a->log_a = 100.0;
     a->log_b = 1.0;
     a->svd = op_rsvd_defaults();
+    /* The options taking a number in [lo, hi]: a whole one into ival, or any into dval. */
+    const struct {
+        const char *name;
+        double lo, hi;
+        int *ival;
+        double *dval;
+    } num[] = {
+        {"-T", 1, 4096, &a->terms, NULL},
+        {"-P", 0, 20, &a->degree, NULL},
+        {"-C", 1, 65536, &a->clusters, NULL},
+        {"--km", 1, 64, &a->km, NULL},
+        {"--iters", 1, 10000, &a->iters, NULL},
+        {"--homog-exp", 0, 1, NULL, &a->homog_exp},
+        {"--log-a", 1e-30, 1e30, NULL, &a->log_a},
+        {"--log-b", 1e-30, 1e30, NULL, &a->log_b},
+        {"--power-iters", 0, 100, &a->svd.power_iters, NULL},
+        {"--oversample", 0, 1000, &a->svd.oversample, NULL},
+    };
     for (int i = 1; i < argc; i++) {
         const char *o = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
-        double d = 0;
-        op_status st = OP_OK;
+        size_t k = 0;
+        while (k < sizeof num / sizeof num[0] && strcmp(o, num[k].name) != 0)
+            k++;
+        if (k < sizeof num / sizeof num[0]) {
+            double d = 0;
+            op_status st = parse_number(o, val, num[k].lo, num[k].hi, &d, err);
+            if (st != OP_OK)
+                return st;
+            i++;
+            if (num[k].dval)
+                *num[k].dval = d;
+            else if (d != floor(d))
+                return op_error_set(err, OP_ERR_INPUT, "%s needs a whole number, got '%s'", o,
+                                    val);
+            else
+                *num[k].ival = (int)d;
+            continue;
+        }
         if (!strcmp(o, "-o") || !strcmp(o, "--report") || !strcmp(o, "--albedo-png") ||
             !strcmp(o, "--name") || !strcmp(o, "--method") || !strcmp(o, "--precision")) {
             if (!val)
@@ -150,43 +206,6 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
             } else {
                 return op_error_set(err, OP_ERR_INPUT, "--precision must be single or double");
             }
-        } else if (!strcmp(o, "-T")) {
-            st = parse_number(o, val, 1, 4096, &d, err);
-            a->terms = (int)d;
-            i++;
-        } else if (!strcmp(o, "-P")) {
-            st = parse_number(o, val, 0, 20, &d, err);
-            a->degree = (int)d;
-            i++;
-        } else if (!strcmp(o, "-C")) {
-            st = parse_number(o, val, 1, 65536, &d, err);
-            a->clusters = (int)d;
-            i++;
-        } else if (!strcmp(o, "--km")) {
-            st = parse_number(o, val, 1, 64, &d, err);
-            a->km = (int)d;
-            i++;
-        } else if (!strcmp(o, "--iters")) {
-            st = parse_number(o, val, 1, 10000, &d, err);
-            a->iters = (int)d;
-            i++;
-        } else if (!strcmp(o, "--homog-exp")) {
-            st = parse_number(o, val, 0, 1, &a->homog_exp, err);
-            i++;
-        } else if (!strcmp(o, "--log-a")) {
-            st = parse_number(o, val, 1e-30, 1e30, &a->log_a, err);
-            i++;
-        } else if (!strcmp(o, "--log-b")) {
-            st = parse_number(o, val, 1e-30, 1e30, &a->log_b, err);
-            i++;
-        } else if (!strcmp(o, "--power-iters")) {
-            st = parse_number(o, val, 0, 100, &d, err);
-            a->svd.power_iters = (int)d;
-            i++;
-        } else if (!strcmp(o, "--oversample")) {
-            st = parse_number(o, val, 0, 1000, &d, err);
-            a->svd.oversample = (int)d;
-            i++;
         } else if (!strcmp(o, "-v") || !strcmp(o, "-q")) {
             op_log_set_level(o[1] == 'v' ? OP_LOG_DEBUG : OP_LOG_WARN);
         } else if (!strcmp(o, "--exact-svd")) {
@@ -202,12 +221,6 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
         } else {
             return op_error_set(err, OP_ERR_INPUT, "unexpected argument '%s'", o);
         }
-        if (st != OP_OK)
-            return st;
-        if ((!strcmp(o, "-T") || !strcmp(o, "-P") || !strcmp(o, "--power-iters") ||
-             !strcmp(o, "--oversample") || !strcmp(o, "-C") || !strcmp(o, "--km") ||
-             !strcmp(o, "--iters")) && d != floor(d))
-            return op_error_set(err, OP_ERR_INPUT, "%s needs a whole number, got '%s'", o, val);
     }
     if (!a->input || !a->output || a->method == OP_METHOD_COUNT)
         return op_error_set(err, OP_ERR_INPUT, "need IN.opm, -o OUT.opm and --method");
@@ -307,7 +320,16 @@ static void *alloc_or_null(uint64_t bytes)
     return bytes > (uint64_t)SIZE_MAX ? NULL : malloc(bytes ? (size_t)bytes : 1);
 }
 
-/* The raw method: the cleaned dataset itself. */
+/* Allocates one rows x cols float matrix of ds into *mat. */
+static op_status alloc_matrix(const dataset *ds, float **mat, op_error *err)
+{
+    *mat = alloc_or_null((uint64_t)ds->rows * (uint64_t)ds->cols * sizeof **mat);
+    if (!*mat)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
+                            (long long)ds->rows, ds->cols);
+    return OP_OK;
+}
+
 /* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, into
  * mat (rows x cols). The per-row shifts and maxima go to *shift and *max, owned by the caller
  * (both NULL when not shifted). */
@@ -339,25 +361,16 @@ static op_status prepare_channel(const factor_args *a, const dataset *ds, int c,
 static op_status add_peaks(section_list *out, const dataset *ds, int c, uint32_t *shift,
                            float *max, op_status st, op_error *err)
 {
-    char tag[16];
     uint64_t rows = (uint64_t)ds->rows;
     if (!shift) {
         free(max);
         return st;
     }
-    op_channel_tag(tag, sizeof tag, "SHIFT.", &ds->info, c);
-    if (st == OP_OK)
-        st = sections_add(out, tag, shift, rows * sizeof *shift, err);
-    else
-        free(shift);
-    op_channel_tag(tag, sizeof tag, "MAX.", &ds->info, c);
-    if (st == OP_OK)
-        st = sections_add(out, tag, max, rows * sizeof *max, err);
-    else
-        free(max);
-    return st;
+    st = channel_add_if(out, st, "SHIFT.", ds, c, shift, rows * sizeof *shift, err);
+    return channel_add_if(out, st, "MAX.", ds, c, max, rows * sizeof *max, err);
 }
 
+/* The raw method: the cleaned dataset itself. */
 static op_status factor_raw(const dataset *ds, section_list *out, op_error *err)
 {
     uint64_t count = (uint64_t)ds->rows * (uint64_t)ds->cols;
@@ -367,9 +380,7 @@ static op_status factor_raw(const dataset *ds, section_list *out, op_error *err)
             return op_error_set(err, OP_ERR_NOMEM, "out of memory");
         for (uint64_t i = 0; i < count; i++)
             v[i] = op_prep_clean(ds->rd[c][i]);
-        char tag[16];
-        op_channel_tag(tag, sizeof tag, "RD.", &ds->info, c);
-        op_status st = sections_add(out, tag, v, count * sizeof *v, err);
+        op_status st = channel_add_if(out, OP_OK, "RD.", ds, c, v, count * sizeof *v, err);
         if (st != OP_OK)
             return st;
     }
@@ -382,16 +393,14 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
 {
     int64_t rows = ds->rows;
     int cols = ds->cols;
-    float *mat = alloc_or_null((uint64_t)rows * (uint64_t)cols * sizeof *mat);
-    if (!mat)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
-                            (long long)rows, cols);
-    op_status st = OP_OK;
+    float *mat = NULL;
+    op_status st = alloc_matrix(ds, &mat, err);
+    if (st != OP_OK)
+        return st;
     op_progress *prog = op_progress_begin(
         "svd", (uint64_t)ds->info.channels *
                    (1 + op_rsvd_progress_units(rows, cols, terms, &a->svd)), NULL, NULL);
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        char tag[16];
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_now();
@@ -418,13 +427,10 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
             free(max);
             break;
         }
-        op_channel_tag(tag, sizeof tag, "U.", &ds->info, c);
-        st = sections_add(out, tag, us, (uint64_t)rows * (uint64_t)terms * sizeof *us, err);
-        op_channel_tag(tag, sizeof tag, "V.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, v, (uint64_t)cols * (uint64_t)terms * sizeof *v, err);
-        else
-            free(v);
+        st = channel_add_if(out, st, "U.", ds, c, us,
+                            (uint64_t)rows * (uint64_t)terms * sizeof *us, err);
+        st = channel_add_if(out, st, "V.", ds, c, v, (uint64_t)cols * (uint64_t)terms * sizeof *v,
+                            err);
         st = add_peaks(out, ds, c, shift, max, st, err);
     }
     op_progress_end(prog);
@@ -441,27 +447,18 @@ static op_status factor_tucker(const factor_args *a, const dataset *ds, int term
                                     a->degree, a->shift, &a->svd, &t, err);
     if (st != OP_OK)
         return st;
+    /* Every factor goes to out (or is freed): t holds nothing afterwards. */
     uint64_t rows = (uint64_t)ds->rows, np = (uint64_t)a->degree + 1;
-    st = sections_add(out, "U", t.u, rows * (uint64_t)terms * sizeof(float), err);
-    t.u = NULL;
-    if (st == OP_OK)
-        st = sections_add(out, "V", t.v, (uint64_t)ds->cols * (uint64_t)terms * sizeof(float),
-                          err);
-    t.v = NULL;
-    if (st == OP_OK)
-        st = sections_add(out, "RANGE", t.range, rows * 2 * sizeof(float), err);
-    t.range = NULL;
-    if (st == OP_OK)
-        st = sections_add(out, "BETA", t.beta,
-                          (uint64_t)ds->info.channels * rows * np * sizeof(float), err);
-    t.beta = NULL;
-    if (st == OP_OK && t.shift)
-        st = sections_add(out, "SHIFT", t.shift, rows * sizeof(uint32_t), err);
-    t.shift = NULL;
-    if (st == OP_OK && t.max)
-        st = sections_add(out, "MAX", t.max, rows * sizeof(float), err);
-    t.max = NULL;
-    op_tucker_free(&t);
+    st = sections_add_if(out, st, "U", t.u, rows * (uint64_t)terms * sizeof(float), err);
+    st = sections_add_if(out, st, "V", t.v,
+                         (uint64_t)ds->cols * (uint64_t)terms * sizeof(float), err);
+    st = sections_add_if(out, st, "RANGE", t.range, rows * 2 * sizeof(float), err);
+    st = sections_add_if(out, st, "BETA", t.beta,
+                         (uint64_t)ds->info.channels * rows * np * sizeof(float), err);
+    if (t.shift)
+        st = sections_add_if(out, st, "SHIFT", t.shift, rows * sizeof(uint32_t), err);
+    if (t.max)
+        st = sections_add_if(out, st, "MAX", t.max, rows * sizeof(float), err);
     return st;
 }
 
@@ -472,10 +469,10 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
 {
     int64_t rows = ds->rows;
     int cols = ds->cols;
-    float *mat = alloc_or_null((uint64_t)rows * (uint64_t)cols * sizeof *mat);
-    if (!mat)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
-                            (long long)rows, cols);
+    float *mat = NULL;
+    op_status st = alloc_matrix(ds, &mat, err);
+    if (st != OP_OK)
+        return st;
     op_kcta_options opt = op_kcta_defaults();
     opt.clusters = clusters;
     opt.km = a->km;
@@ -483,11 +480,9 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
     opt.max_iters = a->iters;
     opt.svd = a->svd;
     int wide = clusters > 65536 ? 4 : 2;
-    op_status st = OP_OK;
     op_progress *prog = op_progress_begin(
         "kcta", (uint64_t)ds->info.channels * (uint64_t)(2 + opt.max_iters), NULL, NULL);
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        char tag[16];
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_now();
@@ -527,20 +522,12 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
                 ((uint32_t *)idx)[q] = md.idx[q];
         }
         free(md.idx);
-        op_channel_tag(tag, sizeof tag, "BASIS.", &ds->info, c);
-        st = sections_add(out, tag, md.basis,
-                          (uint64_t)clusters * (uint64_t)cols * (uint64_t)terms * sizeof(float),
-                          err);
-        op_channel_tag(tag, sizeof tag, "KIDX.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, idx, nidx * (uint64_t)wide, err);
-        else
-            free(idx);
-        op_channel_tag(tag, sizeof tag, "KCOEF.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, md.coef, nidx * (uint64_t)terms * sizeof(float), err);
-        else
-            free(md.coef);
+        st = channel_add_if(out, st, "BASIS.", ds, c, md.basis,
+                            (uint64_t)clusters * (uint64_t)cols * (uint64_t)terms * sizeof(float),
+                            err);
+        st = channel_add_if(out, st, "KIDX.", ds, c, idx, nidx * (uint64_t)wide, err);
+        st = channel_add_if(out, st, "KCOEF.", ds, c, md.coef,
+                            nidx * (uint64_t)terms * sizeof(float), err);
         st = add_peaks(out, ds, c, shift, max, st, err);
     }
     op_progress_end(prog);
@@ -562,19 +549,17 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
 {
     int64_t rows = ds->rows;
     int cols = ds->cols;
-    float *q = alloc_or_null((uint64_t)rows * (uint64_t)cols * sizeof *q);
-    if (!q)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
-                            (long long)rows, cols);
+    float *q = NULL;
+    op_status st = alloc_matrix(ds, &q, err);
+    if (st != OP_OK)
+        return st;
     op_nmf_options opt = op_nmf_defaults();
     opt.rank = terms;
     opt.max_iter = a->iters;
     opt.svd = a->svd;
-    op_status st = OP_OK;
     op_progress *prog = op_progress_begin(
         "nmf", (uint64_t)ds->info.channels * (uint64_t)opt.max_iter, NULL, NULL);
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        char tag[16];
         double t0 = op_now();
         float *prof = alloc_or_null((uint64_t)cols * sizeof *prof);
         float *scale = alloc_or_null((uint64_t)rows * sizeof *scale);
@@ -602,26 +587,13 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
                    ns.norm > 0 ? sqrt(ns.initial / ns.norm) : 0.0, op_now() - t1);
         else
             op_error_prefix(err, "channel %d: ", c);
-        op_channel_tag(tag, sizeof tag, "PROF.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, prof, (uint64_t)cols * sizeof *prof, err);
-        else
-            free(prof);
-        op_channel_tag(tag, sizeof tag, "SCALE.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, scale, (uint64_t)rows * sizeof *scale, err);
-        else
-            free(scale);
-        op_channel_tag(tag, sizeof tag, "W.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, w, (uint64_t)rows * (uint64_t)terms * sizeof *w, err);
-        else
-            free(w);
-        op_channel_tag(tag, sizeof tag, "H.", &ds->info, c);
-        if (st == OP_OK)
-            st = sections_add(out, tag, h, (uint64_t)cols * (uint64_t)terms * sizeof *h, err);
-        else
-            free(h);
+        st = channel_add_if(out, st, "PROF.", ds, c, prof, (uint64_t)cols * sizeof *prof, err);
+        st = channel_add_if(out, st, "SCALE.", ds, c, scale, (uint64_t)rows * sizeof *scale,
+                            err);
+        st = channel_add_if(out, st, "W.", ds, c, w,
+                            (uint64_t)rows * (uint64_t)terms * sizeof *w, err);
+        st = channel_add_if(out, st, "H.", ds, c, h,
+                            (uint64_t)cols * (uint64_t)terms * sizeof *h, err);
     }
     op_progress_end(prog);
     free(q);

@@ -112,6 +112,19 @@ static void json_number(FILE *f, double v)
         fputs("null", f);
 }
 
+/* One member after the first: `,\n  "key": ` then the value. */
+static void json_field_string(FILE *f, const char *key, const char *v)
+{
+    fprintf(f, ",\n  \"%s\": ", key);
+    json_string(f, v);
+}
+
+static void json_field_number(FILE *f, const char *key, double v)
+{
+    fprintf(f, ",\n  \"%s\": ", key);
+    json_number(f, v);
+}
+
 op_status op_report_write_json(const op_factor_report *r, const char *path, op_error *err)
 {
     op_output *out;
@@ -121,32 +134,23 @@ op_status op_report_write_json(const op_factor_report *r, const char *path, op_e
     FILE *f = op_output_stream(out);
     fputs("{\n  \"name\": ", f);
     json_string(f, r->name);
-    fputs(",\n  \"method\": ", f);
-    json_string(f, r->method);
-    fputs(",\n  \"input\": ", f);
-    json_string(f, r->input);
-    fputs(",\n  \"output\": ", f);
-    json_string(f, r->output);
+    json_field_string(f, "method", r->method);
+    json_field_string(f, "input", r->input);
+    json_field_string(f, "output", r->output);
     fprintf(f, ",\n  \"width\": %d,\n  \"height\": %d,\n  \"kernel\": %d,\n  \"channels\": %d,\n"
-               "  \"terms\": %d,\n  \"degree\": %d,\n  \"shifted\": %s,\n",
+               "  \"terms\": %d,\n  \"degree\": %d,\n  \"shifted\": %s",
             r->width, r->height, r->kernel, r->channels, r->terms, r->degree,
             r->shifted ? "true" : "false");
-    fputs("  \"log_a\": ", f);
-    json_number(f, r->log_a);
-    fputs(",\n  \"log_b\": ", f);
-    json_number(f, r->log_b);
-    fprintf(f, ",\n  \"dataset_crc\": \"%08x\",\n  \"rmse\": ", (unsigned)r->dataset_crc);
-    json_number(f, r->rmse);
-    fputs(",\n  \"relative_rmse\": ", f);
-    json_number(f, r->relative_rmse);
-    fputs(",\n  \"psnr\": ", f);
-    json_number(f, r->psnr);
-    fputs(",\n  \"max_error\": ", f);
-    json_number(f, r->max_error);
-    fprintf(f, ",\n  \"size_bytes\": %llu,\n  \"original_bytes\": %llu,\n"
-               "  \"compression_ratio\": ",
+    json_field_number(f, "log_a", r->log_a);
+    json_field_number(f, "log_b", r->log_b);
+    fprintf(f, ",\n  \"dataset_crc\": \"%08x\"", (unsigned)r->dataset_crc);
+    json_field_number(f, "rmse", r->rmse);
+    json_field_number(f, "relative_rmse", r->relative_rmse);
+    json_field_number(f, "psnr", r->psnr);
+    json_field_number(f, "max_error", r->max_error);
+    fprintf(f, ",\n  \"size_bytes\": %llu,\n  \"original_bytes\": %llu",
             (unsigned long long)r->size_bytes, (unsigned long long)r->original_bytes);
-    json_number(f, r->compression_ratio);
+    json_field_number(f, "compression_ratio", r->compression_ratio);
     fprintf(f, ",\n  \"nonfinite_replaced\": %llu,\n  \"negative_values\": %llu,\n"
                "  \"stage_seconds\": {",
             (unsigned long long)r->nonfinite_replaced, (unsigned long long)r->negative_values);
@@ -154,17 +158,13 @@ op_status op_report_write_json(const op_factor_report *r, const char *path, op_e
         fprintf(f, "%s\"%s\": ", i ? ", " : "", r->stage_name[i]);
         json_number(f, r->stage_seconds[i]);
     }
-    fputs("},\n  \"total_seconds\": ", f);
-    json_number(f, r->total_seconds);
-    fprintf(f, ",\n  \"peak_memory_bytes\": %llu,\n  \"eval_ns\": ",
-            (unsigned long long)r->peak_memory_bytes);
-    json_number(f, r->eval_ns);
-    fputs(",\n  \"eval_random_ns\": ", f);
-    json_number(f, r->eval_random_ns);
-    fputs(",\n  \"albedo_map_seconds\": ", f);
-    json_number(f, r->albedo_map_seconds);
-    fputs(",\n  \"tool_version\": ", f);
-    json_string(f, op_version());
+    fputs("}", f);
+    json_field_number(f, "total_seconds", r->total_seconds);
+    fprintf(f, ",\n  \"peak_memory_bytes\": %llu", (unsigned long long)r->peak_memory_bytes);
+    json_field_number(f, "eval_ns", r->eval_ns);
+    json_field_number(f, "eval_random_ns", r->eval_random_ns);
+    json_field_number(f, "albedo_map_seconds", r->albedo_map_seconds);
+    json_field_string(f, "tool_version", op_version());
     fputs("\n}\n", f);
     return op_output_commit(out, err);
 }

@@ -37,12 +37,6 @@ static double gaussian(uint64_t *state)
 #define GEQRF LAPACKE_sgeqrf
 #define ORGQR LAPACKE_sorgqr
 #include "rsvd_impl.h"
-#undef REAL
-#undef FN
-#undef RSVD_IS_DOUBLE
-#undef GEMM
-#undef GEQRF
-#undef ORGQR
 
 #define REAL double
 #define FN(name) name##_double
@@ -51,12 +45,6 @@ static double gaussian(uint64_t *state)
 #define GEQRF LAPACKE_dgeqrf
 #define ORGQR LAPACKE_dorgqr
 #include "rsvd_impl.h"
-#undef REAL
-#undef FN
-#undef RSVD_IS_DOUBLE
-#undef GEMM
-#undef GEQRF
-#undef ORGQR
 
 /* Full SVD in double (gesdd), truncated to k. */
 static op_status exact_svd(const float *a, int64_t m, int64_t n, int k, float *us, float *v,

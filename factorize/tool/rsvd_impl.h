@@ -1,5 +1,6 @@
 /* rsvd_impl.h - the randomized stages of rsvd.c in one precision. Included by rsvd.c only,
- * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF and ORGQR defined. */
+ * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF and ORGQR defined;
+ * it undefines them at its end, ready for the next precision. */
 
 /* Replaces the columns of the column-major rows x cols matrix y by an orthonormal basis of
  * their span (Householder QR; rank-deficient input still yields orthonormal columns). */
@@ -120,3 +121,10 @@ done:
     free(usr);
     return st;
 }
+
+#undef REAL
+#undef FN
+#undef RSVD_IS_DOUBLE
+#undef GEMM
+#undef GEQRF
+#undef ORGQR

@@ -1,7 +1,7 @@
 /* factor_test_util.h - what the factorizer's tests share: small raw datasets written with
  * op_material_writer, running `opaline-factor factor` in-process with its stderr captured, and
- * comparing a material with its dataset. Header-only (static functions), included by
- * test_factor_svd.c and test_factor_tucker.c. */
+ * comparing a material with its dataset. Header-only (static functions), included by the
+ * test_factor_*.c programs. */
 #ifndef OP_FACTOR_TEST_UTIL_H
 #define OP_FACTOR_TEST_UTIL_H
 
@@ -35,11 +35,44 @@ static inline float *ds_at(ds_spec *d, int c, int64_t row, int col)
     return d->v + ((size_t)c * d->w * d->h + (size_t)row) * (size_t)(d->k * d->k) + col;
 }
 
+/* splitmix64: the next of a deterministic sequence of 64-bit values. */
+static inline uint64_t ds_splitmix(uint64_t *s)
+{
+    uint64_t x = (*s += 0x9e3779b97f4a7c15ull);
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+
+/* A deterministic uniform deviate in [0, 1). */
+static inline double ds_uniform(uint64_t *s)
+{
+    return (double)(ds_splitmix(s) >> 11) * 0x1.0p-53;
+}
+
 /* A smooth kernel-like profile: a Gaussian of width s around the kernel centre. */
 static inline float ds_profile(const ds_spec *d, int col, double s)
 {
     int h = d->k / 2, dy = col / d->k - h, dx = col % d->k - h;
     return (float)exp(-(dx * dx + dy * dy) / (2.0 * s * s));
+}
+
+/* A realistic small dataset: per-pixel Gaussian kernels whose width and brightness vary over a
+ * 2 x 2 checkerboard, different per channel; wobble > 0 also varies the width smoothly within
+ * the cells (by the factor 1 + wobble * sin(0.7 x + 0.3 y)). */
+static inline ds_spec ds_chess(int w, int h, int k, double wobble)
+{
+    ds_spec d = ds_new(w, h, k, 3);
+    for (int c = 0; c < 3; c++)
+        for (int64_t r = 0; r < (int64_t)w * h; r++) {
+            int x = (int)(r % w), y = (int)(r / w), cell = (2 * x / w + 2 * y / h) % 2;
+            double s = cell ? 1.0 + 0.3 * c : 2.0 - 0.2 * c, amp = cell ? 0.05 : 0.02 * (c + 1);
+            if (wobble > 0)
+                s *= 1.0 + wobble * sin(0.7 * x + 0.3 * y);
+            for (int j = 0; j < k * k; j++)
+                *ds_at(&d, c, r, j) = (float)(amp * ds_profile(&d, j, s));
+        }
+    return d;
 }
 
 /* Writes the dataset as a raw material; returns its path (a fresh copy to free). */
@@ -164,6 +197,26 @@ static inline void check_eval_paths(const char *path)
     op_material_close(m);
 }
 
+/* Opens a material that must be valid (close with op_material_close). */
+static inline op_material *open_valid(const char *path)
+{
+    op_material *m;
+    op_error err = {0};
+    OP_ASSERT_OK(op_material_open(path, &m, &err), err);
+    return m;
+}
+
+/* Checks that path is a readable image of w x h pixels. */
+static inline void check_image_size(const char *path, int w, int h)
+{
+    op_image img = {0};
+    op_error err = {0};
+    OP_ASSERT_OK(op_image_read(path, &img, &err), err);
+    assert_int_equal(img.width, w);
+    assert_int_equal(img.height, h);
+    op_image_free(&img);
+}
+
 /* The contents of a small text file (a fresh string to free). */
 static inline char *slurp(const char *path)
 {
@@ -174,6 +227,15 @@ static inline char *slurp(const char *path)
     buf[n] = '\0';
     fclose(f);
     return buf;
+}
+
+/* Checks that the small text file at path contains text. */
+static inline void check_file_contains(const char *path, const char *text)
+{
+    char *buf = slurp(path);
+    if (!strstr(buf, text))
+        fail_msg("%s does not contain '%s'", path, text);
+    free(buf);
 }
 
 #endif

@@ -8,15 +8,6 @@
 
 #include <lapacke.h>
 
-static double uniform(uint64_t *s)
-{
-    uint64_t x = (*s += 0x9e3779b97f4a7c15ull);
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-    x ^= x >> 31;
-    return (double)(x >> 11) * 0x1.0p-53;
-}
-
 /* Rows of varied Gaussian kernels (side x side columns), like shifted real data, with noise. */
 static float *kernel_rows(int rows, int side, double noise)
 {
@@ -24,12 +15,12 @@ static float *kernel_rows(int rows, int side, double noise)
     float *a = malloc((size_t)rows * n * sizeof *a);
     uint64_t rng = 5;
     for (int i = 0; i < rows; i++) {
-        double w = 0.8 + 2.5 * uniform(&rng), amp = 0.5 + uniform(&rng);
-        double cx = side / 2 + uniform(&rng) - 0.5, cy = side / 2 + uniform(&rng) - 0.5;
+        double w = 0.8 + 2.5 * ds_uniform(&rng), amp = 0.5 + ds_uniform(&rng);
+        double cx = side / 2 + ds_uniform(&rng) - 0.5, cy = side / 2 + ds_uniform(&rng) - 0.5;
         for (int j = 0; j < n; j++) {
             double dx = j % side - cx, dy = j / side - cy;
             a[(size_t)i * n + j] = (float)(amp * exp(-(dx * dx + dy * dy) / (2 * w * w)) +
-                                           noise * (uniform(&rng) - 0.5));
+                                           noise * (ds_uniform(&rng) - 0.5));
         }
     }
     return a;
@@ -160,9 +151,9 @@ static float *mixture_rows(int rows, int n, uint64_t seed)
     float *a = calloc((size_t)rows * n, sizeof *a);
     uint64_t rng = seed;
     for (int i = 0; i < rows; i++) {
-        int c1 = (int)(uniform(&rng) * 4), c2 = (c1 + 1 + (int)(uniform(&rng) * 3)) % 4;
-        double y[4] = {1 + uniform(&rng), 1 + uniform(&rng), 0.1 + 0.3 * uniform(&rng),
-                       0.1 + 0.3 * uniform(&rng)};
+        int c1 = (int)(ds_uniform(&rng) * 4), c2 = (c1 + 1 + (int)(ds_uniform(&rng) * 3)) % 4;
+        double y[4] = {1 + ds_uniform(&rng), 1 + ds_uniform(&rng), 0.1 + 0.3 * ds_uniform(&rng),
+                       0.1 + 0.3 * ds_uniform(&rng)};
         for (int j = 0; j < n; j++) {
             int c = (j % 8) / 2, t = j % 2;
             double v = 1.0 + 0.3 * (j % 3);
@@ -230,23 +221,9 @@ static void empty_clusters_are_split(void **state)
     free(a);
 }
 
-static ds_spec chess(int w, int h, int k)
-{
-    ds_spec d = ds_new(w, h, k, 3);
-    for (int c = 0; c < 3; c++)
-        for (int64_t r = 0; r < (int64_t)w * h; r++) {
-            int x = (int)(r % w), y = (int)(r / w), cell = (2 * x / w + 2 * y / h) % 2;
-            double s = cell ? 1.0 + 0.3 * c : 2.0 - 0.2 * c, amp = cell ? 0.05 : 0.02 * (c + 1);
-            s *= 1.0 + 0.1 * sin(0.7 * x + 0.3 * y);
-            for (int j = 0; j < k * k; j++)
-                *ds_at(&d, c, r, j) = (float)(amp * ds_profile(&d, j, s));
-        }
-    return d;
-}
-
 static void end_to_end(void **state)
 {
-    ds_spec d = chess(16, 12, 7);
+    ds_spec d = ds_chess(16, 12, 7, 0.1);
     char *in = ds_write(&d);
     char out[1024], report[1024], png[1024], errtext[8192];
     snprintf(out, sizeof out, "%s", op_test_tmp_path("kcta.opm"));
@@ -259,9 +236,7 @@ static void end_to_end(void **state)
     print_message("  kcta C=4 K_m=2 T=2: relative RMSE %.3g\n", rel);
     assert_true(rel < 0.02);
     check_eval_paths(out);
-    op_material *m;
-    op_error err = {0};
-    OP_ASSERT_OK(op_material_open(out, &m, &err), err);
+    op_material *m = open_valid(out);
     const op_material_info *info = op_material_get_info(m);
     assert_int_equal(info->method, OP_METHOD_KCTA);
     assert_int_equal(info->terms, 2);
@@ -276,13 +251,8 @@ static void end_to_end(void **state)
     assert_int_equal(bytes, 16 * 12 * 2 * 2);
     assert_non_null(op_material_section(m, "ALBEDO", NULL));
     op_material_close(m);
-    char *json = slurp(report);
-    assert_non_null(strstr(json, "\"method\": \"kcta\""));
-    free(json);
-    op_image img = {0};
-    OP_ASSERT_OK(op_image_read(png, &img, &err), err);
-    assert_int_equal(img.width, 16);
-    op_image_free(&img);
+    check_file_contains(report, "\"method\": \"kcta\"");
+    check_image_size(png, 16, 12);
 
     /* K_m = 1 and unshifted. */
     const char *a2[] = {"--method", "kcta", "-C", "3", "--km", "1", "-T", "3", "--no-shift",
@@ -313,7 +283,7 @@ static void end_to_end(void **state)
 
 static void bad_arguments(void **state)
 {
-    ds_spec d = chess(4, 4, 3);
+    ds_spec d = ds_chess(4, 4, 3, 0.1);
     char *in = ds_write(&d);
     char errtext[8192], out[1024];
     snprintf(out, sizeof out, "%s", op_test_tmp_path("bad.opm"));

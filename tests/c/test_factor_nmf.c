@@ -5,15 +5,6 @@
 
 #include "nmf.h"
 
-static double uniform(uint64_t *s)
-{
-    uint64_t x = (*s += 0x9e3779b97f4a7c15ull);
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-    x ^= x >> 31;
-    return (double)(x >> 11) * 0x1.0p-53;
-}
-
 static void homogeneous_profile(void **state)
 {
     ds_spec d = ds_new(6, 5, 7, 1);
@@ -21,7 +12,7 @@ static void homogeneous_profile(void **state)
     for (int64_t r = 0; r < 30; r++)
         for (int j = 0; j < 49; j++)
             *ds_at(&d, 0, r, j) = (float)((1 + r % 4) * ds_profile(&d, j, 1.0 + 0.05 * r) *
-                                          (0.9 + 0.2 * uniform(&rng)));
+                                          (0.9 + 0.2 * ds_uniform(&rng)));
     float prof[49], scale[30];
     op_nmf_homogeneous(d.v, 30, 7, 1.0, prof, scale);
     double sum = 0;
@@ -51,10 +42,10 @@ static void hals_on_exact_nonnegative_data(void **state)
     double w0[300][3], h0[40][3];
     for (int i = 0; i < rows; i++)
         for (int t = 0; t < T; t++)
-            w0[i][t] = uniform(&rng) < 0.3 ? 0 : uniform(&rng);
+            w0[i][t] = ds_uniform(&rng) < 0.3 ? 0 : ds_uniform(&rng);
     for (int j = 0; j < cols; j++)
         for (int t = 0; t < T; t++)
-            h0[j][t] = uniform(&rng) < 0.3 ? 0 : uniform(&rng);
+            h0[j][t] = ds_uniform(&rng) < 0.3 ? 0 : ds_uniform(&rng);
     for (int i = 0; i < rows; i++)
         for (int j = 0; j < cols; j++)
             q[i * cols + j] = (float)(w0[i][0] * h0[j][0] + w0[i][1] * h0[j][1] +
@@ -121,17 +112,13 @@ static void end_to_end(void **state)
     print_message("  homogeneous material, T=1: relative RMSE %.3g\n", rel);
     assert_true(rel < 1e-5);
     check_eval_paths(out);
-    op_material *m;
-    op_error err = {0};
-    OP_ASSERT_OK(op_material_open(out, &m, &err), err);
+    op_material *m = open_valid(out);
     assert_int_equal(op_material_get_info(m)->method, OP_METHOD_NMF);
     assert_int_equal(op_material_get_info(m)->shifted, 0);
     assert_non_null(op_material_section(m, "PROF.G", NULL));
     assert_non_null(op_material_section(m, "ALBEDO", NULL));
     op_material_close(m);
-    char *json = slurp(report);
-    assert_non_null(strstr(json, "\"method\": \"nmf\""));
-    free(json);
+    check_file_contains(report, "\"method\": \"nmf\"");
     free(in);
     free(d.v);
 

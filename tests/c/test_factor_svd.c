@@ -13,12 +13,8 @@
 static double normal(uint64_t *s)
 {
     uint64_t z[2];
-    for (int i = 0; i < 2; i++) {
-        uint64_t x = (*s += 0x9e3779b97f4a7c15ull);
-        x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-        x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-        z[i] = x ^ (x >> 31);
-    }
+    for (int i = 0; i < 2; i++)
+        z[i] = ds_splitmix(s);
     double u1 = ((double)(z[0] >> 11) + 1.0) * 0x1.0p-53, u2 = (double)(z[1] >> 11) * 0x1.0p-53;
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }
@@ -155,24 +151,9 @@ static void rsvd_deterministic_and_exact_when_small(void **state)
 
 /* ------------------------------------------------------------ the method end to end */
 
-/* A realistic small dataset: per-pixel Gaussian kernels whose width and brightness vary over a
- * 2 x 2 checkerboard, different per channel. */
-static ds_spec chess(int w, int h, int k)
-{
-    ds_spec d = ds_new(w, h, k, 3);
-    for (int c = 0; c < 3; c++)
-        for (int64_t r = 0; r < (int64_t)w * h; r++) {
-            int x = (int)(r % w), y = (int)(r / w), cell = (2 * x / w + 2 * y / h) % 2;
-            double s = cell ? 1.0 + 0.3 * c : 2.0 - 0.2 * c, amp = cell ? 0.05 : 0.02 * (c + 1);
-            for (int j = 0; j < k * k; j++)
-                *ds_at(&d, c, r, j) = (float)(amp * ds_profile(&d, j, s));
-        }
-    return d;
-}
-
 static void svd_end_to_end(void **state)
 {
-    ds_spec d = chess(16, 12, 7);
+    ds_spec d = ds_chess(16, 12, 7, 0);
     char *in = ds_write(&d);
     char out[1024], report[1024], png[1024], errtext[8192];
     snprintf(out, sizeof out, "%s", op_test_tmp_path("svd.opm"));
@@ -185,9 +166,7 @@ static void svd_end_to_end(void **state)
     print_message("  svd T=6 relative RMSE %.3g\n", rel);
     assert_true(rel < 0.02);
     check_eval_paths(out);
-    op_material *m;
-    op_error err = {0};
-    OP_ASSERT_OK(op_material_open(out, &m, &err), err);
+    op_material *m = open_valid(out);
     const op_material_info *info = op_material_get_info(m);
     assert_int_equal(info->method, OP_METHOD_SVD);
     assert_int_equal(info->terms, 6);
@@ -196,17 +175,11 @@ static void svd_end_to_end(void **state)
     assert_string_equal(info->name, "Chess test");
     assert_non_null(op_material_section(m, "ALBEDO", NULL));
     op_material_close(m);
-    char *json = slurp(report);
-    assert_non_null(strstr(json, "\"method\": \"svd\""));
-    assert_non_null(strstr(json, "\"relative_rmse\": "));
-    assert_non_null(strstr(json, "\"compression_ratio\": "));
-    assert_non_null(strstr(json, "\"peak_memory_bytes\": "));
-    free(json);
-    op_image img = {0};
-    OP_ASSERT_OK(op_image_read(png, &img, &err), err);
-    assert_int_equal(img.width, 16);
-    assert_int_equal(img.height, 12);
-    op_image_free(&img);
+    check_file_contains(report, "\"method\": \"svd\"");
+    check_file_contains(report, "\"relative_rmse\": ");
+    check_file_contains(report, "\"compression_ratio\": ");
+    check_file_contains(report, "\"peak_memory_bytes\": ");
+    check_image_size(png, 16, 12);
 
     /* Unshifted, and other A and B. */
     const char *args2[] = {"--method", "svd", "-T", "6", "--no-shift", "--log-a", "0.01",
@@ -222,7 +195,7 @@ static void svd_end_to_end(void **state)
 
 static void bad_arguments(void **state)
 {
-    ds_spec d = chess(4, 4, 3);
+    ds_spec d = ds_chess(4, 4, 3, 0);
     char *in = ds_write(&d);
     char errtext[8192], out[1024], other[1024];
     snprintf(out, sizeof out, "%s", op_test_tmp_path("bad.opm"));
@@ -250,7 +223,7 @@ static void bad_arguments(void **state)
 
 static void zero_and_constant_rows(void **state)
 {
-    ds_spec d = chess(8, 8, 5);
+    ds_spec d = ds_chess(8, 8, 5, 0);
     for (int c = 0; c < 3; c++)
         for (int64_t r = 0; r < 64; r++)
             for (int j = 0; j < 25; j++) {
@@ -279,7 +252,7 @@ static void zero_and_constant_rows(void **state)
 
 static void negative_noise(void **state)
 {
-    ds_spec clean = chess(8, 8, 5), d = chess(8, 8, 5);
+    ds_spec clean = ds_chess(8, 8, 5, 0), d = ds_chess(8, 8, 5, 0);
     uint64_t rng = 3;
     int negatives = 0;
     for (size_t i = 0; i < (size_t)3 * 64 * 25; i++) {
@@ -303,10 +276,9 @@ static void negative_noise(void **state)
     print_message("  negative noise (%d values): relative RMSE to the clean signal %.3g (the "
                   "noisy data's %.3g)\n", negatives, rel, noise);
     assert_true(rel < noise);
-    char *json = slurp(report), expect[64];
+    char expect[64];
     snprintf(expect, sizeof expect, "\"negative_values\": %d,", negatives);
-    assert_non_null(strstr(json, expect));
-    free(json);
+    check_file_contains(report, expect);
     const char *raw[] = {"--method", "raw", NULL};
     assert_int_equal(run_factor(in, out, errtext, sizeof errtext, raw), 0);
     assert_true(ds_compare(&d, out, NULL) < 0.01); /* only the negatives were clamped */
@@ -349,7 +321,7 @@ static void huge_dynamic_range(void **state)
 
 static void nan_and_inf(void **state)
 {
-    ds_spec d = chess(8, 8, 5);
+    ds_spec d = ds_chess(8, 8, 5, 0);
     *ds_at(&d, 1, 5, 7) = NAN;
     *ds_at(&d, 2, 9, 3) = INFINITY;
     char *in = ds_write(&d);
@@ -365,9 +337,7 @@ static void nan_and_inf(void **state)
     const char *san[] = {"--method", "svd", "-T", "3", "--report", report, "--sanitize", NULL};
     assert_int_equal(run_factor(in, out, errtext, sizeof errtext, san), 0);
     assert_non_null(strstr(errtext, "replaced 2 non-finite"));
-    char *json = slurp(report);
-    assert_non_null(strstr(json, "\"nonfinite_replaced\": 2,"));
-    free(json);
+    check_file_contains(report, "\"nonfinite_replaced\": 2,");
     assert_true(ds_compare(&d, out, NULL) < 0.05);
     /* Infinity alone is named as such. */
     *ds_at(&d, 1, 5, 7) = 0.0f;

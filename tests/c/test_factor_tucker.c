@@ -151,18 +151,14 @@ static void regression_on_chessboard(void **state)
     assert_true(rel[2] <= rel[1] * 1.05);
     assert_true(rel[1] < rel[0]);
     check_eval_paths(out);
-    op_material *m;
-    op_error err = {0};
-    OP_ASSERT_OK(op_material_open(out, &m, &err), err);
+    op_material *m = open_valid(out);
     const op_material_info *info = op_material_get_info(m);
     assert_int_equal(info->method, OP_METHOD_TUCKER);
     assert_int_equal(info->terms, 8);
     assert_int_equal(info->degree, 10);
     op_material_close(m);
-    char *json = slurp(report);
-    assert_non_null(strstr(json, "\"method\": \"tucker\""));
-    assert_non_null(strstr(json, "\"degree\": 10,"));
-    free(json);
+    check_file_contains(report, "\"method\": \"tucker\"");
+    check_file_contains(report, "\"degree\": 10,");
     /* Unshifted works too. */
     const char *ns[] = {"--method", "tucker", "-T", "8", "-P", "4", "--no-shift", NULL};
     assert_int_equal(run_factor(in, out, errtext, sizeof errtext, ns), 0);

@@ -94,6 +94,15 @@ static op_status open_status(const blob *b, size_t n, op_error *err)
     return st;
 }
 
+/* Builds a file of the n sections and asserts that opening it fails with OP_ERR_FORMAT; the
+ * message is left in *err. */
+static void expect_format_error(const sec *s, int n, op_error *err)
+{
+    blob b = build(s, n);
+    assert_int_equal(open_status(&b, b.n, err), OP_ERR_FORMAT);
+    free(b.p);
+}
+
 /* A 3 x 2 pixel, K = 3, one-channel raw material with Rd = index / 100. */
 static const char raw_meta[] = "method=raw\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
                                "size_x_cm=1.5\nsize_y_cm=1\nname=tiny\n";
@@ -334,43 +343,29 @@ static void hostile_values(void **state)
     free(b.p);
 
     sh[3] = 9; /* shift out of range */
-    b = build(ok, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(ok, 5, &err);
     sh[3] = 3;
     u[2] = 1e30f; /* exp would overflow */
-    b = build(ok, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(ok, 5, &err);
     u[2] = INFINITY;
-    b = build(ok, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(ok, 5, &err);
     u[2] = 0.01f;
     mx[1] = -1; /* negative maximum */
-    b = build(ok, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(ok, 5, &err);
     mx[1] = 1;
     ok[2].bytes -= 4; /* V one value short */
-    b = build(ok, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(ok, 5, &err);
     ok[2].bytes += 4;
     static const char svd_bad_a[] = "method=svd\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
                                     "size_x_cm=1\nsize_y_cm=1\nterms=1\nshifted=1\nlog_a=0\n"
                                     "log_b=1\n";
     ok[0].data = svd_bad_a;
     ok[0].bytes = strlen(svd_bad_a);
-    b = build(ok, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(ok, 5, &err);
     ok[0].data = svd_meta;
     ok[0].bytes = strlen(svd_meta);
-    b = build(ok, 4); /* MAX.Y missing */
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    expect_format_error(ok, 4, &err); /* MAX.Y missing */
     assert_non_null(strstr(err.message, "MAX.Y"));
-    free(b.p);
 
     /* Tucker: coefficients that would overflow, and a good one. */
     static const char tk_meta[] = "method=tucker\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
@@ -387,9 +382,7 @@ static void hostile_values(void **state)
     op_material_close(m);
     free(b.p);
     range[3] = 1e30f;
-    b = build(tk, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(tk, 5, &err);
 }
 
 /* kcta and nmf: a good file of each, then every invariant broken in turn. */
@@ -423,41 +416,27 @@ static void hostile_kcta_nmf(void **state)
     op_material_close(m);
     free(b.p);
     idx[3] = 2; /* cluster out of range */
-    b = build(k5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    expect_format_error(k5, 5, &err);
     assert_non_null(strstr(err.message, "KIDX.Y"));
-    free(b.p);
     idx[3] = 1;
     idx[2] = 1; /* the same cluster twice in row 1 */
-    b = build(k5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(k5, 5, &err);
     idx[2] = 0;
     par[0] = 3; /* K_m above C */
-    b = build(k5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(k5, 5, &err);
     par[0] = 2;
     par[1] = 4; /* index width disagrees with the section size */
-    b = build(k5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(k5, 5, &err);
     par[1] = 2;
     coef[5] = NAN;
-    b = build(k5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(k5, 5, &err);
     coef[5] = -0.25f;
     coef[4] = 1e30f;
     basis[4] = 1e30f; /* row 2's cluster 0 term would overflow */
-    b = build(k5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(k5, 5, &err);
     coef[4] = 0.5f;
     basis[4] = 1.0f;
-    b = build(k, 4); /* KCOEF.Y missing */
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(k, 4, &err); /* KCOEF.Y missing */
 
     static const char nm_meta[] = "method=nmf\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
                                   "size_x_cm=1\nsize_y_cm=1\nterms=1\n";
@@ -474,26 +453,18 @@ static void hostile_kcta_nmf(void **state)
     op_material_close(m);
     free(b.p);
     w[3] = -1.0f; /* negative factor */
-    b = build(n5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
+    expect_format_error(n5, 5, &err);
     assert_non_null(strstr(err.message, "W.Y"));
-    free(b.p);
     w[3] = 2.0f;
     h[2] = INFINITY;
-    b = build(n5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(n5, 5, &err);
     h[2] = 3e38f;
     scale[0] = 3e38f; /* would overflow */
-    b = build(n5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(n5, 5, &err);
     h[2] = 1.0f;
     scale[0] = 0.9f;
     n5[1].bytes -= 4; /* profile one value short */
-    b = build(n5, 5);
-    assert_int_equal(open_status(&b, b.n, &err), OP_ERR_FORMAT);
-    free(b.p);
+    expect_format_error(n5, 5, &err);
 }
 
 int main(void)
