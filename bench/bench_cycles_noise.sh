@@ -2,6 +2,8 @@
 # Time to equal noise on the same exported Lambertian scene: opaline-render against Cycles
 # (Debian's Blender, headless). See bench/bench_cycles_noise.py for the method.
 # Usage: bash bench/bench_cycles_noise.sh [BUILD_DIR] [THREADS] [OUT_DIR]   (a Release build)
+# REPEAT=N (default 3) runs per sample count, timings are medians; results in
+# OUT_DIR/cycles_noise.json
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
@@ -13,4 +15,5 @@ command -v blender >/dev/null || { echo "skip: blender is absent (apt-get instal
 mkdir -p "$out"
 OPALINE_BIN_DIR=$build/bin blender --background --factory-startup --python-exit-code 1 \
   --python "$root/bench/bench_cycles_noise.py" -- --renderer "$render" --out "$out" \
-  --threads "$threads" 2>&1 | grep -vE "^(Fra:|Blender quit|Read prefs|Saved:|Time:|Info:)" 
+  --threads "$threads" --repeats "${REPEAT:-3}" 2>&1 |
+  grep -vE "^ *(Fra:|Blender quit|Read prefs|Saved:|Time:|Info:|$)"

@@ -568,8 +568,15 @@ def goals(runs, datasets, kinds, baselines, renderer):
                     "embree_msamples_per_s": e["embree_msamples_per_s"]})
     else:
         out.append({"goal": g, "verdict": "not measured", "why": renderer["embree_reason"]})
-    out.append({"goal": "equal noise on the Lambertian scene in no more time than Cycles",
-                "verdict": "not measured", "why": renderer["cycles_reason"]})
+    g = ("renderer time to equal noise (RMSE 1 % of the mean) on the same exported Lambertian "
+         "scene <= Cycles' time")
+    c = renderer["cycles"]
+    if c:
+        out.append({"goal": g, "verdict": c["verdict"], "ratio": c["ratio"],
+                    "opaline_seconds": c["opaline"]["seconds_to_target"],
+                    "cycles_seconds": c["cycles"]["seconds_to_target"]})
+    else:
+        out.append({"goal": g, "verdict": "not measured", "why": renderer["cycles_reason"]})
     return out
 
 
@@ -633,30 +640,49 @@ def plots(plt, runs, datasets, baselines, outdir):
 
 
 def renderer_status(tool, root, quick):
-    """The renderer comparisons: samples per second against Embree's pathtracer tutorial, by
-    bench/bench_render_peers.sh (full mode only); time to equal noise against Cycles is not
-    implemented yet."""
+    """The renderer against its peers (full mode only; the quick mode skips both with a message):
+    samples per second against Embree's pathtracer tutorial (bench/bench_render_peers.sh) and
+    time to equal noise against Cycles (bench/bench_cycles_noise.sh). Each absent tool or
+    failure becomes the reason its goal is not measured."""
     have = {"embree pathtracer": shutil.which("pathtracer"), "blender": shutil.which("blender")}
-    out = {"tools_found": have, "embree": None,
-           "cycles_reason": "time to equal noise against Cycles is not implemented in this "
-                            "benchmark yet"}
+    out = {"tools_found": have, "embree": None, "cycles": None}
     if quick:
-        out["embree_reason"] = "skipped in quick mode"
+        out["embree_reason"] = out["cycles_reason"] = "skipped in quick mode"
         return out
     build = os.path.dirname(os.path.dirname(os.path.abspath(tool)))
-    script = os.path.join(root, "bench", "bench_render_peers.sh")
-    try:
-        p = subprocess.run(["bash", script, build], capture_output=True, text=True, timeout=900)
-    except subprocess.TimeoutExpired:
-        out["embree_reason"] = "bench_render_peers.sh timed out"
-        return out
-    text = p.stdout + p.stderr
-    m = re.search(r"opaline-render\s+([\d.]+) M samples/s\s*\nEmbree pathtracer\s+([\d.]+) M", text)
-    if p.returncode != 0 or not m:
-        out["embree_reason"] = "bench_render_peers.sh: " + (text.strip().splitlines() or ["no output"])[-1]
-        return out
-    out["embree"] = {"opaline_msamples_per_s": float(m.group(1)),
-                     "embree_msamples_per_s": float(m.group(2)), "log": text}
+    threads = str(os.cpu_count() or 1)
+
+    def run(script, *args):
+        """(output text, exit status) of bench/SCRIPT ARGS, or (reason, None) on a time-out."""
+        try:
+            p = subprocess.run(["bash", os.path.join(root, "bench", script)] + list(args),
+                               capture_output=True, text=True, timeout=900)
+        except subprocess.TimeoutExpired:
+            return f"{script} timed out", None
+        return p.stdout + p.stderr, p.returncode
+
+    def last(text):
+        return (text.strip().splitlines() or ["no output"])[-1]
+
+    text, rc = run("bench_render_peers.sh", build, threads)
+    m = re.search(r"opaline-render\s+([\d.]+) M samples/s\s*\nEmbree pathtracer\s+([\d.]+) M",
+                  text)
+    if rc != 0 or not m:
+        out["embree_reason"] = "bench_render_peers.sh: " + last(text)
+    else:
+        out["embree"] = {"opaline_msamples_per_s": float(m.group(1)),
+                         "embree_msamples_per_s": float(m.group(2)), "log": text}
+    cdir = os.path.join(build, "bench-cycles-noise")
+    js = os.path.join(cdir, "cycles_noise.json")
+    if os.path.exists(js):
+        os.remove(js)  # never report an earlier run's figures
+    text, rc = run("bench_cycles_noise.sh", build, threads, cdir)
+    if rc != 0 or not os.path.exists(js):
+        out["cycles_reason"] = "bench_cycles_noise.sh: " + last(text)
+    else:
+        with open(js) as f:
+            out["cycles"] = json.load(f)
+        out["cycles"]["log"] = text
     return out
 
 
@@ -674,7 +700,11 @@ def main():
                          "Km=2 T=4' (they are listed as skipped)")
     ap.add_argument("--no-baselines", action="store_true", help="skip numpy/sklearn parts")
     ap.add_argument("--no-plots", action="store_true")
+    ap.add_argument("--renderer-only", action="store_true",
+                    help="only the renderer against Embree's tutorial and Cycles (no datasets)")
     a = ap.parse_args()
+    if a.renderer_only and a.quick:
+        sys.exit("bench_methods: --renderer-only measures nothing in quick mode")
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     dsets = dict(QUICK_DATASETS if a.quick else FULL_DATASETS)
     if a.datasets:
@@ -682,6 +712,9 @@ def main():
         if unknown:
             sys.exit(f"bench_methods: unknown dataset(s) {sorted(unknown)}; known: {list(dsets)}")
         dsets = {k: v for k, v in dsets.items() if k in a.datasets.split(",")}
+    if a.renderer_only:
+        dsets = {}
+        note("factorization methods SKIPPED on request (--renderer-only)")
     sweep = QUICK_SWEEP if a.quick else FULL_SWEEP
     typical = QUICK_TYPICAL if a.quick else TYPICAL
     skip = {x.strip() for x in a.skip.split(",") if x.strip()}
@@ -748,15 +781,21 @@ def main():
     elif np is not None and skx is None:
         note("scikit-learn baselines SKIPPED (python3-sklearn missing); the LAPACK optimum "
              "was measured")
-    print("== renderer against Embree's pathtracer tutorial", flush=True)
+    print("== renderer against Embree's pathtracer tutorial and Cycles", flush=True)
     renderer = renderer_status(a.tool, root, a.quick)
     if renderer["embree"]:
         e = renderer["embree"]
         print(f"   opaline {e['opaline_msamples_per_s']:.3f} M samples/s, Embree tutorial "
               f"{e['embree_msamples_per_s']:.3f} M samples/s", flush=True)
     else:
-        print("   NOT MEASURED (" + renderer["embree_reason"] + ")", flush=True)
-    print("   Cycles: NOT MEASURED (" + renderer["cycles_reason"] + ")", flush=True)
+        print("   Embree: NOT MEASURED (" + renderer["embree_reason"] + ")", flush=True)
+    if renderer["cycles"]:
+        c = renderer["cycles"]
+        print(f"   time to RMSE 1 % of the mean: opaline "
+              f"{c['opaline']['seconds_to_target']:.3f} s, Cycles "
+              f"{c['cycles']['seconds_to_target']:.3f} s (Blender {c['blender']})", flush=True)
+    else:
+        print("   Cycles: NOT MEASURED (" + renderer["cycles_reason"] + ")", flush=True)
 
     env = environment(a.tool, root)
     gl = goals(runs, metas, kinds, baselines, renderer)
@@ -807,7 +846,14 @@ def main():
                                  f"{p['best_rmse']:.4g}, "
                                  f"ratio {p['ratio']:.3f})" if p["best"] else
                                  "(none as small: not judged)")
-                              for p in g.get("points", []))))
+                              for p in g.get("points", []))) +
+                     (f" (opaline {g['opaline_msamples_per_s']:.3f} M samples/s, Embree "
+                      f"{g['embree_msamples_per_s']:.3f}, ratio {g['ratio']:.2f})"
+                      if "embree_msamples_per_s" in g else "") +
+                     (f" (opaline {g['opaline_seconds']:.3f} s, Cycles "
+                      f"{g['cycles_seconds']:.3f} s, ratio {g['ratio']:.2f})"
+                      if "cycles_seconds" in g else "") +
+                     (f" ({g['why']})" if "why" in g else ""))
     lines.append("")
     if notes:
         lines += ["## Skipped\n"] + [f"- {n}" for n in notes] + [""]

@@ -5,9 +5,14 @@
 #
 # Samples per second are measured as pixels * (N - 1) / (t(N spp) - t(1 spp)), so scene loading
 # and BVH building cancel out; each figure is the median of REPEAT runs.
-# Known differences: the tutorial shades with its default OBJ material and samples the ambient
-# light by its own strategy; opaline uses a diffuse material (reflectance 0.8) and next-event
-# estimation with MIS. Both trace full paths of at most 8 segments.
+# Both see a Lambertian bunny of reflectance 0.8 (the tutorial gets it from a one-line .mtl put
+# before a temporary copy of the OBJ; its default OBJ material has Kd = 1) under a uniform white
+# environment, and trace paths of at most 8 segments with one shadow ray and one bounce ray per
+# vertex, no Russian roulette in the tutorial. Remaining differences: the tutorial adds the ambient
+# light both through its light sample and when a bounce ray escapes (no MIS), so its bunny is about
+# twice as bright (a bias, not extra work); opaline weighs the two by MIS. The tutorial samples
+# with its own sampler and writes 8-bit PPM; opaline writes OpenEXR. Each renderer uses its own
+# BVH (both Embree 3 here: opaline-render links Debian's libembree3).
 #
 # Usage: bench/bench_render_peers.sh [BUILD_DIR] [THREADS] [SPP]   (a Release build)
 set -euo pipefail
@@ -25,6 +30,8 @@ PEER=$(command -v pathtracer || true)
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 W=640 H=480
+printf 'newmtl matte\nKd 0.8 0.8 0.8\nKs 0 0 0\nd 1\n' > "$T/matte.mtl"
+{ printf 'mtllib matte.mtl\nusemtl matte\n'; cat "$BUNNY"; } > "$T/bunny.obj"
 
 cat > "$T/bunny.xml" <<XML
 <scene version="0.6.0">
@@ -54,7 +61,7 @@ median() { sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] 
 
 opaline() { "$RENDER" -q -t "$THREADS" -s "$1" -o "$T/o.exr" "$T/bunny.xml"; }
 embree() {
-  "$PEER" -i "$BUNNY" --threads "$THREADS" --size "$W" "$H" --spp "$1" --max-path-length 8 \
+  "$PEER" -i "$T/bunny.obj" --threads "$THREADS" --size "$W" "$H" --spp "$1" --max-path-length 8 \
     --vp -0.02 0.13 0.42 --vi -0.017 0.105 0 --vu 0 1 0 --fov 30 --ambientlight 1 1 1 \
     -o "$T/e.ppm"
 }
@@ -70,9 +77,15 @@ rate() { # $1 function: median samples/s over REPEAT runs
 }
 
 echo "bunny $W x $H, $THREADS threads, $SPP spp, paths of at most 8 segments, median of $REPEAT"
-echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
+ver() { dpkg-query -W -f '${Version}' "$1" 2>/dev/null || echo unknown; }
+rev=$(git -C "$SRC" rev-parse --short HEAD 2>/dev/null || echo unknown)
+[ -z "$(git -C "$SRC" status --porcelain 2>/dev/null)" ] || rev="$rev (modified)"
+echo "versions: embree-tools $(ver embree-tools), libembree3-3 $(ver libembree3-3), opaline $rev"
+echo "machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
+echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 ours=$(rate opaline)
 peer=$(rate embree)
+echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 awk -v o="$ours" -v e="$peer" 'BEGIN {
   printf "opaline-render          %.3f M samples/s\n", o / 1e6
   printf "Embree pathtracer       %.3f M samples/s\n", e / 1e6
