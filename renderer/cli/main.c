@@ -24,7 +24,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: opaline-render [options] SCENE.xml\n"
-            "  -o FILE        output image (.exr .png .pfm by extension); repeatable\n"
+            "  -o FILE        output image (.exr .png .pfm .hdr by extension); repeatable\n"
             "  -t N           worker threads (default: all cores)\n"
             "  -s N           samples per pixel (overrides the scene's sampler)\n"
             "  -D name=value  overrides <default name=...>; repeatable\n"
@@ -128,7 +128,8 @@ static int parse_int(const char *s, int lo, int hi, int *out)
     return 1;
 }
 
-/* The default output: the film's filename, else the scene's basename with ".exr". */
+/* The default output: the film's filename, else the scene's basename, with the film's
+ * fileFormat's extension when it has none. */
 static void default_output(const char *scene_path, const op_scene_info *info, char *out, size_t n)
 {
     if (info->film_filename) {
@@ -136,7 +137,7 @@ static void default_output(const char *scene_path, const op_scene_info *info, ch
         const char *dot = strrchr(f, '.');
         const char *slash = strrchr(f, '/');
         if (!dot || (slash && dot < slash))
-            snprintf(out, n, "%s%s", f, strcmp(info->film_type, "ldrfilm") == 0 ? ".png" : ".exr");
+            snprintf(out, n, "%s%s", f, info->film_extension);
         else
             snprintf(out, n, "%s", f);
         return;
@@ -148,7 +149,7 @@ static void default_output(const char *scene_path, const op_scene_info *info, ch
     char *dot = strrchr(stem, '.');
     if (dot && dot != stem)
         *dot = '\0';
-    snprintf(out, n, "%s%s", stem, strcmp(info->film_type, "ldrfilm") == 0 ? ".png" : ".exr");
+    snprintf(out, n, "%s%s", stem, info->film_extension);
     free(tmp);
 }
 

@@ -45,8 +45,11 @@ typedef struct op_scene_info {
     int spp;                  /* the sampler's sampleCount */
     const char *film_type;    /* "hdrfilm" or "ldrfilm" */
     const char *film_filename;/* the film's filename, or NULL */
+    const char *film_extension;/* its fileFormat's extension: ".exr", ".pfm", ".hdr" or ".png" */
     const char *integrator;   /* "path", "direct", "normals", ... */
     int shapes, triangles, emitters, subsurface_shapes;
+    int instances;            /* shapes that place a mesh file shared with others (one copy) */
+    long long geometry_bytes; /* the scene's triangle data plus Embree's structures */
 } op_scene_info;
 
 void op_scene_get_info(const op_scene *scene, op_scene_info *info);
@@ -100,9 +103,10 @@ void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);
 /* The last rendered image (width * height * 4 floats), or NULL before the first render. */
 const op_image *op_renderer_image(const op_renderer *r);
 
-/* Writes img to path through op_image_write_*, the format chosen by the extension (.exr, .png,
- * .pfm, case-insensitive), applying the film's settings: hdrfilm's componentFormat (float16 or
- * float32 EXR) and pixelFormat (rgb, rgba, luminance), ldrfilm's exposure and gamma for PNG. */
+/* Writes img to path through op_image_write_* (or the RGBE writer), the format chosen by the
+ * extension (.exr, .png, .pfm, .hdr, case-insensitive), applying the film's settings: hdrfilm's
+ * componentFormat (float16 or float32 EXR) and pixelFormat (rgb, rgba, luminance), ldrfilm's
+ * tonemapping (gamma with exposure, or reinhard) and gamma for PNG. */
 op_status op_scene_write_image(const op_scene *scene, const op_image *img, const char *path,
                                op_error *err);
 

@@ -2,12 +2,18 @@
 #include "accel.h"
 
 #include <embree3/rtcore.h>
+#include <stdatomic.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 
 struct op_accel {
     RTCDevice device;
     RTCScene scene;
+    RTCScene *protos;           /* one Embree scene per mesh shared by instances */
+    int nprotos;
+    const op_placement **place; /* per shape: its placement, or NULL */
+    atomic_llong bytes;         /* Embree's allocations minus its frees */
     char error[512]; /* the device's last error, written by the error callback during builds */
 };
 
@@ -19,33 +25,90 @@ static void device_error(void *user, enum RTCError code, const char *str)
     op_log(OP_LOG_ERROR, "%s", a->error);
 }
 
-op_status op_accel_build(const op_trimesh *meshes, int n, op_accel **out, op_error *err)
+/* Embree's memory monitor: counts its bytes (called from its build threads). */
+static bool memory_monitor(void *user, ssize_t bytes, bool post)
+{
+    (void)post;
+    op_accel *a = user;
+    atomic_fetch_add(&a->bytes, (long long)bytes);
+    return true;
+}
+
+/* A triangle geometry over mesh m (shared buffers). */
+static RTCGeometry triangles(RTCDevice dev, const op_trimesh *m)
+{
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m->pos, 0,
+                               3 * sizeof(float), (size_t)m->nverts);
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m->idx, 0,
+                               3 * sizeof(uint32_t), (size_t)m->ntris);
+    rtcCommitGeometry(g);
+    return g;
+}
+
+op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op_error *err)
 {
     op_accel *a = calloc(1, sizeof *a);
     if (!a)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    atomic_init(&a->bytes, 0);
+    a->place = calloc((size_t)(n > 0 ? n : 1), sizeof *a->place);
+    /* the distinct instanced meshes: at most n */
+    const op_trimesh **proto_mesh = calloc((size_t)(n > 0 ? n : 1), sizeof *proto_mesh);
+    a->protos = calloc((size_t)(n > 0 ? n : 1), sizeof *a->protos);
+    if (!a->place || !proto_mesh || !a->protos) {
+        free(proto_mesh);
+        op_accel_free(a);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
     a->device = rtcNewDevice("verbose=0");
     if (!a->device) {
-        free(a);
+        free(proto_mesh);
+        op_accel_free(a);
         return op_error_set(err, OP_ERR_INTERNAL, "Embree: cannot create a device (error %d)",
                             (int)rtcGetDeviceError(NULL));
     }
     rtcSetDeviceErrorFunction(a->device, device_error, a);
+    rtcSetDeviceMemoryMonitorFunction(a->device, memory_monitor, a);
     a->scene = rtcNewScene(a->device);
     rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
     for (int i = 0; i < n; i++) {
-        const op_trimesh *m = &meshes[i];
-        RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
-        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m->pos, 0,
-                                   3 * sizeof(float), (size_t)m->nverts);
-        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m->idx, 0,
-                                   3 * sizeof(uint32_t), (size_t)m->ntris);
-        rtcCommitGeometry(g);
+        const op_trimesh *m = shapes[i].mesh;
+        RTCGeometry g;
+        if (shapes[i].place) {
+            int k = 0;
+            while (k < a->nprotos && proto_mesh[k] != m)
+                k++;
+            if (k == a->nprotos) {
+                RTCScene ps = rtcNewScene(a->device);
+                rtcSetSceneFlags(ps, RTC_SCENE_FLAG_ROBUST);
+                rtcSetSceneBuildQuality(ps, RTC_BUILD_QUALITY_HIGH);
+                RTCGeometry tg = triangles(a->device, m);
+                rtcAttachGeometryByID(ps, tg, 0);
+                rtcReleaseGeometry(tg);
+                rtcCommitScene(ps);
+                proto_mesh[k] = m;
+                a->protos[a->nprotos++] = ps;
+            }
+            const float *xf = shapes[i].place->m;
+            float cm[12]; /* column-major 3 x 4 */
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 4; c++)
+                    cm[3 * c + r] = xf[4 * r + c];
+            g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_INSTANCE);
+            rtcSetGeometryInstancedScene(g, a->protos[k]);
+            rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, cm);
+            rtcCommitGeometry(g);
+            a->place[i] = shapes[i].place;
+        } else {
+            g = triangles(a->device, m);
+        }
         rtcAttachGeometryByID(a->scene, g, (unsigned)i);
         rtcReleaseGeometry(g);
     }
+    free(proto_mesh);
     rtcCommitScene(a->scene);
     if (a->error[0]) {
         op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
@@ -56,12 +119,21 @@ op_status op_accel_build(const op_trimesh *meshes, int n, op_accel **out, op_err
     return OP_OK;
 }
 
+long long op_accel_bytes(const op_accel *a)
+{
+    return atomic_load(&((op_accel *)a)->bytes);
+}
+
 void op_accel_free(op_accel *a)
 {
     if (!a)
         return;
     if (a->scene)
         rtcReleaseScene(a->scene);
+    for (int i = 0; i < a->nprotos; i++)
+        rtcReleaseScene(a->protos[i]);
+    free(a->protos);
+    free(a->place);
     if (a->device)
         rtcReleaseDevice(a->device);
     free(a);
@@ -91,11 +163,17 @@ int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, floa
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
         return 0;
     hit->t = rh.ray.tfar;
-    hit->shape = (int)rh.hit.geomID;
     hit->prim = (int)rh.hit.primID;
     hit->b1 = rh.hit.u;
     hit->b2 = rh.hit.v;
     hit->ng = v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+    if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
+        /* Embree gives an instance's normal in its object space */
+        hit->shape = (int)rh.hit.instID[0];
+        hit->ng = op_place_normal(a->place[hit->shape], hit->ng);
+    } else {
+        hit->shape = (int)rh.hit.geomID;
+    }
     return 1;
 }
 

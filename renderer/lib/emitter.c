@@ -25,6 +25,74 @@ static op_status read_nonneg_color(op_node *n, const char *name, double def, op_
     return OP_OK;
 }
 
+/* The sampling weight of envmap pixel (x, y): its luminance (negative channels count as 0)
+ * times sin(theta) at the row's centre. */
+static double env_pixel_weight(const op_emitter *e, int x, int y)
+{
+    const float *px = e->env.pixels + ((size_t)y * e->env.width + x) * (size_t)e->env.channels;
+    double lum = 0.2126 * fmax(px[0], 0.0) + 0.7152 * fmax(px[1], 0.0) + 0.0722 * fmax(px[2], 0.0);
+    return lum * sin(M_PI * (y + 0.5) / e->env.height);
+}
+
+/* Builds the envmap's row and column CDFs; a black map is sampled by sin(theta) alone (its
+ * emission is zero anyway). Returns 0, or -1 when out of memory. */
+static int env_build_distribution(op_emitter *e)
+{
+    int w = e->env.width, h = e->env.height;
+    e->env_row_cdf = malloc(((size_t)h + 1) * sizeof(float));
+    e->env_col_cdf = malloc((size_t)h * ((size_t)w + 1) * sizeof(float));
+    double *rows = malloc((size_t)h * sizeof(double));
+    if (!e->env_row_cdf || !e->env_col_cdf || !rows) {
+        free(rows);
+        return -1;
+    }
+    double total = 0.0;
+    for (int y = 0; y < h; y++) {
+        float *cdf = e->env_col_cdf + (size_t)y * (w + 1);
+        double acc = 0.0;
+        for (int x = 0; x < w; x++)
+            acc += env_pixel_weight(e, x, y);
+        double run = 0.0;
+        cdf[0] = 0.0f;
+        for (int x = 0; x < w; x++) {
+            run += acc > 0.0 ? env_pixel_weight(e, x, y) : 1.0;
+            cdf[x + 1] = (float)(run / (acc > 0.0 ? acc : (double)w));
+        }
+        cdf[w] = 1.0f;
+        rows[y] = acc;
+        total += acc;
+    }
+    e->env_weight = total;
+    double run = 0.0, norm = 0.0;
+    for (int y = 0; y < h; y++)
+        norm += total > 0.0 ? rows[y] : sin(M_PI * (y + 0.5) / h);
+    e->env_row_cdf[0] = 0.0f;
+    for (int y = 0; y < h; y++) {
+        run += total > 0.0 ? rows[y] : sin(M_PI * (y + 0.5) / h);
+        e->env_row_cdf[y + 1] = (float)(run / norm);
+    }
+    e->env_row_cdf[h] = 1.0f;
+    free(rows);
+    return 0;
+}
+
+/* The index i in [0, n) with cdf[i] <= u < cdf[i + 1] (cdf has n + 1 entries from 0 to 1,
+ * non-decreasing); *frac gets u's position within that interval. */
+static int cdf_find(const float *cdf, int n, float u, float *frac)
+{
+    int lo = 0, hi = n; /* cdf[lo] <= u < cdf[hi] */
+    while (hi - lo > 1) {
+        int mid = lo + (hi - lo) / 2;
+        if (cdf[mid] <= u)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    float d = cdf[lo + 1] - cdf[lo];
+    *frac = d > 0.0f ? fminf((u - cdf[lo]) / d, 0x1.fffffep-1f) : 0.5f;
+    return lo;
+}
+
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
                            op_emitter *e, op_error *err)
 {
@@ -132,6 +200,17 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
         e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
         e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
+        double fx[3] = {1, 0, 0}, fy[3] = {0, 1, 0}, fz[3] = {0, 0, 1};
+        op_matrix4_vector(&xf, fx, fx);
+        op_matrix4_vector(&xf, fy, fy);
+        op_matrix4_vector(&xf, fz, fz);
+        e->env_to_world.s = v3_from_d(fx);
+        e->env_to_world.t = v3_from_d(fy);
+        e->env_to_world.n = v3_from_d(fz);
+        if (env_build_distribution(e) != 0) {
+            op_emitter_free(e);
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        }
         return OP_OK;
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
@@ -141,8 +220,12 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
 
 void op_emitter_free(op_emitter *e)
 {
-    if (e->type == OP_EM_ENVMAP)
+    if (e->type == OP_EM_ENVMAP) {
         op_image_free(&e->env);
+        free(e->env_row_cdf);
+        free(e->env_col_cdf);
+        e->env_row_cdf = e->env_col_cdf = NULL;
+    }
 }
 
 int op_emitter_is_env(const op_emitter *e)
@@ -159,28 +242,55 @@ static float spot_falloff(const op_emitter *e, float cos_theta)
     return (e->cutoff - acosf(fminf(cos_theta, 1.0f))) / (e->cutoff - e->beam);
 }
 
+/* The envmap pixel (*x, *y) that direction d (map space, unit) falls in; *sin_theta gets
+ * sin of d's polar angle from +Y. */
+static void env_pixel(const op_emitter *e, op_v3 d, int *x, int *y, float *sin_theta)
+{
+    float u = atan2f(d.x, -d.z) * (0.5f * OP_INV_PI);
+    if (u < 0.0f)
+        u += 1.0f;
+    float cy = fmaxf(-1.0f, fminf(1.0f, d.y));
+    float v = acosf(cy) * OP_INV_PI;
+    int w = e->env.width, h = e->env.height;
+    int px = (int)(u * (float)w), py = (int)(v * (float)h);
+    *x = px < 0 ? 0 : (px >= w ? w - 1 : px);
+    *y = py < 0 ? 0 : (py >= h ? h - 1 : py);
+    *sin_theta = sqrtf(fmaxf(0.0f, 1.0f - cy * cy));
+}
+
 op_v3 op_emitter_env_le(const op_emitter *e, op_v3 dir)
 {
     if (e->type == OP_EM_CONSTANT)
         return e->value;
-    op_v3 d = op_frame_to_local(&e->frame, dir);
-    float u = atan2f(d.x, -d.z) * (0.5f * OP_INV_PI);
-    if (u < 0.0f)
-        u += 1.0f;
-    float v = acosf(fmaxf(-1.0f, fminf(1.0f, d.y))) * OP_INV_PI;
-    int w = e->env.width, h = e->env.height;
-    int x = (int)(u * (float)w), y = (int)(v * (float)h);
-    x = x < 0 ? 0 : (x >= w ? w - 1 : x);
-    y = y < 0 ? 0 : (y >= h ? h - 1 : y);
-    const float *px = e->env.pixels + ((size_t)y * w + x) * (size_t)e->env.channels;
+    int x, y;
+    float st;
+    env_pixel(e, op_frame_to_local(&e->frame, dir), &x, &y, &st);
+    const float *px = e->env.pixels + ((size_t)y * e->env.width + x) * (size_t)e->env.channels;
     return v3_scale(v3(px[0], px[1], px[2]), e->value.x);
+}
+
+/* The density over the unit (u, v) square of envmap pixel (x, y). */
+static float env_uv_pdf(const op_emitter *e, int x, int y)
+{
+    int w = e->env.width, h = e->env.height;
+    double p;
+    if (e->env_weight > 0.0)
+        p = env_pixel_weight(e, x, y) / e->env_weight;
+    else /* a black map: rows by sin(theta), columns uniform */
+        p = (double)(e->env_row_cdf[y + 1] - e->env_row_cdf[y]) / w;
+    return (float)(p * (double)w * (double)h);
 }
 
 float op_emitter_env_pdf(const op_emitter *e, op_v3 dir)
 {
-    (void)e;
-    (void)dir;
-    return 1.0f / (4.0f * OP_PI);
+    if (e->type == OP_EM_CONSTANT)
+        return 1.0f / (4.0f * OP_PI);
+    int x, y;
+    float st;
+    env_pixel(e, v3_norm(op_frame_to_local(&e->frame, dir)), &x, &y, &st);
+    if (st <= 0.0f)
+        return 0.0f;
+    return env_uv_pdf(e, x, y) / (2.0f * OP_PI * OP_PI * st);
 }
 
 op_v3 op_emitter_area_le(const op_emitter *e, op_v3 n, op_v3 w)
@@ -244,12 +354,31 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
         s->pdf = 0.0f;
         s->value = e->value;
         return 1;
-    case OP_EM_CONSTANT:
-    case OP_EM_ENVMAP: {
+    case OP_EM_CONSTANT: {
         s->wi = op_sample_sphere(u1, u2);
         s->dist = INFINITY;
         s->pdf = 1.0f / (4.0f * OP_PI);
         s->value = v3_scale(op_emitter_env_le(e, s->wi), 1.0f / s->pdf);
+        return !v3_is_black(s->value);
+    }
+    case OP_EM_ENVMAP: {
+        int w = e->env.width, h = e->env.height;
+        float fy, fx;
+        int y = cdf_find(e->env_row_cdf, h, u2, &fy);
+        int x = cdf_find(e->env_col_cdf + (size_t)y * (w + 1), w, u1, &fx);
+        float theta = OP_PI * ((float)y + fy) / (float)h;
+        float phi = 2.0f * OP_PI * ((float)x + fx) / (float)w;
+        float st = sinf(theta);
+        if (st <= 0.0f)
+            return 0;
+        op_v3 d = v3(st * sinf(phi), cosf(theta), -st * cosf(phi));
+        s->wi = v3_norm(op_frame_to_world(&e->env_to_world, d));
+        s->dist = INFINITY;
+        s->pdf = env_uv_pdf(e, x, y) / (2.0f * OP_PI * OP_PI * st);
+        if (!(s->pdf > 0.0f))
+            return 0;
+        const float *px = e->env.pixels + ((size_t)y * w + x) * (size_t)e->env.channels;
+        s->value = v3_scale(v3(px[0], px[1], px[2]), e->value.x / s->pdf);
         return !v3_is_black(s->value);
     }
     }

@@ -31,6 +31,10 @@ typedef struct op_emitter {
                                camera segment of a path (before any bounce) */
     op_v3 dir;              /* directional: the direction the light travels */
     op_image env;           /* envmap */
+    op_frame env_to_world;  /* envmap: columns of the map-to-world rotation (toWorld's) */
+    float *env_row_cdf;     /* envmap: height + 1 entries, the rows' cumulative weight */
+    float *env_col_cdf;     /* envmap: height rows of width + 1, each row's cumulative weight */
+    double env_weight;      /* envmap: the sum of all pixel weights (luminance * sin(theta)) */
 } op_emitter;
 
 typedef struct op_light_sample {
@@ -57,6 +61,10 @@ op_v3 op_emitter_area_le(const op_emitter *e, op_v3 n, op_v3 w);
 float op_emitter_area_pdf(const op_emitter *e, op_v3 n, op_v3 dir, float dist);
 /* Radiance arriving from an environment emitter along -dir (dir points away from the scene). */
 op_v3 op_emitter_env_le(const op_emitter *e, op_v3 dir);
+/* Solid-angle density with which op_emitter_sample picks direction dir (pointing away from the
+ * scene) of an environment emitter: uniform over the sphere for `constant`; for `envmap`
+ * piecewise constant over the map's pixels in (u, v), proportional to luminance * sin(theta)
+ * of the pixel's centre row, divided by the lat-long Jacobian 2 pi^2 sin(theta) of dir. */
 float op_emitter_env_pdf(const op_emitter *e, op_v3 dir);
 
 #endif

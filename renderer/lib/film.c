@@ -55,6 +55,7 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
     out->half_float = 1;
     out->gamma = -1.0;
     out->pixel_format = OP_PIXFMT_RGBA;
+    out->extension = ".exr";
     op_node *filter = NULL;
     if (film) {
         film->used = 1;
@@ -62,6 +63,7 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"%s\">: unknown film "
                                 "(hdrfilm, ldrfilm)", film->file, film->line, film->type);
         out->ldr = strcmp(film->type, "ldrfilm") == 0;
+        out->extension = out->ldr ? ".png" : ".exr";
         long long w, h, cx, cy, cw, ch;
         GET_OR_FAIL(op_node_int(film, "width", 768, &w, err));
         GET_OR_FAIL(op_node_int(film, "height", 576, &h, err));
@@ -107,9 +109,15 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
                                     "not float16 or float32", film->file, film->line, cf);
             const char *ff;
             GET_OR_FAIL(op_node_string(film, "fileFormat", "openexr", &ff, err));
-            if (strcmp(ff, "openexr") != 0 && strcmp(ff, "pfm") != 0)
+            if (strcmp(ff, "openexr") == 0)
+                out->extension = ".exr";
+            else if (strcmp(ff, "pfm") == 0)
+                out->extension = ".pfm";
+            else if (strcmp(ff, "rgbe") == 0)
+                out->extension = ".hdr";
+            else
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: fileFormat \"%s\" is not "
-                                    "openexr or pfm", film->file, film->line, ff);
+                                    "openexr, pfm or rgbe", film->file, film->line, ff);
         } else {
             GET_OR_FAIL(op_node_float(film, "gamma", -1.0, &out->gamma, err));
             GET_OR_FAIL(op_node_float(film, "exposure", 0.0, &out->exposure, err));
@@ -125,9 +133,19 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: fileFormat \"%s\": only png "
                                     "is supported", film->file, film->line, ff);
             GET_OR_FAIL(op_node_string(film, "tonemapMethod", "gamma", &tm, err));
-            if (strcmp(tm, "gamma") != 0)
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: tonemapMethod \"%s\": only "
-                                    "gamma is supported", film->file, film->line, tm);
+            if (strcmp(tm, "reinhard") == 0)
+                out->reinhard = 1;
+            else if (strcmp(tm, "gamma") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: tonemapMethod \"%s\" is not "
+                                    "gamma or reinhard", film->file, film->line, tm);
+            GET_OR_FAIL(op_node_float(film, "key", 0.18, &out->key, err));
+            GET_OR_FAIL(op_node_float(film, "burn", 0.0, &out->burn, err));
+            if (!(out->key > 0.0 && out->key <= 1e6) || !(out->burn >= 0.0 && out->burn <= 1.0))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: key %g must be > 0 and burn "
+                                    "%g in [0, 1]", film->file, film->line, out->key, out->burn);
+            if (!out->reinhard && (op_node_has(film, "key") || op_node_has(film, "burn")))
+                op_log(OP_LOG_WARN, "%s:%d: <film>: key and burn apply to tonemapMethod "
+                       "\"reinhard\" only", film->file, film->line);
         }
         for (int i = 0; i < film->nchildren; i++) {
             op_node *c = film->children[i];
@@ -174,6 +192,48 @@ op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
     GET_OR_FAIL(op_node_int(sampler, "dimension", 4, &dim, err));
     out->spp = (int)n;
     return OP_OK;
+}
+
+void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_reinhard *r)
+{
+    double log_sum = 0.0, max_lum = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = rgba + 4 * i;
+        double y = 0.212671 * p[0] + 0.715160 * p[1] + 0.072169 * p[2];
+        if (!isfinite(y))
+            y = 0.0;
+        max_lum = fmax(max_lum, y);
+        log_sum += log(1e-3 + fmax(y, 0.0));
+    }
+    r->scale = 0.0f;
+    r->inv_wp2 = 0.0f;
+    if (!(max_lum > 0.0) || n == 0)
+        return;
+    double avg = exp(log_sum / (double)n);
+    double burn = fmin(1.0, fmax(1e-8, 1.0 - film->burn));
+    double scale = film->key / avg, white = max_lum * scale;
+    r->scale = (float)scale;
+    r->inv_wp2 = (float)(1.0 / (white * white * pow(burn, 4.0)));
+}
+
+void op_reinhard_apply(const op_reinhard *r, float rgb[3])
+{
+    float X = rgb[0] * 0.412453f + rgb[1] * 0.357580f + rgb[2] * 0.180423f;
+    float Y = rgb[0] * 0.212671f + rgb[1] * 0.715160f + rgb[2] * 0.072169f;
+    float Z = rgb[0] * 0.019334f + rgb[1] * 0.119193f + rgb[2] * 0.950227f;
+    float sum = X + Y + Z;
+    if (!(sum > 0.0f) || !(Y > 0.0f) || r->scale == 0.0f || !isfinite(sum)) {
+        rgb[0] = rgb[1] = rgb[2] = 0.0f;
+        return;
+    }
+    float x = X / sum, y = Y / sum, lp = Y * r->scale;
+    Y = lp * (1.0f + lp * r->inv_wp2) / (1.0f + lp);
+    float ratio = Y / y;
+    X = ratio * x;
+    Z = ratio * (1.0f - x - y);
+    rgb[0] = 3.240479f * X - 1.537150f * Y - 0.498535f * Z;
+    rgb[1] = -0.969256f * X + 1.875991f * Y + 0.041556f * Z;
+    rgb[2] = 0.055648f * X - 0.204043f * Y + 1.057311f * Z;
 }
 
 /* Inverse CDF of the tent 1 - |x| on [-1, 1]. */

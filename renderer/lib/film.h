@@ -18,8 +18,12 @@ typedef struct op_film {
     char filename[1024];        /* empty when the film names none */
     op_pixel_format pixel_format;
     int half_float;             /* hdrfilm componentFormat float16 (the default) */
+    const char *extension;      /* the fileFormat's: ".exr" (openexr), ".pfm", ".hdr" (rgbe),
+                                   ".png" (ldrfilm) */
     double gamma;               /* ldrfilm: -1 = sRGB */
-    double exposure;            /* ldrfilm: stops */
+    double exposure;            /* ldrfilm: stops (tonemapMethod gamma) */
+    int reinhard;               /* ldrfilm: tonemapMethod reinhard */
+    double key, burn;           /* ldrfilm: Reinhard's key (0.18) and burn (0) */
     op_filter_type filter;
     float filter_radius;        /* box 0.5, tent 1 (or radius), gaussian 4 * stddev */
     float stddev;
@@ -34,6 +38,18 @@ typedef struct op_sampler {
 
 /* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
 op_status op_film_build(op_node *film, op_film *out, op_error *err);
+/* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's
+ * log-average luminance (log(1e-3 + Y) averaged) and maximum Y set the scale key / avg and the
+ * white point; each pixel's Y becomes Lp (1 + Lp / (Lwhite^2 b^4)) / (1 + Lp) with Lp = Y scale
+ * and b = clamp(1 - burn, 1e-8, 1), chromaticity kept. */
+typedef struct op_reinhard {
+    float scale, inv_wp2; /* scale 0: a black image, left black */
+} op_reinhard;
+/* The operator's parameters for the RGBA image pixels[0..n) under film's key and burn. */
+void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_reinhard *r);
+/* Tonemaps one linear Rec. 709 RGB value in place (black stays black). */
+void op_reinhard_apply(const op_reinhard *r, float rgb[3]);
+
 /* Reads a <sampler> (NULL: independent, 4 samples). */
 op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
 

@@ -1,4 +1,5 @@
-/* integrator.c - path tracing, direct lighting, debug views, irradiance (see integrator.h). */
+/* integrator.c - path tracing, Mitsuba's direct lighting, debug views, irradiance (see
+ * integrator.h). */
 #include "integrator.h"
 
 #include <string.h>
@@ -8,15 +9,32 @@
 void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, op_v3 dir,
                        op_isect *it)
 {
-    const op_trimesh *m = &scene->shapes[hit->shape].mesh;
+    const op_shape_rec *sh = &scene->shapes[hit->shape];
+    const op_trimesh *m = &sh->mesh;
     const uint32_t *idx = m->idx + 3 * (size_t)hit->prim;
     op_v3 a, b, c;
     op_trimesh_tri(m, hit->prim, &a, &b, &c);
+    if (sh->instanced) {
+        /* the corners in world space, and the winding they had as a world-space copy */
+        a = op_place_point(&sh->place, a);
+        b = op_place_point(&sh->place, b);
+        c = op_place_point(&sh->place, c);
+        if (sh->place.swap) {
+            op_v3 t = b;
+            b = c;
+            c = t;
+        }
+    }
     float b0 = 1.0f - hit->b1 - hit->b2;
+    float w1 = hit->b1, w2 = hit->b2; /* weights of corners b and c */
+    if (sh->instanced && sh->place.swap) {
+        w1 = hit->b2;
+        w2 = hit->b1;
+    }
     it->shape = hit->shape;
     it->prim = hit->prim;
     /* the barycentric point is more accurate than org + t dir far from the origin */
-    it->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, hit->b1)), v3_scale(c, hit->b2));
+    it->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, w1)), v3_scale(c, w2));
     (void)org;
     (void)dir;
     it->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
@@ -25,6 +43,12 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
         op_v3 n0 = v3(n[3 * idx[0]], n[3 * idx[0] + 1], n[3 * idx[0] + 2]);
         op_v3 n1 = v3(n[3 * idx[1]], n[3 * idx[1] + 1], n[3 * idx[1] + 2]);
         op_v3 n2 = v3(n[3 * idx[2]], n[3 * idx[2] + 1], n[3 * idx[2] + 2]);
+        if (sh->instanced) {
+            float sg = sh->place.flip ? -1.0f : 1.0f;
+            n0 = v3_scale(v3_norm(op_place_normal(&sh->place, n0)), sg);
+            n1 = v3_scale(v3_norm(op_place_normal(&sh->place, n1)), sg);
+            n2 = v3_scale(v3_norm(op_place_normal(&sh->place, n2)), sg);
+        }
         op_v3 ns = v3_norm(v3_add(v3_add(v3_scale(n0, b0), v3_scale(n1, hit->b1)),
                                   v3_scale(n2, hit->b2)));
         it->ns = v3_len(ns) > 0.0f ? ns : it->ng;
@@ -38,8 +62,8 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
         it->u = t[2 * idx[0]] * b0 + t[2 * idx[1]] * hit->b1 + t[2 * idx[2]] * hit->b2;
         it->v = t[2 * idx[0] + 1] * b0 + t[2 * idx[1] + 1] * hit->b1 + t[2 * idx[2] + 1] * hit->b2;
     } else {
-        it->u = hit->b1;
-        it->v = hit->b2;
+        it->u = w1; /* as Embree reports them for a world-space copy */
+        it->v = w2;
     }
     it->frame = op_frame_from_normal(it->ns);
 }
@@ -110,14 +134,16 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
 /* The white Lambertian used for irradiance estimates. */
 static const op_bsdf white_bsdf = {.type = OP_BSDF_DIFFUSE, .reflectance = {1.0f, 1.0f, 1.0f}};
 
-/* Next-event estimation at it: one sample of every emitter (scenes have few emitters, and
- * sampling each avoids the noise of choosing between a strong and a weak one). */
+/* Next-event estimation at it: n_light samples of every emitter (scenes have few emitters, and
+ * sampling each avoids the noise of choosing between a strong and a weak one), averaged, each
+ * weighted by the power heuristic against n_bsdf BSDF samples (Veach's multi-sample MIS; the
+ * path tracer takes 1 and 1). */
 static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf *bsdf, op_v3 wi_l,
-                           op_rng *rng)
+                           int n_light, int n_bsdf, op_rng *rng)
 {
     op_v3 sum = v3s(0.0f);
-    for (int k = 0; k < s->nemitters; k++) {
-        const op_emitter *e = &s->emitters[k];
+    for (int jk = 0; jk < n_light * s->nemitters; jk++) {
+        const op_emitter *e = &s->emitters[jk % s->nemitters];
         float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
         op_light_sample ls;
         if (!op_emitter_sample(e, it->p, u1, u2, u3, &ls))
@@ -135,10 +161,10 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
         op_v3 tr = shadow_transmittance(s, org, ls.wi, tmax);
         if (v3_is_black(tr))
             continue;
-        float w = ls.pdf > 0.0f ? op_mis(ls.pdf, bsdf_pdf) : 1.0f;
+        float w = ls.pdf > 0.0f ? op_mis((float)n_light * ls.pdf, (float)n_bsdf * bsdf_pdf) : 1.0f;
         sum = v3_add(sum, v3_scale(v3_mul(v3_mul(f, ls.value), tr), w));
     }
-    return sum;
+    return n_light == 1 ? sum : v3_scale(sum, 1.0f / (float)n_light);
 }
 
 /* The path-tracing loop. With start != NULL the path begins at that surface with bsdf
@@ -232,7 +258,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
         }
         op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
         if (!op_bsdf_is_smooth_only(bsdf))
-            L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, rng)));
+            L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, 1, 1, rng)));
         float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
         op_bsdf_sample bs;
         if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
@@ -259,6 +285,137 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
         tmin = 0.0f;
         tmax = INFINITY;
     }
+    return L;
+}
+
+/* Emission that a BSDF sample (direction dir from it, density pdf, delta or not) finds: the
+ * first area emitter's front or the environment, through masked surfaces as the path tracer
+ * passes them, weighted by the power heuristic of n_bsdf such samples against n_light samples of
+ * the emitter found (weight 1 for delta samples). */
+static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 dir, float pdf,
+                                  int delta, int n_light, int n_bsdf, op_rng *rng)
+{
+    op_v3 L = v3s(0.0f), T = v3s(1.0f);
+    op_v3 org = op_offset_origin(it->p, it->ng, dir);
+    float dist = 0.0f;
+    for (int k = 0; k <= OP_MAX_PASSES; k++) {
+        op_ray_hit hit;
+        if (!op_accel_intersect(s->accel, org, dir, 0.0f, INFINITY, &hit)) {
+            if (s->env >= 0) {
+                const op_emitter *e = &s->emitters[s->env];
+                float w = delta ? 1.0f : op_mis((float)n_bsdf * pdf,
+                                                (float)n_light * op_emitter_env_pdf(e, dir));
+                L = v3_add(L, v3_scale(v3_mul(T, op_emitter_env_le(e, dir)), w));
+            }
+            return L;
+        }
+        const op_shape_rec *sh = &s->shapes[hit.shape];
+        op_v3 p = v3_add(org, v3_scale(dir, hit.t));
+        if (sh->emitter >= 0) {
+            const op_emitter *e = &s->emitters[sh->emitter];
+            op_v3 a, b, c;
+            op_trimesh_tri(&sh->mesh, hit.prim, &a, &b, &c);
+            op_v3 nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
+            op_v3 le = op_emitter_area_le(e, nw, v3_neg(dir));
+            if (!v3_is_black(le)) {
+                float w = delta ? 1.0f : op_mis((float)n_bsdf * pdf,
+                                                (float)n_light *
+                                                    op_emitter_area_pdf(e, nw, dir, dist + hit.t));
+                L = v3_add(L, v3_scale(v3_mul(T, le), w));
+            }
+        }
+        const op_bsdf *mask = shape_mask(s, hit.shape);
+        if (!mask || !mask_passes(mask, rng))
+            return L;
+        T = v3_mul(T, op_bsdf_pass_weight(mask));
+        if (v3_is_black(T))
+            return L;
+        dist += hit.t;
+        org = op_offset_origin(p, v3_norm(hit.ng), dir);
+    }
+    return L;
+}
+
+/* Mitsuba's `direct` integrator: emission seen along the camera ray (through masked surfaces),
+ * then at the surface found emitterSamples samples of every emitter and bsdfSamples BSDF samples
+ * combined by multiple importance sampling; no indirect light. A translucent shape shows its
+ * cached exitance (or, without one, acts as a diffuse surface of its mean albedo). */
+static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
+                    op_rng *rng, float *alpha)
+{
+    const op_scene *s = ctx->scene;
+    const op_integrator *ig = &s->integrator;
+    op_v3 L = v3s(0.0f), beta = v3s(1.0f);
+    op_isect it;
+    *alpha = 0.0f;
+    for (int passes = 0;; passes++) {
+        op_ray_hit hit;
+        if (passes > OP_MAX_PASSES)
+            return L;
+        if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit)) {
+            if (s->env >= 0 && !ig->hide_emitters)
+                L = v3_add(L, v3_mul(beta, op_emitter_env_le(&s->emitters[s->env], dir)));
+            return L;
+        }
+        op_isect_from_hit(s, &hit, org, dir, &it);
+        const op_shape_rec *sh = &s->shapes[it.shape];
+        if (sh->emitter >= 0 && !ig->hide_emitters && !s->emitters[sh->emitter].camera_hidden) {
+            op_v3 a, b, c;
+            op_trimesh_tri(&sh->mesh, it.prim, &a, &b, &c);
+            op_v3 nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
+            op_v3 le = op_emitter_area_le(&s->emitters[sh->emitter], nw, v3_neg(dir));
+            L = v3_add(L, v3_mul(beta, le));
+        }
+        const op_bsdf *mask = shape_mask(s, it.shape);
+        if (mask && mask_passes(mask, rng)) {
+            beta = v3_mul(beta, op_bsdf_pass_weight(mask));
+            if (v3_is_black(beta))
+                return L;
+            org = op_offset_origin(it.p, it.ng, dir);
+            tmin = 0.0f;
+            if (!isinf(tmax))
+                tmax -= hit.t;
+            continue;
+        }
+        if (mask)
+            beta = v3_mul(beta, op_bsdf_hit_weight(mask));
+        break;
+    }
+    *alpha = 1.0f;
+    const op_shape_rec *sh = &s->shapes[it.shape];
+    const op_bsdf *bsdf;
+    op_bsdf proxy;
+    if (sh->sss >= 0) {
+        op_v3 m;
+        if (ctx->sss && op_sss_lookup(ctx->sss, sh->sss, it.p, it.ns, &m)) {
+            if (v3_dot(v3_neg(dir), it.ng) > 0.0f)
+                L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
+            return L;
+        }
+        op_bsdf_default(&proxy);
+        proxy.reflectance = s->sss[sh->sss].albedo_mean;
+        bsdf = &proxy;
+    } else {
+        bsdf = &s->bsdfs[sh->bsdf];
+    }
+    int nl = ig->emitter_samples, nb = ig->bsdf_samples;
+    op_v3 wi_l = op_frame_to_local(&it.frame, v3_neg(dir));
+    if (nl > 0 && !op_bsdf_is_smooth_only(bsdf))
+        L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, nl, nb, rng)));
+    op_v3 sum = v3s(0.0f);
+    for (int k = 0; k < nb; k++) {
+        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+        op_bsdf_sample bs;
+        if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
+            continue;
+        op_v3 wo = op_frame_to_world(&it.frame, bs.wo);
+        if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f) || v3_is_black(bs.weight))
+            continue;
+        op_v3 le = bsdf_sample_emission(s, &it, wo, bs.pdf, bs.delta, nl, nb, rng);
+        sum = v3_add(sum, v3_mul(bs.weight, le));
+    }
+    if (nb > 0)
+        L = v3_add(L, v3_mul(beta, v3_scale(sum, 1.0f / (float)nb)));
     return L;
 }
 
@@ -303,6 +460,8 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
     op_integrator_type t = ctx->scene->integrator.type;
     if (t == OP_INT_NORMALS || t == OP_INT_UV || t == OP_INT_ALBEDO)
         return debug_view(ctx, org, dir, tmin, tmax, rng, alpha);
+    if (t == OP_INT_DIRECT)
+        return direct(ctx, org, dir, tmin, tmax, rng, alpha);
     return trace(ctx, org, dir, tmin, tmax, NULL, NULL, rng, alpha);
 }
 

@@ -1,5 +1,6 @@
 /* integrator.h - radiance estimates: the path tracer (next-event estimation with multiple
- * importance sampling, Russian roulette), direct lighting (the path tracer at depth 2), the
+ * importance sampling, Russian roulette), Mitsuba's direct lighting (emitterSamples samples of
+ * every emitter and bsdfSamples BSDF samples combined by MIS, no indirect light), the
  * debug views (normals, uv, albedo), and the irradiance estimate the subsurface pass uses.
  * Translucent shapes: a camera path that reaches one takes the cached exitance M/pi there and
  * ends; during the irradiance pass, and where the cache has no exitance (parts no camera

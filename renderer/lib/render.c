@@ -8,6 +8,7 @@
 #include "integrator.h"
 #include "opaline_render.h"
 #include "parallel.h"
+#include "rgbe.h"
 #include "scene_build.h"
 #include "scene_color.h"
 #include "subsurface.h"
@@ -65,10 +66,20 @@ void op_scene_get_info(const op_scene *s, op_scene_info *info)
     info->spp = s->sampler.spp;
     info->film_type = s->film.ldr ? "ldrfilm" : "hdrfilm";
     info->film_filename = s->film.filename[0] ? s->film.filename : NULL;
+    info->film_extension = s->film.extension;
     info->integrator = names[s->integrator.type];
     info->shapes = s->nshapes;
-    for (int i = 0; i < s->nshapes; i++)
-        info->triangles += s->shapes[i].mesh.ntris;
+    for (int i = 0; i < s->nshapes; i++) {
+        const op_trimesh *m = &s->shapes[i].mesh;
+        info->triangles += m->ntris;
+        info->instances += s->shapes[i].instanced;
+        if (!s->shapes[i].instanced)
+            info->geometry_bytes += op_trimesh_bytes(m);
+    }
+    for (int i = 0; i < s->nprotos; i++)
+        info->geometry_bytes += op_trimesh_bytes(&s->protos[i]);
+    if (s->accel)
+        info->geometry_bytes += op_accel_bytes(s->accel);
     info->emitters = s->nemitters;
     info->subsurface_shapes = s->nsss;
 }
@@ -255,24 +266,33 @@ op_status op_scene_write_image(const op_scene *s, const op_image *img, const cha
     if (!img || img->channels != 4)
         return op_error_set(err, OP_ERR_INPUT, "%s: no RGBA image to write", path);
     int is_exr = has_ext(path, ".exr"), is_png = has_ext(path, ".png"), is_pfm = has_ext(path, ".pfm");
-    if (!is_exr && !is_png && !is_pfm)
-        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png or .pfm)",
-                            path);
+    int is_hdr = has_ext(path, ".hdr");
+    if (!is_exr && !is_png && !is_pfm && !is_hdr)
+        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm or "
+                            ".hdr)", path);
     int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
-    if ((is_pfm || (is_png && !film->ldr)) && oc == 4)
-        oc = 3; /* PFM has no alpha; a PNG from an hdrfilm is a preview, opaque */
+    if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
+        oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */
     op_image out;
     op_status st = op_image_alloc(&out, img->width, img->height, oc, err);
     if (st)
         return st;
     size_t n = (size_t)img->width * img->height;
+    int reinhard = is_png && film->ldr && film->reinhard;
+    op_reinhard rh;
+    if (reinhard)
+        op_reinhard_prepare(film, img->pixels, n, &rh);
+    /* Reinhard replaces the exposure */
+    double exposure = film->ldr && !reinhard ? film->exposure : 0.0;
     for (size_t i = 0; i < n; i++) {
         const float *p = img->pixels + 4 * i;
         float *q = out.pixels + (size_t)oc * i;
         float rgb[3] = {p[0], p[1], p[2]};
+        if (reinhard)
+            op_reinhard_apply(&rh, rgb);
         if (is_png && film->ldr && film->gamma > 0.0) {
             /* op_image_write_png encodes sRGB; pre-warp so the stored value is x^(1/gamma) */
-            float sc = (float)exp2(film->exposure);
+            float sc = (float)exp2(exposure);
             for (int c = 0; c < 3; c++) {
                 float v = fmaxf(rgb[c] * sc, 0.0f);
                 rgb[c] = (float)op_srgb_to_linear(pow(fmin(v, 1.0), 1.0 / film->gamma));
@@ -292,9 +312,10 @@ op_status op_scene_write_image(const op_scene *s, const op_image *img, const cha
         st = op_image_write_exr(path, &out, film->half_float, err);
     else if (is_pfm)
         st = op_image_write_pfm(path, &out, err);
+    else if (is_hdr)
+        st = op_rgbe_write(path, &out, err);
     else
-        st = op_image_write_png(path, &out,
-                                film->ldr && film->gamma < 0.0 ? (float)film->exposure : 0.0f, err);
+        st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
     op_image_free(&out);
     return st;
 }

@@ -25,6 +25,8 @@ typedef struct op_integrator {
     int max_depth; /* -1 infinite; 1 = only emitters seen directly; 2 = direct lighting */
     int rr_depth;
     int hide_emitters;
+    int emitter_samples; /* direct: samples of every emitter per pixel sample (>= 0) */
+    int bsdf_samples;    /* direct: BSDF samples per pixel sample (>= 0) */
 } op_integrator;
 
 /* A measured subsurface material on one shape. */
@@ -40,7 +42,11 @@ typedef struct op_sss_desc {
 } op_sss_desc;
 
 typedef struct op_shape_rec {
-    op_trimesh mesh;
+    op_trimesh mesh; /* world space; for an instance a borrowed copy of the scene's prototype in
+                        object space (never freed through the shape) */
+    int instanced;   /* 1: mesh is a shared prototype placed by place (never an emitter or
+                        translucent: those need their world-space triangles) */
+    op_placement place;
     int bsdf;      /* index into bsdfs */
     int emitter;   /* index into emitters, or -1 */
     int sss;       /* index into sss, or -1 */
@@ -55,6 +61,8 @@ struct op_scene {
     op_integrator integrator;
     op_shape_rec *shapes;
     int nshapes;
+    op_trimesh *protos; /* object-space meshes shared by instanced shapes */
+    int nprotos;
     op_bsdf *bsdfs;
     int nbsdfs;
     int has_masks; /* some shape's bsdf is a mask: shadow rays must look through surfaces */

@@ -29,6 +29,11 @@ typedef struct builder {
     const op_node **bsdf_nodes; /* node of each bsdf, to share referenced ones */
     char **mat_paths;           /* resolved path of each opened material */
     op_mesh_cache *meshes;
+    /* mesh files that plain shapes (no emitter, no subsurface) use, found before building:
+     * those used by two or more become shared prototypes, the shapes their instances */
+    char **file_keys;
+    int *file_uses, *file_proto; /* file_proto: index into s->protos, or -1 */
+    int nfiles, cap_files;
 } builder;
 
 static int grow(void **arr, int *cap, int n, size_t elem)
@@ -338,31 +343,131 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     return OP_OK;
 }
 
-static op_status build_mesh(builder *b, op_node *node, op_trimesh *m, op_error *err)
+/* The mesh file an obj/ply shape node names, resolved against the scene's folder, and its
+ * loading options; key gets "face flip path" identifying one loaded mesh. */
+static op_status file_mesh(builder *b, op_node *node, char *path, size_t n, int *face,
+                           int *fliptex, char *key, size_t nk, op_error *err)
+{
+    const char *t = node->type, *fn;
+    GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
+    if (!fn)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\"> needs a filename",
+                            node->file, node->line, t);
+    GET_OR_FAIL(op_node_bool(node, "faceNormals", 0, face, err));
+    GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, fliptex, err));
+    join(path, n, b->dir, fn);
+    snprintf(key, nk, "%d %d %s", *face, *fliptex, path);
+    return OP_OK;
+}
+
+/* Whether a shape node may become an instance: a mesh file without an emitter or subsurface
+ * (those need world-space triangles: area sampling, irradiance points). */
+static int may_instance(const op_node *node)
+{
+    if (strcmp(node->type, "obj") != 0 && strcmp(node->type, "ply") != 0)
+        return 0;
+    for (int i = 0; i < node->nchildren; i++)
+        if (strcmp(node->children[i]->tag, "emitter") == 0 ||
+            strcmp(node->children[i]->tag, "subsurface") == 0)
+            return 0;
+    return 1;
+}
+
+/* Counts the uses of each mesh file by shapes that may become instances. Nodes whose
+ * parameters are bad are skipped here (building them reports the error). */
+static op_status count_file_uses(builder *b, op_node *root, op_error *err)
+{
+    for (int i = 0; i < root->nchildren; i++) {
+        op_node *c = root->children[i];
+        if (strcmp(c->tag, "shape") != 0 || !may_instance(c))
+            continue;
+        char path[4096], key[4200];
+        int face, fliptex;
+        op_error scratch;
+        if (file_mesh(b, c, path, sizeof path, &face, &fliptex, key, sizeof key, &scratch))
+            continue;
+        int k = 0;
+        while (k < b->nfiles && strcmp(b->file_keys[k], key) != 0)
+            k++;
+        if (k == b->nfiles) {
+            int cap = b->cap_files, cap2 = b->cap_files;
+            if (!grow((void **)&b->file_keys, &b->cap_files, b->nfiles, sizeof *b->file_keys) ||
+                !grow((void **)&b->file_uses, &cap, b->nfiles, sizeof *b->file_uses) ||
+                !grow((void **)&b->file_proto, &cap2, b->nfiles, sizeof *b->file_proto))
+                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            b->file_keys[k] = strdup(key);
+            if (!b->file_keys[k])
+                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            b->file_uses[k] = 0;
+            b->file_proto[k] = -1;
+            b->nfiles++;
+        }
+        b->file_uses[k]++;
+    }
+    return OP_OK;
+}
+
+/* The object-space prototype of file entry k (loaded on first use) in *index. */
+static op_status file_prototype(builder *b, int k, const char *path, const char *kind, int face,
+                                int fliptex, int *index, op_error *err)
+{
+    op_scene *s = b->s;
+    if (b->file_proto[k] >= 0) {
+        *index = b->file_proto[k];
+        return OP_OK;
+    }
+    op_trimesh *grown = realloc(s->protos, (size_t)(s->nprotos + 1) * sizeof *grown);
+    if (!grown)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    s->protos = grown;
+    op_trimesh *m = &s->protos[s->nprotos];
+    GET_OR_FAIL(op_mesh_cache_get(b->meshes, path, kind, face, fliptex, m, err));
+    op_matrix4 id = op_matrix4_identity();
+    op_status st = op_trimesh_finish(m, &id, 0, err);
+    if (st) {
+        op_trimesh_free(m);
+        return st;
+    }
+    *index = b->file_proto[k] = s->nprotos++;
+    return OP_OK;
+}
+
+/* Builds shape sh's geometry from its node: a world-space mesh, or an instance of a shared
+ * prototype when the node may be one and its file is used by two or more such shapes. */
+static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_error *err)
 {
     const char *t = node->type;
+    op_trimesh *m = &sh->mesh;
     op_matrix4 xf;
     int flip;
     GET_OR_FAIL(op_node_transform(node, "toWorld", &xf, err));
     GET_OR_FAIL(op_node_bool(node, "flipNormals", 0, &flip, err));
     op_status st;
     if (strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0) {
-        const char *fn;
         int face, fliptex;
-        GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
-        if (!fn)
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\"> needs a filename",
-                                node->file, node->line, t);
-        GET_OR_FAIL(op_node_bool(node, "faceNormals", 0, &face, err));
-        GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, &fliptex, err));
+        char path[4096], key[4200];
+        GET_OR_FAIL(file_mesh(b, node, path, sizeof path, &face, &fliptex, key, sizeof key, err));
         if (op_node_has(node, "maxSmoothAngle")) {
             double a;
             GET_OR_FAIL(op_node_float(node, "maxSmoothAngle", 0.0, &a, err));
             op_log(OP_LOG_WARN, "%s:%d: <shape>: maxSmoothAngle is not supported; smooth normals "
                    "are used", node->file, node->line);
         }
-        char path[4096];
-        join(path, sizeof path, b->dir, fn);
+        int k = 0;
+        while (k < b->nfiles && strcmp(b->file_keys[k], key) != 0)
+            k++;
+        if (may_instance(node) && k < b->nfiles && b->file_uses[k] >= 2) {
+            int p = 0;
+            st = file_prototype(b, k, path, t, face, fliptex, &p, err);
+            if (st == OP_OK)
+                st = op_placement_make(&xf, flip, &sh->place, err);
+            if (st)
+                return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file,
+                                       node->line, t);
+            *m = b->s->protos[p]; /* borrowed */
+            sh->instanced = 1;
+            return OP_OK;
+        }
         st = op_mesh_cache_get(b->meshes, path, t, face, fliptex, m, err);
     } else if (strcmp(t, "sphere") == 0) {
         double c[3], zero[3] = {0, 0, 0}, r;
@@ -403,7 +508,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
     memset(sh, 0, sizeof *sh);
     sh->bsdf = sh->emitter = sh->sss = -1;
     snprintf(sh->label, sizeof sh->label, "%s:%d", node->file, node->line);
-    GET_OR_FAIL(build_mesh(b, node, &sh->mesh, err));
+    GET_OR_FAIL(build_mesh(b, node, sh, err));
     s->nshapes++; /* owns its mesh from here on */
     op_node *bsdf = NULL, *em = NULL, *sss = NULL;
     for (int i = 0; i < node->nchildren; i++) {
@@ -446,6 +551,7 @@ static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
     ig->max_depth = 2;
     ig->rr_depth = 5;
     ig->hide_emitters = 0;
+    ig->emitter_samples = ig->bsdf_samples = 1;
     if (!n)
         return OP_OK;
     n->used = 1;
@@ -488,11 +594,14 @@ static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
         long long es, bs;
         GET_OR_FAIL(op_node_int(n, "emitterSamples", 1, &es, err));
         GET_OR_FAIL(op_node_int(n, "bsdfSamples", 1, &bs, err));
-        if (es != 1 || bs != 1)
-            op_log(OP_LOG_WARN, "%s:%d: <integrator type=\"direct\">: emitterSamples %lld and "
-                   "bsdfSamples %lld are not supported: opaline takes one emitter sample (of "
-                   "every emitter) and one BSDF sample per pixel sample; raise the sampler's "
-                   "sampleCount instead", n->file, n->line, es, bs);
+        if (es < 0 || es > 65536 || bs < 0 || bs > 65536)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"direct\">: "
+                                "emitterSamples %lld and bsdfSamples %lld must be in 0..65536",
+                                n->file, n->line, es, bs);
+        int strict;
+        GET_OR_FAIL(op_node_bool(n, "strictNormals", 0, &strict, err));
+        ig->emitter_samples = (int)es;
+        ig->bsdf_samples = (int)bs;
         return OP_OK;
     }
     GET_OR_FAIL(op_node_int(n, "maxDepth", -1, &md, err));
@@ -539,6 +648,7 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     GET_OR_FAIL(op_sampler_build(sampler, &s->sampler, err));
     GET_OR_FAIL(op_camera_build(sensor, s->film.full_width, s->film.full_height, &s->camera, err));
     GET_OR_FAIL(build_integrator(integrator, &s->integrator, err));
+    GET_OR_FAIL(count_file_uses(b, root, err));
     for (int i = 0; i < root->nchildren; i++) {
         op_node *c = root->children[i];
         int idx = -1;
@@ -571,25 +681,35 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         op_log(OP_LOG_WARN, "%s: the scene has no emitters; the image will be black", s->path);
     op_v3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
     for (int i = 0; i < s->nshapes; i++) {
-        const op_trimesh *m = &s->shapes[i].mesh;
+        const op_shape_rec *sh = &s->shapes[i];
+        const op_trimesh *m = &sh->mesh;
         for (int k = 0; k < m->nverts; k++) {
-            lo = v3(fminf(lo.x, m->pos[3 * k]), fminf(lo.y, m->pos[3 * k + 1]),
-                    fminf(lo.z, m->pos[3 * k + 2]));
-            hi = v3(fmaxf(hi.x, m->pos[3 * k]), fmaxf(hi.y, m->pos[3 * k + 1]),
-                    fmaxf(hi.z, m->pos[3 * k + 2]));
+            op_v3 p = v3(m->pos[3 * k], m->pos[3 * k + 1], m->pos[3 * k + 2]);
+            if (sh->instanced)
+                p = op_place_point(&sh->place, p);
+            lo = v3(fminf(lo.x, p.x), fminf(lo.y, p.y), fminf(lo.z, p.z));
+            hi = v3(fmaxf(hi.x, p.x), fmaxf(hi.y, p.y), fmaxf(hi.z, p.z));
         }
     }
     if (s->nshapes == 0)
         lo = hi = v3s(0.0f);
     s->bmin = lo;
     s->bmax = hi;
-    op_trimesh *meshes = calloc((size_t)(s->nshapes ? s->nshapes : 1), sizeof *meshes);
-    if (!meshes)
+    op_accel_shape *shapes = calloc((size_t)(s->nshapes ? s->nshapes : 1), sizeof *shapes);
+    if (!shapes)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    for (int i = 0; i < s->nshapes; i++)
-        meshes[i] = s->shapes[i].mesh;
-    op_status st = op_accel_build(meshes, s->nshapes, &s->accel, err);
-    free(meshes);
+    for (int i = 0; i < s->nshapes; i++) {
+        const op_shape_rec *sh = &s->shapes[i];
+        shapes[i].mesh = &sh->mesh;
+        shapes[i].place = NULL;
+        for (int k = 0; sh->instanced && k < s->nprotos; k++)
+            if (s->protos[k].pos == sh->mesh.pos) { /* its prototype: instances share its BVH */
+                shapes[i].mesh = &s->protos[k];
+                shapes[i].place = &sh->place;
+            }
+    }
+    op_status st = op_accel_build(shapes, s->nshapes, &s->accel, err);
+    free(shapes);
     return st;
 }
 
@@ -613,6 +733,11 @@ op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error 
     for (int i = 0; i < s->nmaterials; i++)
         free(b.mat_paths[i]);
     free(b.mat_paths);
+    for (int i = 0; i < b.nfiles; i++)
+        free(b.file_keys[i]);
+    free(b.file_keys);
+    free(b.file_uses);
+    free(b.file_proto);
     free(b.bsdf_nodes);
     op_mesh_cache_free(b.meshes);
     if (st == OP_OK)
@@ -623,8 +748,12 @@ op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error 
 void op_scene_release(op_scene *s)
 {
     for (int i = 0; i < s->nshapes; i++)
-        op_trimesh_free(&s->shapes[i].mesh);
+        if (!s->shapes[i].instanced)
+            op_trimesh_free(&s->shapes[i].mesh);
     free(s->shapes);
+    for (int i = 0; i < s->nprotos; i++)
+        op_trimesh_free(&s->protos[i]);
+    free(s->protos);
     free(s->bsdfs);
     for (int i = 0; i < s->nemitters; i++)
         op_emitter_free(&s->emitters[i]);

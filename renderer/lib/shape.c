@@ -37,6 +37,13 @@ void op_trimesh_free(op_trimesh *m)
     memset(m, 0, sizeof *m);
 }
 
+long long op_trimesh_bytes(const op_trimesh *m)
+{
+    long long v = m->nverts, t = m->ntris;
+    return (long long)sizeof(float) * (3 * v + 4 + (m->nrm ? 3 * v : 0) + (m->uv ? 2 * v : 0) + t) +
+           (long long)sizeof(uint32_t) * (3 * t + 1);
+}
+
 static double det3(const op_matrix4 *a)
 {
     const double(*m)[4] = a->m;
@@ -90,6 +97,22 @@ op_status op_trimesh_finish(op_trimesh *m, const op_matrix4 *to_world, int flip,
     if (!(sum > 0.0))
         return op_error_set(err, OP_ERR_INPUT, "the mesh has zero area");
     m->area = (float)sum;
+    return OP_OK;
+}
+
+op_status op_placement_make(const op_matrix4 *to_world, int flip, op_placement *pl, op_error *err)
+{
+    op_matrix4 inv;
+    if (!op_matrix4_is_finite(to_world) || !op_matrix4_inverse(to_world, &inv))
+        return op_error_set(err, OP_ERR_INPUT, "toWorld is singular or not finite");
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 4; c++)
+            pl->m[4 * r + c] = (float)to_world->m[r][c];
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            pl->n[3 * r + c] = (float)inv.m[c][r];
+    pl->flip = flip != 0;
+    pl->swap = (det3(to_world) < 0.0) != (flip != 0);
     return OP_OK;
 }
 

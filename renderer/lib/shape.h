@@ -1,6 +1,8 @@
 /* shape.h - triangle meshes in world space: the procedural shapes (sphere, rectangle, cube,
  * disk) tessellated, and loaded mesh files placed by a transform. Every shape becomes one
- * op_trimesh that the acceleration structure shares without copying. */
+ * op_trimesh that the acceleration structure shares without copying, except instances: a mesh
+ * file used by several plain shapes is kept once in object space and each shape places it with
+ * an op_placement. */
 #ifndef OP_SHAPE_H
 #define OP_SHAPE_H
 
@@ -23,6 +25,8 @@ typedef struct op_trimesh {
 op_status op_trimesh_alloc(op_trimesh *m, int nverts, int ntris, int with_normals, int with_uv,
                            op_error *err);
 void op_trimesh_free(op_trimesh *m);
+/* The bytes m's arrays hold. */
+long long op_trimesh_bytes(const op_trimesh *m);
 /* Transforms positions and normals by to_world (flipping the winding when it mirrors), flips
  * normals and winding when flip is set, then computes the area table. Fails on non-finite or
  * degenerate (zero total area) results. */
@@ -36,6 +40,33 @@ static inline void op_trimesh_tri(const op_trimesh *m, int t, op_v3 *a, op_v3 *b
     *a = v3(p[3 * i[0]], p[3 * i[0] + 1], p[3 * i[0] + 2]);
     *b = v3(p[3 * i[1]], p[3 * i[1] + 1], p[3 * i[1] + 2]);
     *c = v3(p[3 * i[2]], p[3 * i[2] + 1], p[3 * i[2] + 2]);
+}
+
+/* Where an instanced shape's object-space mesh (shared with other shapes) lies in the world:
+ * the shape's toWorld, and flipNormals. Positions and normals computed through it equal, up to
+ * float rounding, those of a world-space copy made by op_trimesh_finish. */
+typedef struct op_placement {
+    float m[12]; /* object to world, row-major 3 x 4 */
+    float n[9];  /* normals: the inverse transpose of m's 3 x 3, row-major */
+    int flip;    /* flipNormals: shading normals turn over */
+    int swap;    /* the world winding is the reverse of the mesh's (mirroring xor flip) */
+} op_placement;
+
+/* Fills pl from to_world and flip; fails when to_world is singular or not finite. */
+op_status op_placement_make(const op_matrix4 *to_world, int flip, op_placement *pl, op_error *err);
+static inline op_v3 op_place_point(const op_placement *pl, op_v3 p)
+{
+    const float *m = pl->m;
+    return v3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
+              m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+              m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+/* A normal's world direction, not normalized and not flipped. */
+static inline op_v3 op_place_normal(const op_placement *pl, op_v3 n)
+{
+    const float *a = pl->n;
+    return v3(a[0] * n.x + a[1] * n.y + a[2] * n.z, a[3] * n.x + a[4] * n.y + a[5] * n.z,
+              a[6] * n.x + a[7] * n.y + a[8] * n.z);
 }
 
 /* Picks a triangle with probability proportional to its area; u in [0, 1). */
@@ -53,8 +84,9 @@ op_status op_shape_disk(op_trimesh *m, int segments, op_error *err);
 typedef struct op_mesh_cache op_mesh_cache;
 op_mesh_cache *op_mesh_cache_new(void);
 void op_mesh_cache_free(op_mesh_cache *c);
-/* Fills m with a world-space copy of the mesh file at path (".obj" or ".ply", loaded at most
- * once per cache and option set). face_normals drops vertex normals; flip_tex flips v. */
+/* Fills m with a copy (in object space, for op_trimesh_finish to place) of the mesh file at path
+ * (".obj" or ".ply", loaded at most once per cache and option set). face_normals drops vertex
+ * normals; flip_tex flips v. */
 op_status op_mesh_cache_get(op_mesh_cache *c, const char *path, const char *kind, int face_normals,
                             int flip_tex, op_trimesh *m, op_error *err);
 

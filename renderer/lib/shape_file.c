@@ -1,5 +1,6 @@
-/* shape_file.c - mesh files for shapes, each file loaded once per option set and copied into
- * world space for every shape that uses it (see op_mesh_cache in shape.h). */
+/* shape_file.c - mesh files for shapes, each file loaded once per option set; every
+ * op_mesh_cache_get hands out a copy for op_trimesh_finish to place (in world space, or in
+ * object space as the prototype instanced shapes share; see op_mesh_cache in shape.h). */
 #include <stdlib.h>
 #include <string.h>
 
