@@ -10,6 +10,7 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build-factor-rel}
 work=${2:-$build/bench}
+bash "$root/scripts/install-deps.sh" --bench # scikit-learn, the peer
 tool=$build/bin/opaline-factor
 [ -x "$tool" ] || { echo "bench_factor: $tool not built (cmake --build $build)" >&2; exit 2; }
 mkdir -p "$work"
@@ -23,7 +24,10 @@ echo "== opaline-factor factor --method svd -T 10"
   "$tool" factor "$ds" -o "$work/svd.opm" --method svd -T 10 --report "$work/svd.json" -v \
   2> >(grep -E "channel|error" >&2)
 read -r wall peak_kb < "$work/time.txt"
-python3 - "$work/svd.json" "$ds" "$wall" "$peak_kb" <<'PY'
+# Debian's python3 has the Debian packages (scikit-learn); another python3 may come first on PATH.
+py=python3
+[ -x /usr/bin/python3 ] && py=/usr/bin/python3
+"$py" - "$work/svd.json" "$ds" "$wall" "$peak_kb" <<'PY'
 import json, os, sys
 r = json.load(open(sys.argv[1]))
 ds_bytes = os.path.getsize(sys.argv[2])
@@ -41,9 +45,9 @@ print(f"albedo map         {r['albedo_map_seconds'] * 1e3:.3f} ms (target <= 50 
 print(f"accuracy           RMSE {r['rmse']:.4g}, relative {r['relative_rmse']:.4g}, "
       f"PSNR {r['psnr']:.2f} dB, size {r['size_bytes']} bytes, ratio {r['compression_ratio']:.1f}")
 PY
-if python3 -c "import sklearn" 2>/dev/null; then
+if "$py" -c "import sklearn" 2>/dev/null; then
   echo "== scikit-learn randomized_svd, one channel (76729 x 841 float32, rank 10)"
-  python3 - "$ds" <<'PY'
+  "$py" - "$ds" <<'PY'
 import sys, time, numpy as np
 from sklearn.utils.extmath import randomized_svd
 # Read RD.R straight from the .opm section table (docs/formats.md).

@@ -18,7 +18,8 @@
 #                 too, the quick mode skips them with a message
 # The full mode takes long (tens of minutes per dataset: K-CTA and NMF at paper size).
 # Needs python3; numpy, scikit-learn and matplotlib (Debian python3-numpy python3-sklearn
-# python3-matplotlib) add the baselines and plots; what is missing is skipped and named.
+# python3-matplotlib) add the baselines and plots; the full run installs them with
+# scripts/install-deps.sh --bench, quick mode skips what is missing and names it.
 # OPALINE_BENCH_PYTHON picks the interpreter; otherwise the first python3 that has numpy
 # (Debian's /usr/bin/python3 first), else any python3.
 set -euo pipefail
@@ -39,6 +40,9 @@ while [ $# -gt 0 ]; do
     *) echo "bench_methods: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
+# The full run installs its peers (scikit-learn, matplotlib, embree-tools); quick mode, run by
+# the tests, only skips what is missing.
+[ -n "$quick" ] || bash "$root/scripts/install-deps.sh" --bench
 tool=$build/bin/opaline-factor
 [ -x "$tool" ] || { echo "bench_methods: $tool not built (cmake --build $build)" >&2; exit 2; }
 out=${out:-$build/bench-methods${quick:+-quick}}

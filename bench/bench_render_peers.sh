@@ -25,6 +25,7 @@ BUNNY=${OPALINE_SHARED_DIR:-$SRC/../shared}/meshes/stanford-bunny.obj
 RENDER=$BUILD/bin/opaline-render
 [ -f "$BUNNY" ] || { echo "skip: $BUNNY is absent (../shared is not beside the checkout)"; exit 0; }
 [ -x "$RENDER" ] || { echo "error: $RENDER not built (cmake --build $BUILD)"; exit 1; }
+bash "$SRC/scripts/install-deps.sh" --bench # Embree's tutorials (embree-tools)
 PEER=$(command -v pathtracer || true)
 [ -n "$PEER" ] || { echo "skip: Embree's pathtracer tutorial is absent (apt-get install embree-tools)"; exit 0; }
 T=$(mktemp -d)

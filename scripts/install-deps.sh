@@ -8,7 +8,13 @@ packages=(
   libembree-dev liblapacke-dev libopenblas-dev libxml2-dev libcmocka-dev
   libopenexr-dev libpng-dev zlib1g-dev
   blender python3
+  clang libclang-rt-14-dev
 )
+# --bench adds what the benchmarks compare against (bench/): scikit-learn, plots, Embree's
+# own path tracer.
+if [ "${1:-}" = --bench ]; then
+  packages+=(python3-numpy python3-sklearn python3-matplotlib embree-tools)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

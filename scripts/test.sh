@@ -9,5 +9,16 @@ bash "$root/scripts/install-deps.sh"
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_SANITIZE=ON \
   -DOPALINE_WERROR=ON >/dev/null
 cmake --build "$build" --parallel "$(nproc)"
-cd "$build"
-ctest --output-on-failure --parallel "$(nproc)" "$@"
+(cd "$build" && ctest --output-on-failure --parallel "$(nproc)" "$@")
+
+# Fuzzing (clang's libFuzzer): every reader of untrusted input for OPALINE_FUZZ_SECONDS each
+# (default 30; 0 skips), in its own build folder. The replay of the saved inputs ran above.
+seconds=${OPALINE_FUZZ_SECONDS:-30}
+if [ "$seconds" != 0 ] && [ $# -eq 0 ]; then
+  fuzz="$root/build-fuzz"
+  CC=clang cmake -S "$root" -B "$fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_SANITIZE=ON \
+    -DOPALINE_WERROR=ON -DOPALINE_FUZZ=ON -DOPALINE_BUILD_PRESETS=OFF \
+    -DOPALINE_FUZZ_SECONDS="$seconds" >/dev/null
+  cmake --build "$fuzz" --parallel "$(nproc)" --target opaline_fuzz_targets
+  (cd "$fuzz" && ctest --output-on-failure --parallel "$(nproc)" -R '^fuzz\.')
+fi

@@ -18,6 +18,7 @@
 #ifndef OPALINE_H
 #define OPALINE_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -80,6 +81,20 @@ op_progress *op_progress_begin(const char *label, uint64_t total, op_progress_fn
 void op_progress_advance(op_progress *p, uint64_t n);
 /* Prints the final report and frees p. */
 void op_progress_end(op_progress *p);
+
+/* ---------------------------------------------------------------- threads */
+
+/* The one thread pool pattern of every opaline program: fn(user, task, thread) for every task
+ * in [0, ntasks) on POSIX threads, tasks handed out in index order from a shared counter,
+ * thread in [0, threads used), denormals flushed to zero in the workers. Results must depend on
+ * the task index only, never on the thread, so output is the same for any thread count. Stops
+ * handing out tasks once *cancel (if not NULL) becomes non-zero and then returns
+ * OP_ERR_CANCELLED. nthreads <= 0 means all online cores. */
+op_status op_parallel_for(int nthreads, int ntasks, void (*fn)(void *user, int task, int thread),
+                          void *user, atomic_int *cancel, op_error *err);
+/* The number of threads op_parallel_for starts for nthreads (<= 0: online cores), before
+ * limiting them to the number of tasks. */
+int op_parallel_threads(int nthreads);
 
 /* ---------------------------------------------------------------- output files */
 

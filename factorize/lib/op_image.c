@@ -430,7 +430,7 @@ static op_status read_exr(const char *path, int fd, int64_t size, op_image *img,
      * interleaved half-to-float paths have mixed up RGBA channel order in some releases. */
     size_t chunk_px = storage == EXR_STORAGE_SCANLINE ? (size_t)lines * (size_t)w
                                                       : (size_t)tw * (size_t)th;
-    float *scratch = malloc(chunk_px * (size_t)c * sizeof(float));
+    float *scratch = malloc(chunk_px * (size_t)(c + 1) * sizeof(float));
     if (!scratch) {
         op_image_free(img);
         st = op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
@@ -464,17 +464,19 @@ static op_status read_exr(const char *path, int fd, int64_t size, op_image *img,
         if (rv != EXR_ERR_SUCCESS)
             break;
         size_t plane = (size_t)ci.width * (size_t)ci.height;
+        /* Every channel gets a destination: channels not read go to the plane after the
+         * last slot (OpenEXR 3.1's specialized unpackers write through null pointers). */
         for (int ch = 0; ch < dec.channel_count; ch++) {
             exr_coding_channel_info_t *cc = &dec.channels[ch];
-            cc->decode_to_ptr = NULL;
+            int slot = c;
             for (int s = 0; s < 5; s++)
-                if (slot_of[s] >= 0 && strcmp(cc->channel_name, slot_names[s]) == 0) {
-                    cc->user_bytes_per_element = 4;
-                    cc->user_data_type = EXR_PIXEL_FLOAT;
-                    cc->user_pixel_stride = (int32_t)sizeof(float);
-                    cc->user_line_stride = (int32_t)((size_t)ci.width * sizeof(float));
-                    cc->decode_to_ptr = (uint8_t *)(scratch + (size_t)slot_of[s] * plane);
-                }
+                if (slot_of[s] >= 0 && strcmp(cc->channel_name, slot_names[s]) == 0)
+                    slot = slot_of[s];
+            cc->user_bytes_per_element = 4;
+            cc->user_data_type = EXR_PIXEL_FLOAT;
+            cc->user_pixel_stride = (int32_t)sizeof(float);
+            cc->user_line_stride = (int32_t)((size_t)ci.width * sizeof(float));
+            cc->decode_to_ptr = (uint8_t *)(scratch + (size_t)slot * plane);
         }
         rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
         if (rv == EXR_ERR_SUCCESS)

@@ -4,8 +4,6 @@
 #include "dataset_diffusion.h"
 
 #include <math.h>
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -113,40 +111,35 @@ typedef struct diffusion_job {
     const offset_plan *plan;
     const int64_t *deltas;     /* sample offsets within padded, relative to the pixel */
     op_dataset *out;
-    _Atomic int next_row;
     op_progress *progress;
 } diffusion_job;
 
-static void *diffusion_worker(void *arg)
+/* Fills incident row y of the dataset (one op_parallel_for task). */
+static void diffusion_row(void *user, int y, int thread)
 {
-    diffusion_job *j = arg;
+    diffusion_job *j = user;
     const op_layout *l = j->l;
     int h = j->kernel / 2;
-    for (;;) {
-        int y = atomic_fetch_add(&j->next_row, 1);
-        if (y >= l->height)
-            break;
-        for (int x = 0; x < l->width; x++) {
-            const uint8_t *base = j->padded + (int64_t)(y + h) * j->pw + (x + h);
-            uint64_t row = (uint64_t)y * (uint64_t)l->width + (uint64_t)x;
-            float *out[3];
-            for (int c = 0; c < 3; c++)
-                out[c] = j->out->rd[c] + row * (uint64_t)j->cols;
-            for (int o = 0; o < j->cols; o++) {
-                const offset_plan *p = &j->plan[o];
-                const int64_t *dl = j->deltas + p->first;
-                int k = 0;
-                for (int s = 0; s < p->count; s++)
-                    k += base[dl[s]];
-                const float *v = p->value + 3 * k;
-                out[0][p->col] = v[0];
-                out[1][p->col] = v[1];
-                out[2][p->col] = v[2];
-            }
+    (void)thread;
+    for (int x = 0; x < l->width; x++) {
+        const uint8_t *base = j->padded + (int64_t)(y + h) * j->pw + (x + h);
+        uint64_t row = (uint64_t)y * (uint64_t)l->width + (uint64_t)x;
+        float *out[3];
+        for (int c = 0; c < 3; c++)
+            out[c] = j->out->rd[c] + row * (uint64_t)j->cols;
+        for (int o = 0; o < j->cols; o++) {
+            const offset_plan *p = &j->plan[o];
+            const int64_t *dl = j->deltas + p->first;
+            int k = 0;
+            for (int s = 0; s < p->count; s++)
+                k += base[dl[s]];
+            const float *v = p->value + 3 * k;
+            out[0][p->col] = v[0];
+            out[1][p->col] = v[1];
+            out[2][p->col] = v[2];
         }
-        op_progress_advance(j->progress, 1);
     }
-    return NULL;
+    op_progress_advance(j->progress, 1);
 }
 
 static int64_t floor_div(int64_t a, int64_t b)
@@ -223,19 +216,9 @@ op_status op_diffusion_generate(const op_layout *l, int threads, op_progress_fn 
 
     diffusion_job job = {.l = l, .padded = padded, .pw = pw, .kernel = K, .cols = cols,
                          .plan = plan, .deltas = deltas, .out = out};
-    atomic_init(&job.next_row, 0);
     job.progress = op_progress_begin("diffusion", (uint64_t)l->height, progress, progress_user);
-    pthread_t tid[256];
-    int started = 0;
-    if (threads > 256)
-        threads = 256;
-    for (int t = 1; t < threads; t++)
-        if (pthread_create(&tid[started], NULL, diffusion_worker, &job) == 0)
-            started++;
-    diffusion_worker(&job);
-    for (int t = 0; t < started; t++)
-        pthread_join(tid[t], NULL);
+    op_status st = op_parallel_for(threads, l->height, diffusion_row, &job, NULL, err);
     op_progress_end(job.progress);
     free(padded), free(values), free(deltas), free(plan), free(quad);
-    return OP_OK;
+    return st;
 }

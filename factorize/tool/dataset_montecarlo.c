@@ -1,9 +1,8 @@
 /* dataset_montecarlo.c - photon transport through the heterogeneous semi-infinite slab. */
 #include "dataset_montecarlo.h"
 
+#include <limits.h>
 #include <math.h>
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -71,7 +70,7 @@ typedef struct mc_job {
     const op_layout *l;
     const op_mc_options *o;
     op_dataset *out;
-    _Atomic uint64_t next_unit;
+    struct mc_thread *threads; /* per worker thread of op_parallel_for */
     uint64_t units;
     op_progress *progress;
     double *total;      /* per unit: all escaping weight / photons */
@@ -203,21 +202,16 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     j->rowse[unit] = sqrt((n > 1 ? fmax(0, (rq - dn * mean * mean) / (dn - 1)) : mean * mean) / dn);
 }
 
-static void *mc_worker(void *arg)
+/* Traces unit u: channel u / pixels, incident pixel u % pixels (one op_parallel_for task). */
+static void mc_task(void *user, int u, int thread)
 {
-    mc_thread *t = arg;
-    mc_job *j = t->job;
+    mc_job *j = user;
     uint64_t pixels = (uint64_t)j->l->width * (uint64_t)j->l->height;
-    for (;;) {
-        uint64_t u = atomic_fetch_add(&j->next_unit, 1);
-        if (u >= j->units)
-            break;
-        int c = (int)(u / pixels);
-        uint64_t p = u % pixels;
-        trace_unit(t, c, (int)(p % (uint64_t)j->l->width), (int)(p / (uint64_t)j->l->width), u);
-        op_progress_advance(j->progress, 1);
-    }
-    return NULL;
+    int c = (int)((uint64_t)u / pixels);
+    uint64_t p = (uint64_t)u % pixels;
+    trace_unit(&j->threads[thread], c, (int)(p % (uint64_t)j->l->width),
+               (int)(p / (uint64_t)j->l->width), (uint64_t)u);
+    op_progress_advance(j->progress, 1);
 }
 
 static double now_seconds(void)
@@ -241,10 +235,12 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
             if (!(l->media[m]->sigma_s[c] + l->media[m]->sigma_a[c] > 0))
                 return op_error_set(err, OP_ERR_INPUT, "medium %s has no extinction",
                                     l->media[m]->name);
-    int threads = o->threads > 256 ? 256 : o->threads;
+    int threads = op_parallel_threads(o->threads);
     uint64_t pixels = (uint64_t)l->width * (uint64_t)l->height;
+    if (3 * pixels > INT_MAX)
+        return op_error_set(err, OP_ERR_INPUT, "montecarlo: %llu incident pixels are too many",
+                            (unsigned long long)pixels);
     mc_job job = {.l = l, .o = o, .out = out, .units = 3 * pixels};
-    atomic_init(&job.next_unit, 0);
     job.total = malloc(job.units * sizeof(double));
     job.rowsum = malloc(job.units * sizeof(double));
     job.rowse = malloc(job.units * sizeof(double));
@@ -261,18 +257,14 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
     }
     job.progress = op_progress_begin("montecarlo", job.units, o->progress, o->progress_user);
     double t0 = now_seconds();
-    pthread_t tid[256];
-    int started = 0;
-    for (int t = 1; t < threads; t++)
-        if (pthread_create(&tid[t], NULL, mc_worker, &th[t]) == 0)
-            started = t;
-        else
-            break;
-    mc_worker(&th[0]);
-    for (int t = 1; t <= started; t++)
-        pthread_join(tid[t], NULL);
+    job.threads = th;
+    op_status st = op_parallel_for(threads, (int)job.units, mc_task, &job, NULL, err);
     stats->seconds = now_seconds() - t0;
     op_progress_end(job.progress);
+    if (st != OP_OK) {
+        free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);
+        return st;
+    }
 
     for (int t = 0; t < threads; t++) {
         stats->steps += th[t].steps;
@@ -299,5 +291,5 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
         op_log(OP_LOG_WARN, "montecarlo: %llu photon(s) stopped after %u steps (counted absorbed)",
                (unsigned long long)stats->lost, OP_MC_MAX_STEPS);
     free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);
-    return OP_OK;
+    return st;
 }

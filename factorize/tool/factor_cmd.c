@@ -24,6 +24,7 @@ typedef struct factor_args {
     const char *input, *output, *report, *albedo_png, *name;
     op_method method;
     int terms, degree, shift, sanitize;
+    int threads; /* preprocessing threads (0: all cores) */
     int clusters, km, iters; /* kcta's C and K_m; kcta's or nmf's iterations (-1: default) */
     double homog_exp;        /* nmf: the remainder is Rd / H^homog_exp */
     double log_a, log_b;
@@ -73,6 +74,8 @@ static void usage(FILE *f)
             "  --power-iters Q    randomized SVD power iterations (default 4)\n"
             "  --oversample P     randomized SVD oversampling (default 10)\n"
             "  --exact-svd        full LAPACK SVD instead of the randomized one (slow)\n"
+            "  -t THREADS         preprocessing threads (default: all cores; the SVD uses\n"
+            "                     OpenBLAS's own, OPENBLAS_NUM_THREADS)\n"
             "  -v / -q            more / less output on stderr\n");
 }
 
@@ -161,6 +164,7 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
         {"--log-b", 1e-30, 1e30, NULL, &a->log_b},
         {"--power-iters", 0, 100, &a->svd.power_iters, NULL},
         {"--oversample", 0, 1000, &a->svd.oversample, NULL},
+        {"-t", 1, 1024, &a->threads, NULL},
     };
     for (int i = 1; i < argc; i++) {
         const char *o = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
@@ -330,14 +334,13 @@ static op_status alloc_matrix(const dataset *ds, float **mat, op_error *err)
     return OP_OK;
 }
 
-/* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, into
- * mat (rows x cols). The per-row shifts and maxima go to *shift and *max, owned by the caller
- * (both NULL when not shifted). */
-static op_status prepare_channel(const factor_args *a, const dataset *ds, int c, float *mat,
-                                 uint32_t **shift, float **max, op_error *err)
+/* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, and
+ * log-transformed as the svd method does when with_log, into mat (rows x cols). The per-row
+ * shifts and maxima go to *shift and *max, owned by the caller (both NULL when not shifted). */
+static op_status prepare_channel(const factor_args *a, const dataset *ds, int c, int with_log,
+                                 float *mat, uint32_t **shift, float **max, op_error *err)
 {
     int64_t rows = ds->rows;
-    int cols = ds->cols;
     *shift = NULL;
     *max = NULL;
     if (a->shift) {
@@ -350,10 +353,16 @@ static op_status prepare_channel(const factor_args *a, const dataset *ds, int c,
             *max = NULL;
             return op_error_set(err, OP_ERR_NOMEM, "out of memory");
         }
-        op_prep_find_peaks(ds->rd[c], rows, cols, *shift, *max);
     }
-    op_prep_apply(ds->rd[c], rows, cols, *shift, *max, mat);
-    return OP_OK;
+    op_status st = op_prep_rows(ds->rd[c], rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
+                                a->log_b, a->threads, mat, err);
+    if (st != OP_OK) {
+        free(*shift);
+        free(*max);
+        *shift = NULL;
+        *max = NULL;
+    }
+    return st;
 }
 
 /* Hands channel c's per-row shifts and maxima to out as "SHIFT.c" and "MAX.c" when st is OP_OK
@@ -404,10 +413,9 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_now();
-        st = prepare_channel(a, ds, c, mat, &shift, &max, err);
+        st = prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
         if (st != OP_OK)
             break;
-        op_prep_log(mat, (uint64_t)rows * (uint64_t)cols, a->log_a, a->log_b);
         op_progress_advance(prog, 1);
         double t1 = op_now();
         *prep_seconds += t1 - t0;
@@ -486,7 +494,7 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_now();
-        st = prepare_channel(a, ds, c, mat, &shift, &max, err);
+        st = prepare_channel(a, ds, c, 0, mat, &shift, &max, err);
         if (st != OP_OK)
             break;
         double t1 = op_now();

@@ -70,3 +70,43 @@ void op_prep_log(float *v, uint64_t n, double a, double b)
     for (uint64_t i = 0; i < n; i++)
         v[i] = log1pf(v[i] * inv_a + bm1);
 }
+
+typedef struct prep_job {
+    const float *src;
+    int64_t rows;
+    int cols;
+    uint32_t *shift;
+    float *max;
+    double log_a, log_b;
+    float *dst;
+    int64_t rows_per_task;
+} prep_job;
+
+static void prep_task(void *user, int task, int thread)
+{
+    const prep_job *j = user;
+    int64_t r0 = (int64_t)task * j->rows_per_task;
+    int64_t n = j->rows - r0 < j->rows_per_task ? j->rows - r0 : j->rows_per_task;
+    size_t at = (size_t)r0 * (size_t)j->cols;
+    (void)thread;
+    if (j->shift)
+        op_prep_find_peaks(j->src + at, n, j->cols, j->shift + r0, j->max + r0);
+    op_prep_apply(j->src + at, n, j->cols, j->shift ? j->shift + r0 : NULL,
+                  j->max ? j->max + r0 : NULL, j->dst + at);
+    if (j->log_a > 0)
+        op_prep_log(j->dst + at, (uint64_t)n * (uint64_t)j->cols, j->log_a, j->log_b);
+}
+
+op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
+                       double log_a, double log_b, int threads, float *dst, op_error *err)
+{
+    /* Blocks of about 256 KiB: large enough to amortize a task, small enough to balance. */
+    int64_t per = (int64_t)(65536 / (cols > 0 ? cols : 1));
+    prep_job j = {src, rows, cols, shift, max, log_a, log_b, dst, per > 0 ? per : 1};
+    int64_t tasks = (rows + j.rows_per_task - 1) / j.rows_per_task;
+    while (tasks > 1 << 30) {
+        j.rows_per_task *= 2;
+        tasks = (rows + j.rows_per_task - 1) / j.rows_per_task;
+    }
+    return op_parallel_for(threads, (int)tasks, prep_task, &j, NULL, err);
+}

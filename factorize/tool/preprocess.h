@@ -11,6 +11,8 @@
 
 #include <stdint.h>
 
+#include "opaline.h"
+
 /* What a scan of the input values found. */
 typedef struct op_prep_counts {
     uint64_t nonfinite;       /* NaN or infinite values (treated as 0) */
@@ -36,6 +38,13 @@ void op_prep_find_peaks(const float *src, int64_t rows, int cols, uint32_t *shif
  * shift and max NULL, dst is the cleaned src itself. dst and src must not overlap. */
 void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shift,
                    const float *max, float *dst);
+
+/* The whole preprocessing of a channel on `threads` threads (<= 0: all cores), one block of
+ * rows per task so that each row is read once: op_prep_find_peaks (when shift and max are not
+ * NULL), op_prep_apply, then op_prep_log when log_a > 0. The result is the same as those steps
+ * in sequence, for any thread count. Fails only when threads cannot be started. */
+op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
+                       double log_a, double log_b, int threads, float *dst, op_error *err);
 
 /* The svd method's value transform, in place: v = ln(v / a + b), with a > 0, b > 0, v >= 0. */
 void op_prep_log(float *v, uint64_t n, double a, double b);

@@ -7,7 +7,6 @@
 
 #include "integrator.h"
 #include "opaline_render.h"
-#include "parallel.h"
 #include "rgbe.h"
 #include "scene_build.h"
 #include "scene_color.h"

@@ -8,7 +8,6 @@
 #include <strings.h>
 #include <time.h>
 
-#include "parallel.h"
 
 typedef struct sss_point {
     op_v3 p, ng, n;   /* position, geometric and shading normal */
@@ -684,10 +683,9 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         if (!job.task_shape || !job.task_first)
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         int t = 0;
-        uint64_t nsrc = 0, nrecv = 0;
+        uint64_t nsrc = 0;
         for (int s = 0; st == OP_OK && s < c->n; s++) {
             nsrc += (uint64_t)c->shapes[s].nsrc;
-            nrecv += (uint64_t)c->shapes[s].nrecv;
             for (int k = 0; k < c->shapes[s].nsrc; k += POINTS_PER_TASK) {
                 job.task_shape[t] = s;
                 job.task_first[t++] = k;

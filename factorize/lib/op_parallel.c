@@ -1,5 +1,5 @@
-/* parallel.c - a parallel for over pthreads (see parallel.h). */
-#include "parallel.h"
+/* op_parallel.c - a parallel for over POSIX threads (see opaline.h). */
+#include "opaline.h"
 
 #include <pthread.h>
 #include <stdlib.h>
