@@ -203,6 +203,8 @@ void op_material_writer_abort(op_material_writer *w);
 
 /* CRC-32 (zlib's) of a buffer, continuing from crc (start with 0). */
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
+/* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */
+uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b);
 
 const char *op_version(void);
 

@@ -43,6 +43,11 @@ uint32_t op_crc32(uint32_t crc, const void *data, size_t n)
     return (uint32_t)crc32_z(crc, data, n);
 }
 
+uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b)
+{
+    return (uint32_t)crc32_combine(crc_a, crc_b, (z_off_t)bytes_b); /* z_off_t: 64 bits on LP64 */
+}
+
 static const char *const method_names[OP_METHOD_COUNT] = {"raw", "svd", "tucker", "kcta", "nmf"};
 
 const char *op_method_name(op_method m)
@@ -121,6 +126,16 @@ void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_i
 {
     static const char rgb[] = "RGB";
     snprintf(tag, n, "%s%c", prefix, info->channels == 1 ? 'Y' : rgb[c]);
+}
+
+uint32_t op_material_section_crc(const op_material *m, const char *tag)
+{
+    for (uint32_t i = 0; i < m->nsections; i++) {
+        const unsigned char *e = m->table + (size_t)i * OPM_ENTRY_SIZE;
+        if (strncmp((const char *)e, tag, 8) == 0)
+            return get_u32(e + 24);
+    }
+    return 0;
 }
 
 const void *op_material_section(const op_material *m, const char *tag, uint64_t *bytes)

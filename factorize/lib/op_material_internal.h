@@ -57,6 +57,9 @@ op_status op_method_keep_state(op_material *m, void *state, op_status st);
 /* A destroy() for methods whose state is one block from malloc. */
 void op_method_free_state(op_material *m);
 
+/* The checksum stored for a section (verified when the file was opened), or 0 when absent. */
+uint32_t op_material_section_crc(const op_material *m, const char *tag);
+
 /* Opens a file's container and META only (header, section table, checksums, dimensions) without
  * the method's checks: sections may be read with op_material_section, but eval, eval_row and
  * albedo must not be called. The factorizer reads datasets this way, so that NaN or negative

@@ -74,8 +74,8 @@ static void usage(FILE *f)
             "  --power-iters Q    randomized SVD power iterations (default 4)\n"
             "  --oversample P     randomized SVD oversampling (default 10)\n"
             "  --exact-svd        full LAPACK SVD instead of the randomized one (slow)\n"
-            "  -t THREADS         preprocessing threads (default: all cores; the SVD uses\n"
-            "                     OpenBLAS's own, OPENBLAS_NUM_THREADS)\n"
+            "  -t THREADS         preprocessing and evaluation threads (default: all cores;\n"
+            "                     the SVD uses OpenBLAS's own: OPENBLAS_NUM_THREADS)\n"
             "  -v / -q            more / less output on stderr\n");
 }
 
@@ -293,7 +293,8 @@ static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_repor
             return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' holds %llu bytes, expected "
                                 "%llu", a->input, tag, (unsigned long long)bytes,
                                 (unsigned long long)(count * sizeof(float)));
-        crc = op_crc32(crc, ds->rd[c], (size_t)bytes);
+        /* The dataset's CRC from its sections' verified ones: no second pass over the data. */
+        crc = op_crc32_combine(crc, op_material_section_crc(ds->file, tag), bytes);
         op_prep_counts n;
         op_prep_scan(ds->rd[c], count, &n);
         if (n.nonfinite && !a->sanitize) {
@@ -627,43 +628,71 @@ static op_status write_material(const char *path, const op_material_info *info,
 
 /* Reads the material back through libopaline and compares every row with the dataset; fills
  * the error figures of rep and the albedo map (channels x rows). */
-static op_status evaluate(const char *path, const dataset *ds, op_factor_report *rep,
+typedef struct eval_job {
+    const op_material *m;
+    const dataset *ds;
+    int64_t rows_per_task;
+    int tasks_per_channel;
+    float *rowbuf;         /* one row of cols floats per thread */
+    op_error_accum *parts; /* per task */
+    float *albedo;
+    op_progress *prog;
+} eval_job;
+
+/* Evaluates one block of rows of one channel against the dataset (one op_parallel_for task). */
+static void eval_task(void *user, int task, int thread)
+{
+    const eval_job *j = user;
+    const dataset *ds = j->ds;
+    int c = task / j->tasks_per_channel, w = ds->info.width;
+    int64_t r0 = (int64_t)(task % j->tasks_per_channel) * j->rows_per_task;
+    int64_t r1 = r0 + j->rows_per_task < ds->rows ? r0 + j->rows_per_task : ds->rows;
+    float *row = j->rowbuf + (size_t)thread * (size_t)ds->cols;
+    for (int64_t r = r0; r < r1; r++) {
+        op_material_eval_row(j->m, c, (int)(r % w), (int)(r / w), row);
+        op_error_accum_add(&j->parts[task], ds->rd[c] + r * ds->cols, row, ds->cols);
+        double sum = 0;
+        for (int k = 0; k < ds->cols; k++)
+            sum += row[k];
+        j->albedo[c * ds->rows + r] = (float)sum;
+    }
+    op_progress_advance(j->prog, (uint64_t)(r1 - r0));
+}
+
+static op_status evaluate(const char *path, const dataset *ds, int threads, op_factor_report *rep,
                           float *albedo, op_error *err)
 {
     op_material *m;
     op_status st = op_material_open(path, &m, err);
     if (st != OP_OK)
         return op_error_prefix(err, "reading back the new material: ");
-    float *row = malloc((size_t)ds->cols * sizeof *row);
-    if (!row) {
-        op_material_close(m);
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    }
+    /* Fixed blocks of rows, merged in order: the figures do not depend on the thread count. */
+    eval_job j = {.m = m, .ds = ds, .albedo = albedo};
+    j.rows_per_task = 1 + (int64_t)(262144 / ds->cols);
+    j.tasks_per_channel = (int)((ds->rows + j.rows_per_task - 1) / j.rows_per_task);
+    int tasks = j.tasks_per_channel * ds->info.channels;
+    int nthreads = op_parallel_threads(threads);
+    j.rowbuf = malloc((size_t)nthreads * (size_t)ds->cols * sizeof *j.rowbuf);
+    j.parts = calloc((size_t)tasks, sizeof *j.parts);
+    if (!j.rowbuf || !j.parts)
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    j.prog = op_progress_begin("evaluate", (uint64_t)ds->info.channels * (uint64_t)ds->rows,
+                               NULL, NULL);
+    if (st == OP_OK)
+        st = op_parallel_for(nthreads, tasks, eval_task, &j, NULL, err);
+    op_progress_end(j.prog);
     op_error_accum acc = {0};
-    int w = ds->info.width;
-    op_progress *prog =
-        op_progress_begin("evaluate", (uint64_t)ds->info.channels * (uint64_t)ds->rows, NULL, NULL);
-    for (int c = 0; c < ds->info.channels; c++) {
-        for (int64_t r = 0; r < ds->rows; r++) {
-            op_material_eval_row(m, c, (int)(r % w), (int)(r / w), row);
-            op_error_accum_add(&acc, ds->rd[c] + r * ds->cols, row, ds->cols);
-            double sum = 0;
-            for (int j = 0; j < ds->cols; j++)
-                sum += row[j];
-            albedo[c * ds->rows + r] = (float)sum;
-            if ((r & 1023) == 1023)
-                op_progress_advance(prog, 1024);
-        }
-    }
-    op_progress_end(prog);
+    for (int t = 0; st == OP_OK && t < tasks; t++)
+        op_error_accum_merge(&acc, &j.parts[t]);
     op_error_accum_finish(&acc, rep);
-    free(row);
+    free(j.rowbuf);
+    free(j.parts);
     op_material_close(m);
-    for (int64_t i = 0; i < ds->rows * ds->info.channels; i++)
+    for (int64_t i = 0; st == OP_OK && i < ds->rows * ds->info.channels; i++)
         if (!isfinite(albedo[i]))
             return op_error_set(err, OP_ERR_NUMERIC, "albedo of row %lld is not finite",
                                 (long long)(i % ds->rows));
-    return OP_OK;
+    return st;
 }
 
 /* The albedo map as an sRGB PNG, box-filtered down to at most 512 pixels on a side, scaled so
@@ -846,7 +875,7 @@ int op_cmd_factor(int argc, char **argv)
     }
     op_report_stage(&rep, "write", op_now() - t);
     t = op_now();
-    st = evaluate(tmp, &ds, &rep, albedo, &err);
+    st = evaluate(tmp, &ds, a.threads, &rep, albedo, &err);
     if (st != OP_OK)
         goto done;
     op_report_stage(&rep, "evaluate", op_now() - t);

@@ -38,6 +38,11 @@ void op_prep_find_peaks(const float *src, int64_t rows, int cols, uint32_t *shif
     }
 }
 
+static inline float at_most_one(float v)
+{
+    return v < 1.0f ? v : 1.0f;
+}
+
 void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shift,
                    const float *max, float *dst)
 {
@@ -53,13 +58,14 @@ void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shi
             memset(out, 0, (size_t)cols * sizeof *out);
             continue;
         }
-        /* Dividing by the maximum keeps every value in [0, 1] exactly. */
+        /* Dividing by the maximum keeps every value in [0, 1] exactly (min() only guards
+         * rounding; a ternary, not fminf, so it compiles to one instruction). */
         float mx = max[r];
         int s = (int)shift[r];
         for (int j = 0; j < cols - s; j++)
-            out[j] = fminf(op_prep_clean(in[j + s]) / mx, 1.0f);
+            out[j] = at_most_one(op_prep_clean(in[j + s]) / mx);
         for (int j = cols - s; j < cols; j++)
-            out[j] = fminf(op_prep_clean(in[j + s - cols]) / mx, 1.0f);
+            out[j] = at_most_one(op_prep_clean(in[j + s - cols]) / mx);
     }
 }
 

@@ -47,6 +47,15 @@ void op_error_accum_add(op_error_accum *acc, const float *ref, const float *appr
     acc->count += (uint64_t)n;
 }
 
+void op_error_accum_merge(op_error_accum *acc, const op_error_accum *part)
+{
+    acc->sum_sq_err += part->sum_sq_err;
+    acc->sum_sq_ref += part->sum_sq_ref;
+    acc->max_err = part->max_err > acc->max_err ? part->max_err : acc->max_err;
+    acc->max_ref = part->max_ref > acc->max_ref ? part->max_ref : acc->max_ref;
+    acc->count += part->count;
+}
+
 void op_error_accum_finish(const op_error_accum *acc, op_factor_report *r)
 {
     r->rmse = acc->count ? sqrt(acc->sum_sq_err / (double)acc->count) : 0.0;

@@ -47,6 +47,8 @@ typedef struct op_error_accum {
     uint64_t count;
 } op_error_accum;
 void op_error_accum_add(op_error_accum *acc, const float *ref, const float *approx, int n);
+/* Adds the statistics of part (rows accumulated separately, e.g. by another thread) to acc. */
+void op_error_accum_merge(op_error_accum *acc, const op_error_accum *part);
 void op_error_accum_finish(const op_error_accum *acc, op_factor_report *r);
 /* Human-readable report to f. */
 void op_report_print(const op_factor_report *r, FILE *f);
