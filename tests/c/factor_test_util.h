@@ -217,16 +217,29 @@ static inline void check_image_size(const char *path, int w, int h)
     op_image_free(&img);
 }
 
-/* The contents of a small text file (a fresh string to free). */
+/* The bytes of a file, NUL-terminated (a fresh buffer to free); its length in *n if not NULL. */
+static inline char *slurp_bytes(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fseek(f, 0, SEEK_END), 0);
+    long len = ftell(f);
+    assert_true(len >= 0);
+    rewind(f);
+    char *buf = malloc((size_t)len + 1);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)len, f), (size_t)len);
+    buf[len] = '\0';
+    fclose(f);
+    if (n)
+        *n = (size_t)len;
+    return buf;
+}
+
+/* The contents of a text file (a fresh string to free). */
 static inline char *slurp(const char *path)
 {
-    FILE *f = fopen(path, "r");
-    assert_non_null(f);
-    char *buf = calloc(1, 1 << 16);
-    size_t n = fread(buf, 1, (1 << 16) - 1, f);
-    buf[n] = '\0';
-    fclose(f);
-    return buf;
+    return slurp_bytes(path, NULL);
 }
 
 /* Checks that the small text file at path contains text. */

@@ -193,6 +193,43 @@ static void svd_end_to_end(void **state)
     free(d.v);
 }
 
+/* Preprocessing and evaluation run on threads in fixed row blocks: the material file and the
+ * reported errors are the same for any -t (the dataset spans several blocks). */
+static void same_result_for_any_thread_count(void **state)
+{
+    ds_spec d = ds_chess(120, 90, 7, 0);
+    char *in = ds_write(&d);
+    char out[2][1024], report[2][1024], errtext[8192];
+    const char *threads[2] = {"1", "3"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(out[i], sizeof out[i], "%s", op_test_tmp_path(i ? "t3.opm" : "t1.opm"));
+        snprintf(report[i], sizeof report[i], "%s", op_test_tmp_path(i ? "t3.json" : "t1.json"));
+        const char *args[] = {"--method", "svd", "-T", "4", "-t", threads[i], "--report",
+                              report[i], NULL};
+        assert_int_equal(run_factor(in, out[i], errtext, sizeof errtext, args), 0);
+    }
+    size_t n0, n1;
+    char *a = slurp_bytes(out[0], &n0), *b = slurp_bytes(out[1], &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(a, b, n0);
+    free(a);
+    free(b);
+    a = slurp(report[0]);
+    b = slurp(report[1]);
+    const char *keys[] = {"\"rmse\": ", "\"max_error\": ", "\"psnr\": "};
+    for (int k = 0; k < 3; k++) {
+        const char *x = strstr(a, keys[k]), *y = strstr(b, keys[k]);
+        assert_non_null(x);
+        assert_non_null(y);
+        assert_int_equal(strcspn(x, ","), strcspn(y, ","));
+        assert_memory_equal(x, y, strcspn(x, ","));
+    }
+    free(a);
+    free(b);
+    free(in);
+    free(d.v);
+}
+
 static void bad_arguments(void **state)
 {
     ds_spec d = ds_chess(4, 4, 3, 0);
@@ -448,6 +485,7 @@ int main(void)
         cmocka_unit_test(eckart_young_flat_spectrum),
         cmocka_unit_test(rsvd_deterministic_and_exact_when_small),
         cmocka_unit_test(svd_end_to_end),
+        cmocka_unit_test(same_result_for_any_thread_count),
         cmocka_unit_test(bad_arguments),
         cmocka_unit_test(zero_and_constant_rows),
         cmocka_unit_test(negative_noise),
