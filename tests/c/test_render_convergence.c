@@ -1,5 +1,7 @@
-/* test_render_convergence.c - the image is bit-identical for any thread count (also with a
- * translucent shape), and the error of a Cornell-like box falls as 1/sqrt(spp). */
+/* test_render_convergence.c - the image is bit-identical for any thread count (independent and
+ * low-discrepancy samplers), the error of a Cornell-like box falls as 1/sqrt(spp) with the
+ * independent sampler, and the low-discrepancy sampler's error is clearly lower at equal spp and
+ * falls at least as fast. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -39,10 +41,20 @@ static const char *cornell =
     "  <ref id=\"white\"/></shape>"
     "</scene>";
 
-static void test_threads_bit_identical(void **state)
+/* The same box with a sampler of the given type in its sensor (a fresh string; free it). */
+static char *cornell_with_sampler(const char *type)
 {
-    (void)state;
-    const char *path = op_test_write_temp("cornell.xml", cornell);
+    const char *at = strstr(cornell, "<film ");
+    size_t n = strlen(cornell) + 64;
+    char *out = malloc(n);
+    assert_non_null(out);
+    snprintf(out, n, "%.*s<sampler type=\"%s\"/>%s", (int)(at - cornell), cornell, type, at);
+    return out;
+}
+
+static void check_threads_bit_identical(const char *xml)
+{
+    const char *path = op_test_write_temp("cornell.xml", xml);
     char keep[1024];
     snprintf(keep, sizeof keep, "%s", path);
     op_image a = op_test_render_image(keep, 8, 1, 0), b = op_test_render_image(keep, 8, 2, 0), c = op_test_render_image(keep, 8, 3, 0);
@@ -57,6 +69,15 @@ static void test_threads_bit_identical(void **state)
     op_image_free(&a);
     op_image_free(&b);
     op_image_free(&c);
+}
+
+static void test_threads_bit_identical(void **state)
+{
+    (void)state;
+    check_threads_bit_identical(cornell);
+    char *ld = cornell_with_sampler("sobol");
+    check_threads_bit_identical(ld);
+    free(ld);
 }
 
 static void test_error_falls_as_inverse_sqrt_spp(void **state)
@@ -84,12 +105,52 @@ static void test_error_falls_as_inverse_sqrt_spp(void **state)
     op_image_free(&ref);
 }
 
+/* RMSE of renders of scene xml at each of n sample counts against ref. */
+static void errors(const char *xml, const op_image *ref, const int *spp, int n, double *e)
+{
+    const char *path = op_test_write_temp("cornell.xml", xml);
+    char keep[1024];
+    snprintf(keep, sizeof keep, "%s", path);
+    for (int i = 0; i < n; i++) {
+        op_image img = op_test_render_image(keep, spp[i], 2, 7);
+        e[i] = op_test_image_rmse(&img, ref);
+        op_image_free(&img);
+    }
+}
+
+static void test_low_discrepancy_beats_independent(void **state)
+{
+    (void)state;
+    char *ld = cornell_with_sampler("sobol");
+    const char *path = op_test_write_temp("cornell.xml", ld);
+    char keep[1024];
+    snprintf(keep, sizeof keep, "%s", path);
+    /* a reference of another seed (another scrambling) with 32x the largest sample count */
+    op_image ref = op_test_render_image(keep, 2048, 2, 12345);
+    int spp[2] = {16, 64};
+    double ei[2], el[2];
+    errors(cornell, &ref, spp, 2, ei);
+    errors(ld, &ref, spp, 2, el);
+    print_message("rmse at 16, 64 spp: independent %.5f %.5f, sobol %.5f %.5f\n", ei[0], ei[1],
+                  el[0], el[1]);
+    /* most of the box is lit indirectly (the cube's shadow, the walls' colour bleeding) */
+    if (ei[1] < 1.5 * el[1])
+        fail_msg("at 64 spp the low-discrepancy error %.5f is not 1.5x below the independent "
+                 "%.5f", el[1], ei[1]);
+    if (el[0] / el[1] < 0.95 * (ei[0] / ei[1]))
+        fail_msg("16 -> 64 spp: low-discrepancy error falls %.3fx, independent %.3fx",
+                 el[0] / el[1], ei[0] / ei[1]);
+    op_image_free(&ref);
+    free(ld);
+}
+
 int main(void)
 {
     op_log_set_level(OP_LOG_WARN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_threads_bit_identical),
         cmocka_unit_test(test_error_falls_as_inverse_sqrt_spp),
+        cmocka_unit_test(test_low_discrepancy_beats_independent),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
