@@ -132,6 +132,13 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
     return v3s(0.0f);
 }
 
+/* How many of op_bsdf_sample_dir's u1, u2, u3 a path should draw for bsdf: the lobe choice u3
+ * only where there is a choice (any type not listed here gets all three). */
+static int bsdf_sample_dims(const op_bsdf *b)
+{
+    return b->type == OP_BSDF_DIFFUSE || b->type == OP_BSDF_CONDUCTOR ? 2 : 3;
+}
+
 /* The white Lambertian used for irradiance estimates. */
 static const op_bsdf white_bsdf = {.type = OP_BSDF_DIFFUSE, .reflectance = {1.0f, 1.0f, 1.0f}};
 
@@ -147,9 +154,9 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
     for (int jk = 0; jk < n_light * s->nemitters; jk++) {
         int k = jk % s->nemitters;
         const op_emitter *e = &s->emitters[k];
-        float u[3];
+        float u[3] = {0.0f, 0.0f, 0.0f};
         op_path_sample_k(ps, OP_DIM(depth, OP_DIM_LIGHT, k), (uint32_t)(jk / s->nemitters),
-                         (uint32_t)n_light, 3, u);
+                         (uint32_t)n_light, op_emitter_sample_dims(e), u);
         op_light_sample ls;
         if (!op_emitter_sample(e, it->p, u[0], u[1], u[2], &ls))
             continue;
@@ -265,8 +272,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
         op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
         if (!op_bsdf_is_smooth_only(bsdf))
             L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, 1, 1, depth, ps)));
-        float u[3];
-        op_path_sample(ps, OP_DIM(depth, OP_DIM_BSDF, 0), 3, u);
+        float u[3] = {0.0f, 0.0f, 0.0f};
+        op_path_sample(ps, OP_DIM(depth, OP_DIM_BSDF, 0), bsdf_sample_dims(bsdf), u);
         op_bsdf_sample bs;
         if (!op_bsdf_sample_dir(bsdf, wi_l, u[0], u[1], u[2], &bs))
             break;
@@ -413,8 +420,9 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
         L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, nl, nb, 0, ps)));
     op_v3 sum = v3s(0.0f);
     for (int k = 0; k < nb; k++) {
-        float u[3];
-        op_path_sample_k(ps, OP_DIM(0, OP_DIM_BSDF, 0), (uint32_t)k, (uint32_t)nb, 3, u);
+        float u[3] = {0.0f, 0.0f, 0.0f};
+        op_path_sample_k(ps, OP_DIM(0, OP_DIM_BSDF, 0), (uint32_t)k, (uint32_t)nb,
+                         bsdf_sample_dims(bsdf), u);
         op_bsdf_sample bs;
         if (!op_bsdf_sample_dir(bsdf, wi_l, u[0], u[1], u[2], &bs))
             continue;

@@ -42,6 +42,7 @@ typedef struct op_path_sampler {
     op_rng rng;     /* the hashed stream: every draw when !ld, the variable-count fallback */
     uint64_t seed;  /* per-pixel scramble seed (ld) */
     uint32_t index; /* the sample index within the pixel */
+    uint32_t index_rev; /* its bits reversed */
     int ld;
 } op_path_sampler;
 
