@@ -139,6 +139,16 @@ static int bsdf_sample_dims(const op_bsdf *b)
     return b->type == OP_BSDF_DIFFUSE || b->type == OP_BSDF_CONDUCTOR ? 2 : 3;
 }
 
+/* Whether emitter e is left to BSDF sampling alone where n_bsdf BSDF samples are taken: a
+ * constant environment. For a constant radiance the BSDF's own distribution is the better
+ * strategy (a cosine-weighted sample of a diffuse surface under open sky has no variance),
+ * while its uniform sphere samples would waste half their shadow rays below the surface and
+ * add variance even under the power heuristic. BSDF samples that reach it weigh 1. */
+static int env_bsdf_only(const op_emitter *e, int n_bsdf)
+{
+    return e->type == OP_EM_CONSTANT && n_bsdf > 0;
+}
+
 /* The white Lambertian used for irradiance estimates. */
 static const op_bsdf white_bsdf = {.type = OP_BSDF_DIFFUSE, .reflectance = {1.0f, 1.0f, 1.0f}};
 
@@ -154,6 +164,8 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
     for (int jk = 0; jk < n_light * s->nemitters; jk++) {
         int k = jk % s->nemitters;
         const op_emitter *e = &s->emitters[k];
+        if (env_bsdf_only(e, n_bsdf))
+            continue;
         float u[3] = {0.0f, 0.0f, 0.0f};
         op_path_sample_k(ps, OP_DIM(depth, OP_DIM_LIGHT, k), (uint32_t)(jk / s->nemitters),
                          (uint32_t)n_light, op_emitter_sample_dims(e), u);
@@ -213,7 +225,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                     const op_emitter *e = &s->emitters[s->env];
                     op_v3 le = op_emitter_env_le(e, dir);
                     float w = 1.0f;
-                    if (!prev_delta)
+                    if (!prev_delta && !env_bsdf_only(e, 1))
                         w = op_mis(prev_pdf, op_emitter_env_pdf(e, dir));
                     L = v3_add(L, v3_scale(v3_mul(beta, le), w));
                 }
@@ -319,8 +331,10 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
         if (!op_accel_intersect(s->accel, org, dir, 0.0f, INFINITY, &hit)) {
             if (s->env >= 0) {
                 const op_emitter *e = &s->emitters[s->env];
-                float w = delta ? 1.0f : op_mis((float)n_bsdf * pdf,
-                                                (float)n_light * op_emitter_env_pdf(e, dir));
+                float w = delta || env_bsdf_only(e, n_bsdf)
+                              ? 1.0f
+                              : op_mis((float)n_bsdf * pdf,
+                                       (float)n_light * op_emitter_env_pdf(e, dir));
                 L = v3_add(L, v3_scale(v3_mul(T, op_emitter_env_le(e, dir)), w));
             }
             return L;
