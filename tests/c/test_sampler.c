@@ -1,11 +1,14 @@
 /* test_sampler.c - the hash-scrambled Sobol sampler (renderer/lib/sampler.h): values in [0, 1),
  * stratification of every dimension, the (0, k, 2)-net of the first two dimensions of a key,
  * prefixes of any length, determinism, decorrelation of keys and pixels, and a lower
- * integration error than independent numbers. */
+ * integration error than independent numbers; Mitsuba's sampler types. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "film.h"
+#include "opaline_render.h"
+#include "render_scene.h"
 #include "sampler.h"
 #include "test_support.h"
 
@@ -201,6 +204,42 @@ static void test_integration_error(void **state)
     }
 }
 
+/* Mitsuba's sampler types: which kind each selects, its sampleCount rounding, and dimension /
+ * scramble accepted. */
+static void test_mitsuba_sampler_types(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *type, *extra;
+        int ld, spp;
+    } cases[] = {
+        {"independent", "", 0, 5},
+        {"stratified", "<integer name=\"dimension\" value=\"6\"/>", 1, 9},
+        {"ldsampler", "<integer name=\"dimension\" value=\"6\"/>", 1, 8},
+        {"sobol", "<integer name=\"scramble\" value=\"3\"/>", 1, 5},
+        {"halton", "<integer name=\"scramble\" value=\"-1\"/>", 1, 5},
+        {"hammersley", "<integer name=\"scramble\" value=\"0\"/>", 1, 5},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char xml[1024];
+        snprintf(xml, sizeof xml,
+                 "<scene version=\"0.6.0\"><sensor type=\"perspective\"><sampler type=\"%s\">"
+                 "<integer name=\"sampleCount\" value=\"5\"/>%s</sampler><film type=\"hdrfilm\">"
+                 "<integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>"
+                 "</film></sensor><shape type=\"sphere\"/></scene>",
+                 cases[i].type, cases[i].extra);
+        const char *path = op_test_write_temp("sampler.xml", xml);
+        op_scene *scene = NULL;
+        op_error err;
+        memset(&err, 0, sizeof err);
+        if (op_scene_load(path, NULL, 0, &scene, &err) != OP_OK)
+            fail_msg("%s: %s", cases[i].type, err.message);
+        assert_int_equal(scene->sampler.type == OP_SAMPLER_LD, cases[i].ld);
+        assert_int_equal(scene->sampler.spp, cases[i].spp);
+        op_scene_free(scene);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -210,6 +249,7 @@ int main(void)
         cmocka_unit_test(test_any_prefix_is_balanced),
         cmocka_unit_test(test_deterministic_and_decorrelated),
         cmocka_unit_test(test_integration_error),
+        cmocka_unit_test(test_mitsuba_sampler_types),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
