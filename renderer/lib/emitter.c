@@ -306,6 +306,22 @@ float op_emitter_area_pdf(const op_emitter *e, op_v3 n, op_v3 dir, float dist)
     return dist * dist / (c * e->mesh->area);
 }
 
+int op_emitter_sample_dims(const op_emitter *e)
+{
+    switch (e->type) {
+    case OP_EM_POINT:
+    case OP_EM_SPOT:
+    case OP_EM_DIRECTIONAL:
+        return 0;
+    case OP_EM_CONSTANT:
+    case OP_EM_ENVMAP:
+        return 2;
+    case OP_EM_AREA:
+        return 3;
+    }
+    return 3;
+}
+
 int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,
                       op_light_sample *s)
 {

@@ -51,6 +51,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
 void op_emitter_free(op_emitter *e);
 int op_emitter_is_env(const op_emitter *e);
 
+/* How many of op_emitter_sample's u1, u2, u3 the emitter reads (in that order): 0 for point,
+ * spot and directional lights, 2 for constant and envmap, 3 for area. */
+int op_emitter_sample_dims(const op_emitter *e);
 /* Samples a direction from p toward the emitter; returns 0 when it contributes nothing. */
 int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,
                       op_light_sample *s);

@@ -168,28 +168,42 @@ op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
     if (!sampler)
         return OP_OK;
     sampler->used = 1;
-    if (strcmp(sampler->type, "independent") == 0)
-        out->type = OP_SAMPLER_INDEPENDENT;
-    else if (strcmp(sampler->type, "stratified") == 0)
-        out->type = OP_SAMPLER_STRATIFIED;
-    else
+    static const char *const ld[] = {"stratified", "ldsampler", "sobol", "halton", "hammersley"};
+    int known = strcmp(sampler->type, "independent") == 0;
+    for (size_t i = 0; i < sizeof ld / sizeof ld[0] && !known; i++)
+        if (strcmp(sampler->type, ld[i]) == 0) {
+            out->type = OP_SAMPLER_LD;
+            known = 1;
+        }
+    if (!known)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler type=\"%s\">: unknown sampler "
-                            "(independent, stratified)", sampler->file, sampler->line,
-                            sampler->type);
+                            "(independent, stratified, ldsampler, sobol, halton, hammersley)",
+                            sampler->file, sampler->line, sampler->type);
     long long n;
     GET_OR_FAIL(op_node_int(sampler, "sampleCount", 4, &n, err));
     if (n < 1 || n > (1 << 24))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler>: sampleCount %lld is not in "
                             "1..16777216", sampler->file, sampler->line, n);
-    if (out->type == OP_SAMPLER_STRATIFIED) {
+    if (strcmp(sampler->type, "stratified") == 0) {
         long long r = (long long)ceil(sqrt((double)n));
         if (r * r != n)
             op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"stratified\">: sampleCount %lld rounded "
                    "up to %lld (a square)", sampler->file, sampler->line, n, r * r);
         n = r * r;
+    } else if (strcmp(sampler->type, "ldsampler") == 0) {
+        long long p = 1;
+        while (p < n)
+            p *= 2;
+        if (p != n)
+            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"ldsampler\">: sampleCount %lld rounded "
+                   "up to %lld (a power of two)", sampler->file, sampler->line, n, p);
+        n = p;
     }
-    long long dim;
+    /* Mitsuba's dimension (stratified, ldsampler) and scramble (sobol, halton, hammersley) are
+     * accepted and not needed: every dimension is low-discrepancy, scrambled per pixel */
+    long long dim, scramble;
     GET_OR_FAIL(op_node_int(sampler, "dimension", 4, &dim, err));
+    GET_OR_FAIL(op_node_int(sampler, "scramble", -1, &scramble, err));
     out->spp = (int)n;
     return OP_OK;
 }
@@ -264,17 +278,4 @@ void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, f
         break;
     }
     }
-}
-
-void op_sampler_pixel(const op_sampler *sampler, int s, int spp, op_rng *rng, float *u1, float *u2)
-{
-    float a = op_rng_float(rng), b = op_rng_float(rng);
-    if (sampler->type == OP_SAMPLER_STRATIFIED && spp > 1) {
-        int n = (int)ceil(sqrt((double)spp));
-        int cell = s % (n * n);
-        a = ((float)(cell % n) + a) / (float)n;
-        b = ((float)(cell / n) + b) / (float)n;
-    }
-    *u1 = a;
-    *u2 = b;
 }

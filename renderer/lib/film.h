@@ -5,7 +5,6 @@
 #ifndef OP_FILM_H
 #define OP_FILM_H
 
-#include "rrng.h"
 #include "scene_desc.h"
 
 typedef enum op_filter_type { OP_FILTER_BOX, OP_FILTER_TENT, OP_FILTER_GAUSSIAN } op_filter_type;
@@ -29,7 +28,9 @@ typedef struct op_film {
     float stddev;
 } op_film;
 
-typedef enum op_sampler_type { OP_SAMPLER_INDEPENDENT, OP_SAMPLER_STRATIFIED } op_sampler_type;
+/* independent: plain random numbers; ld: the Owen-scrambled Sobol numbers of sampler.h (Mitsuba's
+ * stratified, ldsampler, sobol, halton and hammersley all map to it). */
+typedef enum op_sampler_type { OP_SAMPLER_INDEPENDENT, OP_SAMPLER_LD } op_sampler_type;
 
 typedef struct op_sampler {
     op_sampler_type type;
@@ -50,14 +51,11 @@ void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_re
 /* Tonemaps one linear Rec. 709 RGB value in place (black stays black). */
 void op_reinhard_apply(const op_reinhard *r, float rgb[3]);
 
-/* Reads a <sampler> (NULL: independent, 4 samples). */
+/* Reads a <sampler> (NULL: independent, 4 samples, Mitsuba's default). sampleCount is rounded
+ * up to a square for stratified and to a power of two for ldsampler, as Mitsuba does. */
 op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
 
 /* The offset of a sample from its pixel's centre, in pixels, drawn from the filter. */
 void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
-
-/* Two numbers in [0,1)^2 for sample s of spp in one pixel: stratified over a ceil(sqrt(spp))^2
- * grid for the stratified sampler, plain random otherwise. */
-void op_sampler_pixel(const op_sampler *sampler, int s, int spp, op_rng *rng, float *u1, float *u2);
 
 #endif

@@ -4,6 +4,7 @@
 
 #include <string.h>
 
+#include "sampler.h"
 #include "subsurface.h"
 
 void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, op_v3 dir,
@@ -91,14 +92,14 @@ static const op_bsdf *shape_mask(const op_scene *s, int i)
 /* Whether a ray that reached masked surface bsdf passes through it: always for opacity 0, never
  * for 1, else with probability 1 - opacity drawn from the path's own stream (so the image does
  * not depend on threads). */
-static int mask_passes(const op_bsdf *mask, op_rng *rng)
+static int mask_passes(const op_bsdf *mask, op_path_sampler *ps)
 {
     float p = op_bsdf_opacity_prob(mask);
     if (p <= 0.0f)
         return 1;
     if (p >= 1.0f)
         return 0;
-    return op_rng_float(rng) >= p;
+    return op_path_random(ps) >= p;
 }
 
 /* Transmittance of the segment org + t dir, t in (0, tmax): 0 when an opaque surface lies on
@@ -131,22 +132,45 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
     return v3s(0.0f);
 }
 
+/* How many of op_bsdf_sample_dir's u1, u2, u3 a path should draw for bsdf: the lobe choice u3
+ * only where there is a choice (any type not listed here gets all three). */
+static int bsdf_sample_dims(const op_bsdf *b)
+{
+    return b->type == OP_BSDF_DIFFUSE || b->type == OP_BSDF_CONDUCTOR ? 2 : 3;
+}
+
+/* Whether emitter e is left to BSDF sampling alone where n_bsdf BSDF samples are taken: a
+ * constant environment. For a constant radiance the BSDF's own distribution is the better
+ * strategy (a cosine-weighted sample of a diffuse surface under open sky has no variance),
+ * while its uniform sphere samples would waste half their shadow rays below the surface and
+ * add variance even under the power heuristic. BSDF samples that reach it weigh 1. */
+static int env_bsdf_only(const op_emitter *e, int n_bsdf)
+{
+    return e->type == OP_EM_CONSTANT && n_bsdf > 0;
+}
+
 /* The white Lambertian used for irradiance estimates. */
 static const op_bsdf white_bsdf = {.type = OP_BSDF_DIFFUSE, .reflectance = {1.0f, 1.0f, 1.0f}};
 
-/* Next-event estimation at it: n_light samples of every emitter (scenes have few emitters, and
- * sampling each avoids the noise of choosing between a strong and a weak one), averaged, each
- * weighted by the power heuristic against n_bsdf BSDF samples (Veach's multi-sample MIS; the
- * path tracer takes 1 and 1). */
+/* Next-event estimation at path vertex `depth`: n_light samples of every emitter (scenes have
+ * few emitters, and sampling each avoids the noise of choosing between a strong and a weak one),
+ * averaged, each weighted by the power heuristic against n_bsdf BSDF samples (Veach's
+ * multi-sample MIS; the path tracer takes 1 and 1). Emitter k's samples use dimension key
+ * OP_DIM(depth, OP_DIM_LIGHT, k). */
 static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf *bsdf, op_v3 wi_l,
-                           int n_light, int n_bsdf, op_rng *rng)
+                           int n_light, int n_bsdf, int depth, op_path_sampler *ps)
 {
     op_v3 sum = v3s(0.0f);
     for (int jk = 0; jk < n_light * s->nemitters; jk++) {
-        const op_emitter *e = &s->emitters[jk % s->nemitters];
-        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+        int k = jk % s->nemitters;
+        const op_emitter *e = &s->emitters[k];
+        if (env_bsdf_only(e, n_bsdf))
+            continue;
+        float u[3] = {0.0f, 0.0f, 0.0f};
+        op_path_sample_k(ps, OP_DIM(depth, OP_DIM_LIGHT, k), (uint32_t)(jk / s->nemitters),
+                         (uint32_t)n_light, op_emitter_sample_dims(e), u);
         op_light_sample ls;
-        if (!op_emitter_sample(e, it->p, u1, u2, u3, &ls))
+        if (!op_emitter_sample(e, it->p, u[0], u[1], u[2], &ls))
             continue;
         op_v3 wo_l = op_frame_to_local(&it->frame, ls.wi);
         /* light from below the geometric surface cannot arrive (guards shading-normal leaks) */
@@ -172,7 +196,8 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
  * through a masked surface goes on in the same direction without counting a bounce; dist_acc
  * keeps the length of the straight segment since the last bounce for the emitters' MIS. */
 static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
-                   const op_isect *start, const op_bsdf *start_bsdf, op_rng *rng, float *alpha)
+                   const op_isect *start, const op_bsdf *start_bsdf, op_path_sampler *ps,
+                   float *alpha)
 {
     const op_scene *s = ctx->scene;
     const op_integrator *ig = &s->integrator;
@@ -200,7 +225,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                     const op_emitter *e = &s->emitters[s->env];
                     op_v3 le = op_emitter_env_le(e, dir);
                     float w = 1.0f;
-                    if (!prev_delta)
+                    if (!prev_delta && !env_bsdf_only(e, 1))
                         w = op_mis(prev_pdf, op_emitter_env_pdf(e, dir));
                     L = v3_add(L, v3_scale(v3_mul(beta, le), w));
                 }
@@ -224,7 +249,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                 }
             }
             const op_bsdf *mask = shape_mask(s, it.shape);
-            if (mask && mask_passes(mask, rng)) {
+            if (mask && mask_passes(mask, ps)) {
                 beta = v3_mul(beta, op_bsdf_pass_weight(mask));
                 if (v3_is_black(beta) || ++passes > OP_MAX_PASSES)
                     break;
@@ -258,10 +283,11 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
         }
         op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
         if (!op_bsdf_is_smooth_only(bsdf))
-            L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, 1, 1, rng)));
-        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+            L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, 1, 1, depth, ps)));
+        float u[3] = {0.0f, 0.0f, 0.0f};
+        op_path_sample(ps, OP_DIM(depth, OP_DIM_BSDF, 0), bsdf_sample_dims(bsdf), u);
         op_bsdf_sample bs;
-        if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
+        if (!op_bsdf_sample_dir(bsdf, wi_l, u[0], u[1], u[2], &bs))
             break;
         op_v3 wo = op_frame_to_world(&it.frame, bs.wo);
         if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f))
@@ -276,7 +302,9 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
         depth++;
         if (depth >= ig->rr_depth) {
             float q = fminf(v3_max(beta), 0.95f);
-            if (op_rng_float(rng) >= q)
+            float ur;
+            op_path_sample(ps, OP_DIM(depth, OP_DIM_RR, 0), 1, &ur);
+            if (ur >= q)
                 break;
             beta = v3_scale(beta, 1.0f / q);
         }
@@ -293,7 +321,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
  * passes them, weighted by the power heuristic of n_bsdf such samples against n_light samples of
  * the emitter found (weight 1 for delta samples). */
 static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 dir, float pdf,
-                                  int delta, int n_light, int n_bsdf, op_rng *rng)
+                                  int delta, int n_light, int n_bsdf, op_path_sampler *ps)
 {
     op_v3 L = v3s(0.0f), T = v3s(1.0f);
     op_v3 org = op_offset_origin(it->p, it->ng, dir);
@@ -303,8 +331,10 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
         if (!op_accel_intersect(s->accel, org, dir, 0.0f, INFINITY, &hit)) {
             if (s->env >= 0) {
                 const op_emitter *e = &s->emitters[s->env];
-                float w = delta ? 1.0f : op_mis((float)n_bsdf * pdf,
-                                                (float)n_light * op_emitter_env_pdf(e, dir));
+                float w = delta || env_bsdf_only(e, n_bsdf)
+                              ? 1.0f
+                              : op_mis((float)n_bsdf * pdf,
+                                       (float)n_light * op_emitter_env_pdf(e, dir));
                 L = v3_add(L, v3_scale(v3_mul(T, op_emitter_env_le(e, dir)), w));
             }
             return L;
@@ -325,7 +355,7 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
             }
         }
         const op_bsdf *mask = shape_mask(s, hit.shape);
-        if (!mask || !mask_passes(mask, rng))
+        if (!mask || !mask_passes(mask, ps))
             return L;
         T = v3_mul(T, op_bsdf_pass_weight(mask));
         if (v3_is_black(T))
@@ -341,7 +371,7 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
  * combined by multiple importance sampling; no indirect light. A translucent shape shows its
  * cached exitance (or, without one, acts as a diffuse surface of its mean albedo). */
 static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
-                    op_rng *rng, float *alpha)
+                    op_path_sampler *ps, float *alpha)
 {
     const op_scene *s = ctx->scene;
     const op_integrator *ig = &s->integrator;
@@ -367,7 +397,7 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
             L = v3_add(L, v3_mul(beta, le));
         }
         const op_bsdf *mask = shape_mask(s, it.shape);
-        if (mask && mask_passes(mask, rng)) {
+        if (mask && mask_passes(mask, ps)) {
             beta = v3_mul(beta, op_bsdf_pass_weight(mask));
             if (v3_is_black(beta))
                 return L;
@@ -401,17 +431,19 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
     int nl = ig->emitter_samples, nb = ig->bsdf_samples;
     op_v3 wi_l = op_frame_to_local(&it.frame, v3_neg(dir));
     if (nl > 0 && !op_bsdf_is_smooth_only(bsdf))
-        L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, nl, nb, rng)));
+        L = v3_add(L, v3_mul(beta, sample_direct(s, &it, bsdf, wi_l, nl, nb, 0, ps)));
     op_v3 sum = v3s(0.0f);
     for (int k = 0; k < nb; k++) {
-        float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
+        float u[3] = {0.0f, 0.0f, 0.0f};
+        op_path_sample_k(ps, OP_DIM(0, OP_DIM_BSDF, 0), (uint32_t)k, (uint32_t)nb,
+                         bsdf_sample_dims(bsdf), u);
         op_bsdf_sample bs;
-        if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
+        if (!op_bsdf_sample_dir(bsdf, wi_l, u[0], u[1], u[2], &bs))
             continue;
         op_v3 wo = op_frame_to_world(&it.frame, bs.wo);
         if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f) || v3_is_black(bs.weight))
             continue;
-        op_v3 le = bsdf_sample_emission(s, &it, wo, bs.pdf, bs.delta, nl, nb, rng);
+        op_v3 le = bsdf_sample_emission(s, &it, wo, bs.pdf, bs.delta, nl, nb, ps);
         sum = v3_add(sum, v3_mul(bs.weight, le));
     }
     if (nb > 0)
@@ -422,7 +454,7 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
 /* The debug views; masked surfaces are seen through as by the path tracer (stochastically
  * where partly opaque). */
 static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
-                        op_rng *rng, float *alpha)
+                        op_path_sampler *ps, float *alpha)
 {
     const op_scene *s = ctx->scene;
     op_ray_hit hit;
@@ -433,7 +465,7 @@ static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmi
             return v3s(0.0f);
         op_isect_from_hit(s, &hit, org, dir, &it);
         const op_bsdf *mask = shape_mask(s, it.shape);
-        if (!mask || !mask_passes(mask, rng))
+        if (!mask || !mask_passes(mask, ps))
             break;
         org = op_offset_origin(it.p, it.ng, dir);
         tmin = 0.0f;
@@ -454,15 +486,15 @@ static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmi
     }
 }
 
-op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax, op_rng *rng,
-            float *alpha)
+op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
+            op_path_sampler *ps, float *alpha)
 {
     op_integrator_type t = ctx->scene->integrator.type;
     if (t == OP_INT_NORMALS || t == OP_INT_UV || t == OP_INT_ALBEDO)
-        return debug_view(ctx, org, dir, tmin, tmax, rng, alpha);
+        return debug_view(ctx, org, dir, tmin, tmax, ps, alpha);
     if (t == OP_INT_DIRECT)
-        return direct(ctx, org, dir, tmin, tmax, rng, alpha);
-    return trace(ctx, org, dir, tmin, tmax, NULL, NULL, rng, alpha);
+        return direct(ctx, org, dir, tmin, tmax, ps, alpha);
+    return trace(ctx, org, dir, tmin, tmax, NULL, NULL, ps, alpha);
 }
 
 int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float tmax,
@@ -525,6 +557,8 @@ op_v3 op_irradiance(const op_trace_ctx *ctx, op_v3 p, op_v3 ng, op_v3 ns, op_rng
     it.ns = ns;
     it.frame = op_frame_from_normal(ns);
     it.shape = -1;
-    op_v3 L = trace(ctx, p, ns, 0.0f, INFINITY, &it, &white_bsdf, rng, NULL);
+    op_path_sampler ps = op_path_sampler_from_rng(*rng);
+    op_v3 L = trace(ctx, p, ns, 0.0f, INFINITY, &it, &white_bsdf, &ps, NULL);
+    *rng = ps.rng;
     return v3_scale(L, OP_PI);
 }

@@ -14,6 +14,7 @@
 
 #include "render_scene.h"
 #include "rrng.h"
+#include "sampler.h"
 
 typedef struct op_sss_cache op_sss_cache;
 
@@ -38,10 +39,11 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
 /* A ray origin just off the surface at p on the side that direction w leaves toward. */
 op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w);
 
-/* Radiance along the ray (org, dir) with t in (tmin, tmax); *alpha gets 1 when the ray hit
- * geometry, 0 when it escaped. */
-op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax, op_rng *rng,
-            float *alpha);
+/* Radiance along the ray (org, dir) with t in (tmin, tmax), its random numbers drawn from ps
+ * in the dimension layout of sampler.h; *alpha gets 1 when the ray hit geometry, 0 when it
+ * escaped. */
+op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
+            op_path_sampler *ps, float *alpha);
 /* Follows the camera segment of a path from the camera ray (org, dir, tmin, tmax) the way the
  * path tracer would: through masked surfaces (every mask that is not fully opaque is passed) and
  * along smooth (delta) bounces, at most max_bounces of them, drawing choices from rng. Returns 1

@@ -154,15 +154,16 @@ static void render_tile(void *user, int task, int thread)
             uint64_t pixel = (uint64_t)fy * (uint64_t)film->full_width + (uint64_t)fx;
             double acc[4] = {0, 0, 0, 0};
             for (int k = 0; k < job->spp; k++) {
-                op_rng rng = op_rng_seed(job->opt->seed, pixel, (uint64_t)k);
-                float u1, u2, dx, dy;
-                op_sampler_pixel(&s->sampler, k, job->spp, &rng, &u1, &u2);
-                op_film_sample_offset(film, u1, u2, &dx, &dy);
+                op_path_sampler ps = op_path_sampler_begin(s->sampler.type == OP_SAMPLER_LD,
+                                                           job->opt->seed, pixel, (uint32_t)k);
+                float u[2], dx, dy;
+                op_path_sample(&ps, OP_DIM_PIXEL, 2, u);
+                op_film_sample_offset(film, u[0], u[1], &dx, &dy);
                 op_v3 org, dir;
                 float tmin, tmax, alpha;
                 op_camera_ray(&s->camera, (float)fx + 0.5f + dx, (float)fy + 0.5f + dy, &org, &dir,
                               &tmin, &tmax);
-                op_v3 L = op_li(&job->ctx, org, dir, tmin, tmax, &rng, &alpha);
+                op_v3 L = op_li(&job->ctx, org, dir, tmin, tmax, &ps, &alpha);
                 if (!isfinite(L.x) || !isfinite(L.y) || !isfinite(L.z))
                     continue; /* a numerically broken path: dropped (counts as black) */
                 acc[0] += L.x;

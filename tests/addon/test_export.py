@@ -199,6 +199,7 @@ class TestCamera(Base):
         self.sc.cycles.max_bounces = 3
         root = self.export()
         s = root.find("sensor").find("sampler")
+        self.assertEqual(s.get("type"), "sobol")  # low-discrepancy, as Cycles
         self.assertEqual(prop(s, "integer", "sampleCount").get("value"), "7")
         self.assertEqual(prop(root.find("integrator"), "integer", "maxDepth").get("value"), "5")
 

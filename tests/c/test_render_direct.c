@@ -117,7 +117,8 @@ static void test_direct_constant_sky(void **state)
         fail_msg("bsdfSamples only under a constant sky: mean %.6f variance %.3g, expected %.6f "
                  "exactly",
                  mean, var, ALBEDO * 2.0);
-    /* uniform light samples: unbiased but noisy; MIS with one BSDF sample lowers the noise */
+    /* uniform light samples: unbiased but noisy; with a BSDF sample as well the constant sky is
+     * left to BSDF sampling (integrator.c), exact again */
     double v_light, v_mis;
     img = render_plane(direct_el(1, 0), sky, 1, 2);
     image_stats(&img, 0, &mean, &v_light);
@@ -127,8 +128,8 @@ static void test_direct_constant_sky(void **state)
     image_stats(&img, 0, &mean, &v_mis);
     op_image_free(&img);
     print_message("constant sky: variance light-only %.5f, MIS %.5f\n", v_light, v_mis);
-    assert_true(fabs(mean - 1.2) < 4.0 * sqrt(v_mis / (RES * RES)));
-    assert_true(v_mis < 0.5 * v_light);
+    assert_true(fabs(mean - 1.2) < 1e-4 + 4.0 * sqrt(v_mis / (RES * RES)));
+    assert_true(v_mis < 1e-8 && v_light > 0.1);
 }
 
 static void test_direct_point_light(void **state)

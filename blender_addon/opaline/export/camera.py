@@ -86,7 +86,8 @@ def export_camera(scene, cam_obj, matrix, samples, warn):
         warn("non-square pixel aspect is not supported; the image will be stretched")
     if getattr(cam, "dof", None) is not None and cam.dof.use_dof:
         warn("camera %s: depth of field is not exported" % cam_obj.name)
-    sm = s.add(Element("sampler", {"type": "independent"}))
+    # Cycles samples with low-discrepancy (scrambled Sobol) numbers; so does opaline's sobol
+    sm = s.add(Element("sampler", {"type": "sobol"}))
     sm.integer("sampleCount", samples)
     f = s.add(Element("film", {"type": "hdrfilm"}))
     f.integer("width", width)
