@@ -92,9 +92,10 @@ static void test_uniform_irradiance(void **state)
     (void)state;
     /* Skimmilk's 0.1 % radius is 76 mm: a 40 cm slab seen over its central 16 cm keeps every
      * footprint inside. Irradiance 1 at normal incidence, nothing else in the scene. */
-    op_image img = render_slab("uniform.xml", 0.2, 0.08, 16, 1,
-                               "<emitter type=\"directional\"><vector name=\"direction\" x=\"0\" "
-                               "y=\"0\" z=\"-1\"/><rgb name=\"irradiance\" value=\"1\"/></emitter>");
+    op_image img =
+        render_slab("uniform.xml", 0.2, 0.08, 16, 1,
+                    "<emitter type=\"directional\"><vector name=\"direction\" x=\"0\" "
+                    "y=\"0\" z=\"-1\"/><rgb name=\"irradiance\" value=\"1\"/></emitter>");
     for (int c = 0; c < 3; c++) {
         double want = ref_total(c), sum = 0.0;
         for (int i = 0; i < 16 * 16; i++) {
@@ -130,9 +131,9 @@ static void test_spot(void **state)
              "</emitter>",
              D, I, cut, cut);
     op_image img = render_slab("spot.xml", 0.2, view, n, 4, em);
-    double a = 1000.0 * D * tan(cut * M_PI / 180.0);   /* disk radius, mm */
+    double a = 1000.0 * D * tan(cut * M_PI / 180.0);                 /* disk radius, mm */
     double power = I * 2.0 * M_PI * (1.0 - cos(cut * M_PI / 180.0)); /* W reaching the slab */
-    double pix = 2.0 * view / n;                         /* pixel footprint on the plane, m */
+    double pix = 2.0 * view / n; /* pixel footprint on the plane, m */
     for (int c = 0; c < 3; c++) {
         /* energy: the exitance summed over the view (every footprint lies inside it) */
         double sum = 0.0;
@@ -148,8 +149,9 @@ static void test_spot(void **state)
          * that falls by e every ~7 mm (green) or ~10 mm (red) 35 mm outside the disk gains
          * 20 % or 7 % (measured) - the bias docs/subsurface-rendering.md describes. Blue
          * falls by e every 3.5 mm: only its centre is checked. */
-        static const struct { double r, tol[3]; } rings[] = {
-            {0.0, {0.01, 0.01, 0.01}}, {65.0, {0.12, 0.30, -1.0}}};
+        static const struct {
+            double r, tol[3];
+        } rings[] = {{0.0, {0.01, 0.01, 0.01}}, {65.0, {0.12, 0.30, -1.0}}};
         for (int k = 0; k < 2; k++) {
             if (rings[k].tol[c] < 0.0)
                 continue;
@@ -168,8 +170,8 @@ static void test_spot(void **state)
             double got = s / m;
             ref /= m;
             if (fabs(got - ref) > rings[k].tol[c] * ref)
-                fail_msg("channel %d, r = %g mm: exitance %.5g, Rd * disk %.5g", c, rings[k].r,
-                         got, ref);
+                fail_msg("channel %d, r = %g mm: exitance %.5g, Rd * disk %.5g", c, rings[k].r, got,
+                         ref);
         }
     }
     op_image_free(&img);
