@@ -88,7 +88,7 @@ void op_renderer_free(op_renderer *r);
 op_status op_renderer_render(op_renderer *r, const op_scene *scene, op_error *err);
 
 /* What the last render computed for its subsurface pre-pass (all zero before the first render
- * and for scenes without translucent shapes). The pre-pass computes only what camera paths
+ * and for scenes without translucent shapes) and how long its camera pass took. The pre-pass computes only what camera paths
  * need: see docs/subsurface-rendering.md. */
 typedef struct op_render_stats {
     long long sss_points;    /* irradiance points laid, on the translucent shapes the camera reaches */
@@ -96,6 +96,7 @@ typedef struct op_render_stats {
     long long sss_receivers; /* points whose exitance was computed */
     int sss_shapes_reached;  /* translucent shapes some camera segment reaches */
     double sss_seconds;      /* the pre-pass's wall time */
+    double render_seconds;   /* the camera pass's wall time (after the pre-pass) */
 } op_render_stats;
 
 void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <time.h>
 
 #include "integrator.h"
 #include "opaline_render.h"
@@ -242,8 +243,15 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
                job.spp, threads);
         job.prog = op_progress_begin("render", (uint64_t)s->film.width * s->film.height,
                                      opt->progress, opt->progress_user);
+        struct timespec t0, t1;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
         st = op_parallel_for(threads, job.tiles_x * tiles_y, render_tile, &job, opt->cancel, err);
         op_progress_end(job.prog);
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        r->stats.render_seconds =
+            (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+        op_log(OP_LOG_INFO, "camera pass: %.3f s (%dx%d, %d spp, %d threads)",
+               r->stats.render_seconds, s->film.width, s->film.height, job.spp, threads);
     }
     pthread_mutex_destroy(&job.tile_lock);
     for (int i = 0; i < threads; i++)

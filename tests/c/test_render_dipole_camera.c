@@ -1,0 +1,188 @@
+/* test_render_dipole_camera.c - <subsurface type="dipole"> through a whole camera render, for
+ * the named medium Skimmilk (Jensen et al. 2001: sigma_s' = 0.70, 1.22, 1.90 and sigma_a =
+ * 0.0014, 0.0025, 0.0142 per mm, eta 1.3), checked against values computed here from the
+ * dipole's formulas, independently of renderer/lib/dipole.c:
+ *  - a wide flat slab under a directional light at normal incidence, seen by a perspective
+ *    camera: every pixel's radiance is L = Rd_total E / pi (opaline applies no Fresnel factor:
+ *    the exitance of a flat slab is Rd_total x E, and the camera pass takes L = M / pi);
+ *  - the same slab lit by a narrow spot (a disk of light): the total power leaving the surface
+ *    is Rd_total times the power that reached it, and the exitance outside the disk follows the
+ *    profile Rd convolved with the disk. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "opaline_render.h"
+#include "test_support.h"
+
+static const double sk_sp[3] = {0.70, 1.22, 1.90}, sk_a[3] = {0.0014, 0.0025, 0.0142};
+static const double sk_eta = 1.3;
+
+/* Jensen et al.'s closed form, written from the paper's formula (per channel). */
+static double ref_total(int c)
+{
+    double alpha = sk_sp[c] / (sk_sp[c] + sk_a[c]), eta = sk_eta;
+    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
+    double A = (1.0 + fdr) / (1.0 - fdr), s = sqrt(3.0 * (1.0 - alpha));
+    return 0.5 * alpha * (1.0 + exp(-4.0 / 3.0 * A * s)) * exp(-s);
+}
+
+/* The profile Rd(r), r in mm, per mm^2. */
+static double ref_rd(int c, double r)
+{
+    double sp = sk_sp[c], sa = sk_a[c], eta = sk_eta;
+    double st = sa + sp, alpha = sp / st, str = sqrt(3.0 * sa * st);
+    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
+    double A = (1.0 + fdr) / (1.0 - fdr), zr = 1.0 / st, zv = zr * (1.0 + 4.0 * A / 3.0);
+    double dr = sqrt(r * r + zr * zr), dv = sqrt(r * r + zv * zv);
+    return alpha / (4.0 * M_PI) *
+           (zr * (str + 1.0 / dr) * exp(-str * dr) / (dr * dr) +
+            zv * (str + 1.0 / dv) * exp(-str * dv) / (dv * dv));
+}
+
+/* The exitance at distance r (mm) from the centre of a disk of radius a (mm) under irradiance 1:
+ * the integral of Rd(|x - y|) over the disk (midpoint rule in polar coordinates around y = 0). */
+static double ref_disk(int c, double a, double r)
+{
+    const int nr = 120, nphi = 120;
+    double sum = 0.0;
+    for (int i = 0; i < nr; i++) {
+        double rho = a * (i + 0.5) / nr;
+        for (int j = 0; j < nphi; j++) {
+            double phi = M_PI * (j + 0.5) / nphi; /* symmetric: half the circle, twice */
+            double d2 = r * r + rho * rho - 2.0 * r * rho * cos(phi);
+            sum += ref_rd(c, sqrt(d2 > 0.0 ? d2 : 0.0)) * rho;
+        }
+    }
+    return sum * 2.0 * (a / nr) * (M_PI / nphi);
+}
+
+/* A square slab of half-side `half` metres in the z = 0 plane (metre scene, scale 1) of Skimmilk,
+ * seen from (0, 0, 1) by an n x n camera covering [-view, view]^2 of the plane; light is the
+ * emitter element given. */
+static op_image render_slab(const char *name, double half, double view, int n, int density,
+                            const char *emitter)
+{
+    char path[1024], text[4096];
+    snprintf(path, sizeof path, "%s", op_test_tmp_path(name));
+    double fov = 2.0 * atan(view) * 180.0 / M_PI;
+    snprintf(text, sizeof text,
+             "<scene version=\"0.6.0\"><integrator type=\"path\"/>"
+             " <sensor type=\"perspective\"><float name=\"fov\" value=\"%.9g\"/>"
+             "  <transform name=\"toWorld\"><lookat origin=\"0,0,1\" target=\"0,0,0\" "
+             "   up=\"0,1,0\"/></transform>"
+             "  <sampler type=\"independent\"><integer name=\"sampleCount\" value=\"4\"/></sampler>"
+             "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"%d\"/>"
+             "   <integer name=\"height\" value=\"%d\"/><rfilter type=\"box\"/></film></sensor>"
+             " %s"
+             " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"%g\"/>"
+             "  </transform><subsurface type=\"dipole\">"
+             "  <string name=\"material\" value=\"Skimmilk\"/><float name=\"scale\" value=\"1\"/>"
+             "  <float name=\"density\" value=\"%d\"/>"
+             "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
+             "</scene>",
+             fov, n, n, emitter, half, density);
+    op_test_write_text(path, text);
+    return op_test_render_image(path, 0, 2, 0);
+}
+
+static void test_uniform_irradiance(void **state)
+{
+    (void)state;
+    /* Skimmilk's 0.1 % radius is 76 mm: a 40 cm slab seen over its central 16 cm keeps every
+     * footprint inside. Irradiance 1 at normal incidence, nothing else in the scene. */
+    op_image img =
+        render_slab("uniform.xml", 0.2, 0.08, 16, 1,
+                    "<emitter type=\"directional\"><vector name=\"direction\" x=\"0\" "
+                    "y=\"0\" z=\"-1\"/><rgb name=\"irradiance\" value=\"1\"/></emitter>");
+    for (int c = 0; c < 3; c++) {
+        double want = ref_total(c), sum = 0.0;
+        for (int i = 0; i < 16 * 16; i++) {
+            double v = M_PI * img.pixels[4 * i + c];
+            /* per pixel, the point quadrature leaves blotches of a few % (measured: -2.9 % to
+             * +2.6 %) */
+            if (fabs(v - want) > 0.05 * want)
+                fail_msg("channel %d, pixel (%d, %d): pi L = %.4f, Rd_total %.4f", c, i % 16,
+                         i / 16, v, want);
+            sum += v;
+        }
+        /* on average within 0.5 % (measured: within 0.1 %; the truncation at the 0.1 % radius
+         * is inside that) */
+        if (fabs(sum / 256.0 - want) > 0.005 * want)
+            fail_msg("channel %d: mean pi L = %.4f, Rd_total %.4f", c, sum / 256.0, want);
+    }
+    op_image_free(&img);
+}
+
+static void test_spot(void **state)
+{
+    (void)state;
+    /* A spot 0.5 m above the slab's centre with a hard 3.5 degree cone (beamWidth = cutoff)
+     * lights a disk of radius a = 30.6 mm; intensity 0.25 gives irradiance I cos^3 / 0.25 =
+     * 1 at its centre (0.995 at its rim). Density 4 puts ~470 points in the disk. */
+    const double D = 0.5, cut = 3.5, I = 0.25, view = 0.13;
+    const int n = 52;
+    char em[512];
+    snprintf(em, sizeof em,
+             "<emitter type=\"spot\"><transform name=\"toWorld\"><lookat origin=\"0,0,%g\" "
+             "target=\"0,0,0\"/></transform><spectrum name=\"intensity\" value=\"%g\"/>"
+             "<float name=\"cutoffAngle\" value=\"%g\"/><float name=\"beamWidth\" value=\"%g\"/>"
+             "</emitter>",
+             D, I, cut, cut);
+    op_image img = render_slab("spot.xml", 0.2, view, n, 4, em);
+    double a = 1000.0 * D * tan(cut * M_PI / 180.0);                 /* disk radius, mm */
+    double power = I * 2.0 * M_PI * (1.0 - cos(cut * M_PI / 180.0)); /* W reaching the slab */
+    double pix = 2.0 * view / n; /* pixel footprint on the plane, m */
+    for (int c = 0; c < 3; c++) {
+        /* energy: the exitance summed over the view (every footprint lies inside it) */
+        double sum = 0.0;
+        for (int i = 0; i < n * n; i++)
+            sum += M_PI * img.pixels[4 * i + c] * pix * pix;
+        double want = ref_total(c) * power;
+        if (fabs(sum - want) > 0.01 * want) /* measured: within 0.2 % */
+            fail_msg("channel %d: power leaving %.6g W, Rd_total x power in %.6g W", c, sum, want);
+        /* radial falloff: ring means against the convolution of the profile with the disk at
+         * the same pixel centres. The centre matches closely; outside the disk the render is
+         * brighter than the convolution because it blurs the profile by the interpolation
+         * radius h = 2 kernel pixels (10 mm here) and the kernel's pixels (5 mm): a profile
+         * that falls by e every ~7 mm (green) or ~10 mm (red) 35 mm outside the disk gains
+         * 20 % or 7 % (measured) - the bias docs/subsurface-rendering.md describes. Blue
+         * falls by e every 3.5 mm: only its centre is checked. */
+        static const struct {
+            double r, tol[3];
+        } rings[] = {{0.0, {0.01, 0.01, 0.01}}, {65.0, {0.12, 0.30, -1.0}}};
+        for (int k = 0; k < 2; k++) {
+            if (rings[k].tol[c] < 0.0)
+                continue;
+            double s = 0.0, ref = 0.0;
+            int m = 0;
+            for (int y = 0; y < n; y++)
+                for (int x = 0; x < n; x++) {
+                    double r = 1000.0 * hypot((x + 0.5) * pix - view, (y + 0.5) * pix - view);
+                    if (fabs(r - rings[k].r) > 1000.0 * pix)
+                        continue;
+                    ref += ref_disk(c, a, r);
+                    s += M_PI * img.pixels[4 * (y * n + x) + c];
+                    m++;
+                }
+            assert_true(m > 0);
+            double got = s / m;
+            ref /= m;
+            if (fabs(got - ref) > rings[k].tol[c] * ref)
+                fail_msg("channel %d, r = %g mm: exitance %.5g, Rd * disk %.5g", c, rings[k].r, got,
+                         ref);
+        }
+    }
+    op_image_free(&img);
+}
+
+int main(void)
+{
+    op_log_set_level(OP_LOG_WARN);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_uniform_irradiance),
+        cmocka_unit_test(test_spot),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
