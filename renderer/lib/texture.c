@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 #define GET_OR_FAIL(call)                                                                          \
     do {                                                                                           \
@@ -94,8 +95,11 @@ static op_status cache_get(op_tex_cache *c, const op_node *node, const char *pat
     op_image raw;
     int encoded = 0;
     op_status st = op_image_read_stored(path, &raw, &encoded, err);
-    if (st)
+    if (st) {
+        if (st == OP_ERR_IO && access(path, F_OK) != 0 && err)
+            err->status = OP_ERR_INPUT; /* a missing file is a fault of the scene (exit 2) */
         return op_error_prefix(err, "%s:%d: <texture type=\"bitmap\">: ", node->file, node->line);
+    }
     tex_entry *e = calloc(1, sizeof *e);
     if (e)
         e->path = strdup(path);
