@@ -131,6 +131,10 @@ op_status op_image_write_exr(const char *path, const op_image *img, int half_flo
 op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
 /* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */
 op_status op_image_read(const char *path, op_image *img, op_error *err);
+/* The same, but 8-bit files (PNG) keep their stored values (byte / 255) instead of being
+ * sRGB-decoded, so that a caller can apply another transfer curve; *encoded is set to 1 for
+ * those and to 0 for float files (OpenEXR, PFM), whose values both functions return as stored. */
+op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err);
 
 /* ---------------------------------------------------------------- materials */
 

@@ -128,8 +128,9 @@ op_status op_image_write_png(const char *path, const op_image *img, float exposu
 }
 
 /* Reads a PNG through libpng's simplified API (which never prints), as 8-bit sRGB, decoded to
- * linear light; alpha stays as stored. Grey+alpha becomes RGBA. */
-static op_status read_png(const char *path, op_image *img, op_error *err)
+ * linear light when decode is set (else byte / 255); alpha stays as stored. Grey+alpha becomes
+ * RGBA. */
+static op_status read_png(const char *path, int decode, op_image *img, op_error *err)
 {
     png_image pi;
     memset(&pi, 0, sizeof pi);
@@ -171,7 +172,7 @@ static op_status read_png(const char *path, op_image *img, op_error *err)
     }
     float table[256];
     for (int i = 0; i < 256; i++)
-        table[i] = srgb_decode((float)i / 255.0f);
+        table[i] = decode ? srgb_decode((float)i / 255.0f) : (float)i / 255.0f;
     for (size_t i = 0; i < n; i++)
         img->pixels[i] = (c == 4 && i % 4 == 3) ? (float)buf[i] / 255.0f : table[buf[i]];
     free(buf);
@@ -623,9 +624,12 @@ static op_status read_pfm(const char *path, int fd, int64_t size, op_image *img,
 
 /* ---------------------------------------------------------------- reading */
 
-op_status op_image_read(const char *path, op_image *img, op_error *err)
+/* Reads any supported file; 8-bit ones are sRGB-decoded when decode is set. */
+static op_status read_any(const char *path, int decode, op_image *img, int *encoded,
+                          op_error *err)
 {
     memset(img, 0, sizeof *img);
+    *encoded = 0;
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0)
         return op_error_set(err, OP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
@@ -647,7 +651,8 @@ op_status op_image_read(const char *path, op_image *img, op_error *err)
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
         st = read_exr(path, fd, (int64_t)sb.st_size, img, err);
     } else if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
-        st = read_png(path, img, err);
+        st = read_png(path, decode, img, err);
+        *encoded = 1;
     } else if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
                (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r')) {
         st = read_pfm(path, fd, (int64_t)sb.st_size, img, err);
@@ -656,4 +661,15 @@ op_status op_image_read(const char *path, op_image *img, op_error *err)
     }
     close(fd);
     return st;
+}
+
+op_status op_image_read(const char *path, op_image *img, op_error *err)
+{
+    int encoded;
+    return read_any(path, 1, img, &encoded, err);
+}
+
+op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err)
+{
+    return read_any(path, 0, img, encoded, err);
 }

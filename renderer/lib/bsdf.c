@@ -85,6 +85,43 @@ static op_status read_reflectance(op_node *n, const char *name, const char *alia
     return OP_OK;
 }
 
+/* The texture child of n given under name (or alias when name has none), or NULL. */
+static op_node *texture_child(const op_node *n, const char *name, const char *alias,
+                              const char **given)
+{
+    for (int pass = 0; pass < 2; pass++) {
+        const char *want = pass == 0 ? name : alias;
+        for (int i = 0; want && i < n->nchildren; i++) {
+            const char *cn = op_node_child_name(n, i);
+            if (strcmp(n->children[i]->tag, "texture") == 0 && cn && strcmp(cn, want) == 0) {
+                *given = want;
+                return n->children[i];
+            }
+        }
+    }
+    return NULL;
+}
+
+/* A reflectance that may be a texture: a <texture> child named name (or alias) fills tex, else
+ * read_reflectance fills out. */
+static op_status read_textured(op_node *n, const char *name, const char *alias, double def,
+                               op_tex_cache *cache, op_v3 *out, op_texture *tex, op_error *err)
+{
+    const char *given = NULL;
+    op_node *t = texture_child(n, name, alias, &given);
+    if (!t)
+        return read_reflectance(n, name, alias, def, out, err);
+    if (op_node_has(n, name) || (alias && op_node_has(n, alias)))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: %s is given both as a "
+                            "colour and as a texture", n->file, n->line, n->type, given);
+    if (!cache)
+        return op_error_set(err, OP_ERR_INTERNAL, "%s:%d: <bsdf type=\"%s\">: no texture cache",
+                            n->file, n->line, n->type);
+    GET_OR_FAIL(op_texture_build(t, cache, tex, err));
+    *out = v3s((float)def);
+    return OP_OK;
+}
+
 void op_bsdf_default(op_bsdf *b)
 {
     memset(b, 0, sizeof *b);
@@ -92,7 +129,7 @@ void op_bsdf_default(op_bsdf *b)
     b->reflectance = v3s(0.5f);
 }
 
-op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
+op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err)
 {
     op_bsdf_default(b);
     node->used = 1;
@@ -104,7 +141,7 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
         if (!inner)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"twosided\"> needs a nested "
                                 "<bsdf>", node->file, node->line);
-        GET_OR_FAIL(op_bsdf_build(inner, b, err));
+        GET_OR_FAIL(op_bsdf_build(inner, tex, b, err));
         b->twosided = 1;
         return OP_OK;
     }
@@ -113,7 +150,7 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
         GET_OR_FAIL(read_reflectance(node, "opacity", NULL, 0.5, &opacity, err));
         op_node *inner = op_node_child(node, "bsdf", 0);
         if (inner)
-            GET_OR_FAIL(op_bsdf_build(inner, b, err));
+            GET_OR_FAIL(op_bsdf_build(inner, tex, b, err));
         b->opacity = b->masked ? v3_mul(b->opacity, opacity) : opacity;
         b->masked = 1;
         return OP_OK;
@@ -121,8 +158,8 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
     double int_ior = 1.5046, ext_ior = 1.00028;
     if (strcmp(node->type, "diffuse") == 0) {
         b->type = OP_BSDF_DIFFUSE;
-        return read_reflectance(node, "reflectance", "diffuseReflectance", 0.5, &b->reflectance,
-                                err);
+        return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
+                             &b->refl_tex, err);
     }
     if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0) {
         b->type = OP_BSDF_DIELECTRIC;
@@ -169,8 +206,8 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
         b->type = rough ? OP_BSDF_ROUGHPLASTIC : OP_BSDF_PLASTIC;
         GET_OR_FAIL(read_ior(node, "intIOR", "polypropylene", &int_ior, err));
         GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
-        GET_OR_FAIL(read_reflectance(node, "diffuseReflectance", "reflectance", 0.5,
-                                     &b->reflectance, err));
+        GET_OR_FAIL(read_textured(node, "diffuseReflectance", "reflectance", 0.5, tex,
+                                  &b->reflectance, &b->refl_tex, err));
         GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
         GET_OR_FAIL(op_node_bool(node, "nonlinear", 0, &b->nonlinear, err));
         b->eta = (float)(int_ior / ext_ior);
@@ -198,6 +235,15 @@ op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err)
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
                         "(diffuse, dielectric, conductor, plastic, roughplastic, twosided, mask)",
                         node->file, node->line, node->type);
+}
+
+const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
+{
+    if (b->refl_tex.type == OP_TEX_NONE)
+        return b;
+    *scratch = *b;
+    scratch->reflectance = op_texture_eval(&b->refl_tex, u, v);
+    return scratch;
 }
 
 int op_bsdf_is_smooth_only(const op_bsdf *b)

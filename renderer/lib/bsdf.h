@@ -13,6 +13,7 @@
 
 #include "rvec.h"
 #include "scene_desc.h"
+#include "texture.h"
 
 typedef enum op_bsdf_type {
     OP_BSDF_DIFFUSE,
@@ -26,6 +27,8 @@ typedef struct op_bsdf {
     op_bsdf_type type;
     int twosided;
     op_v3 reflectance;     /* diffuse; the diffuse base of plastics */
+    op_texture refl_tex;   /* when set (type != OP_TEX_NONE), reflectance varies over the
+                              surface: op_bsdf_at() looks it up */
     op_v3 specular;        /* specularReflectance (and transmittance of dielectrics) */
     float eta;             /* interior / exterior index of refraction */
     op_v3 cond_eta, cond_k;/* conductor: complex index relative to the exterior */
@@ -45,10 +48,15 @@ typedef struct op_bsdf_sample {
 
 /* Builds b from a <bsdf> node (twosided and mask unwrap their child; a mask without a child
  * wraps the default diffuse; nested masks multiply their opacities). Out-of-range reflectances
- * and opacities are clamped to [0, 1] with a warning. */
-op_status op_bsdf_build(op_node *node, op_bsdf *b, op_error *err);
+ * and opacities are clamped to [0, 1] with a warning. The diffuse reflectance (diffuse, plastic,
+ * roughplastic) may be a nested or referenced <texture>, whose image is read through tex. */
+op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err);
 /* The default material of shapes without a BSDF: diffuse 0.5. */
 void op_bsdf_default(op_bsdf *b);
+/* The BSDF at surface coordinates (u, v): b itself when nothing in it is textured, else
+ * *scratch, a copy of b with its textures looked up there. Every function below takes the
+ * result (a textured b evaluates as its constant reflectance). */
+const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch);
 /* Whether the BSDF has a non-delta component that next-event estimation can evaluate. */
 int op_bsdf_is_smooth_only(const op_bsdf *b);
 

@@ -278,7 +278,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                 proxy.reflectance = s->sss[sh->sss].albedo_mean;
                 bsdf = &proxy;
             } else {
-                bsdf = &s->bsdfs[sh->bsdf];
+                bsdf = op_bsdf_at(&s->bsdfs[sh->bsdf], it.u, it.v, &proxy);
             }
         }
         op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
@@ -426,7 +426,7 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
         proxy.reflectance = s->sss[sh->sss].albedo_mean;
         bsdf = &proxy;
     } else {
-        bsdf = &s->bsdfs[sh->bsdf];
+        bsdf = op_bsdf_at(&s->bsdfs[sh->bsdf], it.u, it.v, &proxy);
     }
     int nl = ig->emitter_samples, nb = ig->bsdf_samples;
     op_v3 wi_l = op_frame_to_local(&it.frame, v3_neg(dir));
@@ -482,7 +482,7 @@ static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmi
     default:
         if (sh->sss >= 0)
             return s->sss[sh->sss].albedo_mean;
-        return op_bsdf_albedo(&s->bsdfs[sh->bsdf]);
+        return op_bsdf_albedo(op_bsdf_at(&s->bsdfs[sh->bsdf], it.u, it.v, &(op_bsdf){0}));
     }
 }
 

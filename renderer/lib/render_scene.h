@@ -73,6 +73,7 @@ struct op_scene {
     int nsss;
     op_material **materials;
     int nmaterials;
+    op_tex_cache *textures; /* the images the bsdfs' textures point into */
     op_accel *accel;
     op_v3 bmin, bmax; /* world bounds of the geometry */
     float eps;        /* ray offset scale */

@@ -127,7 +127,7 @@ static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
         !grow((void **)&b->bsdf_nodes, &cap, s->nbsdfs, sizeof *b->bsdf_nodes))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     if (node)
-        GET_OR_FAIL(op_bsdf_build(node, &s->bsdfs[s->nbsdfs], err));
+        GET_OR_FAIL(op_bsdf_build(node, s->textures, &s->bsdfs[s->nbsdfs], err));
     else
         op_bsdf_default(&s->bsdfs[s->nbsdfs]);
     b->bsdf_nodes[s->nbsdfs] = node;
@@ -722,7 +722,8 @@ op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error 
     s->path = strdup(path);
     char *tmp = strdup(path);
     b.meshes = op_mesh_cache_new();
-    if (!s->path || !tmp || !b.meshes) {
+    s->textures = op_tex_cache_new();
+    if (!s->path || !tmp || !b.meshes || !s->textures) {
         free(tmp);
         op_mesh_cache_free(b.meshes);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -762,6 +763,7 @@ void op_scene_release(op_scene *s)
     for (int i = 0; i < s->nmaterials; i++)
         op_material_close(s->materials[i]);
     free(s->materials);
+    op_tex_cache_free(s->textures);
     op_accel_free(s->accel);
     free(s->path);
 }

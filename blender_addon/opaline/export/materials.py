@@ -1,26 +1,29 @@
 """Blender materials -> opaline BSDFs, subsurface and mesh emitters.
 
 Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-addon.md):
-- Diffuse BSDF                -> diffuse (reflectance = Color)
+- Diffuse BSDF                -> diffuse (reflectance = Color, or its Image Texture)
 - Glass BSDF                  -> dielectric (intIOR = IOR; opaline has no rough dielectric, so
                                  roughness is dropped with a warning)
 - Principled BSDF             -> transmission >= 0.5: dielectric (IOR);
                                  metallic >= 0.5: conductor, material "none" (a mirror tinted by
                                  specularReflectance = Base Color; roughness dropped, warned);
-                                 otherwise roughplastic (diffuseReflectance = Base Color,
-                                 alpha = roughness^2, intIOR from Specular: F0 = 0.08 specular)
+                                 otherwise roughplastic (diffuseReflectance = Base Color or
+                                 its Image Texture, alpha = roughness^2, intIOR from Specular:
+                                 F0 = 0.08 specular)
 - Emission                    -> an area emitter on the shape (radiance = Color * Strength;
                                  Cycles' emission strength is radiance) over a black diffuse
 - anything else / no nodes    -> diffuse with the material's viewport colour (with a warning)
 - no material                 -> diffuse 0.8 (Cycles' default surface)
 Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
-Linked colour inputs are not followed (textures are not exported); the default value is used
-and a warning names the socket.
+A Diffuse Color / Base Color linked to an Image Texture node exports a bitmap texture
+(textures.py); other linked inputs are not followed: the default value is used and a warning
+names the socket.
 """
 
 import math
 import os
 
+from . import textures as textures_mod
 from .xml_writer import Element
 from ..errors import OpalineError
 
@@ -41,6 +44,25 @@ def _input(node, names, warn, label):
                      "value is used" % (label, n))
             return s.default_value
     return None
+
+
+def _reflectance(b, param, node, names, warn, label, textures):
+    """Adds reflectance `param` to bsdf element b: the Image Texture linked to the first
+    existing input of `names` when textures (a TextureWriter) is given, else its colour."""
+    for n in names:
+        s = node.inputs.get(n)
+        if s is None:
+            continue
+        if s.is_linked and textures is not None:
+            tex = textures_mod.texture_for(s, param, textures, warn, label)
+            if tex is not None:
+                b.add(tex)
+                return
+        elif s.is_linked:
+            warn("%s: input '%s' is linked; its texture is not exported, the default value is "
+                 "used" % (label, n))
+        b.rgb(param, _rgb(s.default_value))
+        return
 
 
 def _surface_node(mat):
@@ -86,8 +108,9 @@ def _twosided(b):
     return t
 
 
-def bsdf_for(mat, warn):
-    """(bsdf Element, emitter Element or None) for Blender material `mat` (may be None)."""
+def bsdf_for(mat, warn, textures=None):
+    """(bsdf Element, emitter Element or None) for Blender material `mat` (may be None).
+    textures: a textures.TextureWriter, to export Image Texture nodes (None: colours only)."""
     if mat is None:
         b = Element("bsdf", {"type": "diffuse"})
         b.rgb("reflectance", DEFAULT_GREY)
@@ -97,14 +120,15 @@ def bsdf_for(mat, warn):
     kind = node.bl_idname if node is not None else None
     if kind == "ShaderNodeBsdfDiffuse":
         b = Element("bsdf", {"type": "diffuse"})
-        b.rgb("reflectance", _rgb(_input(node, ["Color"], warn, label)))
+        _reflectance(b, "reflectance", node, ["Color"], warn, label, textures)
         return _twosided(b), None
     if kind == "ShaderNodeBsdfGlass":
         ior = float(_input(node, ["IOR"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
         return _dielectric(ior, rough, warn, label), None
     if kind == "ShaderNodeBsdfPrincipled":
-        base = _rgb(_input(node, ["Base Color"], warn, label))
+        base_sock = node.inputs.get("Base Color")
+        base = _rgb(base_sock.default_value)
         metallic = float(_input(node, ["Metallic"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
         trans = float(_input(node, ["Transmission", "Transmission Weight"], warn, label) or 0.0)
@@ -117,19 +141,22 @@ def bsdf_for(mat, warn):
             if rough >= 0.02:
                 warn("%s: rough metal is rendered as a smooth mirror (opaline has no rough "
                      "conductor)" % label)
+            if base_sock.is_linked:
+                warn("%s: input 'Base Color' of a metal is linked; its texture is not exported, "
+                     "the default value is used" % label)
             b = Element("bsdf", {"type": "conductor"})
             b.string("material", "none")
             b.rgb("specularReflectance", base)
             return _twosided(b), None
         if spec <= 1e-4:
             b = Element("bsdf", {"type": "diffuse"})
-            b.rgb("reflectance", base)
+            _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
             return _twosided(b), None
         b = Element("bsdf", {"type": "roughplastic"})
         b.string("distribution", "ggx")
         b.float("alpha", max(rough * rough, 1e-4))
         b.float("intIOR", ior_from_specular(spec))
-        b.rgb("diffuseReflectance", base)
+        _reflectance(b, "diffuseReflectance", node, ["Base Color"], warn, label, textures)
         return _twosided(b), None
     if kind == "ShaderNodeEmission":
         col = _rgb(_input(node, ["Color"], warn, label))

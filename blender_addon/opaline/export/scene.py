@@ -8,7 +8,8 @@ What is exported: the scene camera; every object instance of the depsgraph that 
 hidden for render, not in a collection hidden for render, instancers only when they show
 themselves); lights (lights.py); meshes, curves, surfaces, text and metaballs as triangle
 meshes with modifiers applied (meshes.py), shared between instances of one data block; each
-material slot's BSDF or opaline subsurface (materials.py); the world background as a constant
+material slot's BSDF or opaline subsurface (materials.py) with its image textures in a
+`textures/` folder (textures.py); the world background as a constant
 emitter; samples and bounces from the Cycles render settings.
 """
 
@@ -20,6 +21,7 @@ from . import camera as camera_mod
 from . import lights as lights_mod
 from . import materials as materials_mod
 from . import meshes as meshes_mod
+from . import textures as textures_mod
 from .xml_writer import Element, scene_element, serialize, transform_matrix, write_file
 from ..errors import OpalineError
 
@@ -34,6 +36,8 @@ class ExportResult:
         self.lights = 0
         self.meshes_written = 0
         self.meshes_reused = 0
+        self.textures_written = 0
+        self.textures_reused = 0
         self.warnings = []
         self.width = 0
         self.height = 0
@@ -170,6 +174,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         return presets.renderer_knows(folder, renderer_path)
 
     hidden_cols = _hidden_collections(scene_orig, getattr(depsgraph, "view_layer", None))
+    textures = textures_mod.TextureWriter(xml_dir)
     mesh_cache = {}     # key -> {material_index: file name}
     bsdf_ids = {}       # material name -> id of its shared <bsdf>
     shapes = []
@@ -231,7 +236,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
             else:
                 mname = mat.name if mat is not None else None
                 if mname not in bsdf_ids:
-                    bsdf, emitter = materials_mod.bsdf_for(mat, warn)
+                    bsdf, emitter = materials_mod.bsdf_for(mat, warn, textures)
                     if emitter is not None:
                         bsdf_ids[mname] = (None, bsdf, emitter)
                     else:
@@ -250,6 +255,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     for s in shapes:
         root.add(s)
     res.shapes = len(shapes)
+    res.textures_written, res.textures_reused = textures.written, textures.reused
     if res.shapes == 0 and res.lights == 0 and rad is None:
         warn("nothing to render: no visible shapes, lights or world light")
     text = serialize(root, "opaline scene exported from Blender %s, file %s, frame %d" % (
