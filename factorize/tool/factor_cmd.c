@@ -71,7 +71,9 @@ static void usage(FILE *f)
             "  --sanitize         replace NaN and infinite dataset values by 0 (else an error)\n"
             "  --name NAME        material name (default: the dataset's)\n"
             "  --precision single|double  arithmetic of the randomized SVD (default single)\n"
-            "  --power-iters Q    randomized SVD power iterations (default 4)\n"
+            "  --power-iters Q    randomized SVD power iterations, at most (default 4)\n"
+            "  --power-tol E      stop them once the squared rank-T error estimate improves by\n"
+            "                     less than E of itself (default 1e-3; 0: always Q)\n"
             "  --oversample P     randomized SVD oversampling (default 10)\n"
             "  --exact-svd        full LAPACK SVD instead of the randomized one (slow)\n"
             "  -t THREADS         preprocessing and evaluation threads (default: all cores;\n"
@@ -163,6 +165,7 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
         {"--log-a", 1e-30, 1e30, NULL, &a->log_a},
         {"--log-b", 1e-30, 1e30, NULL, &a->log_b},
         {"--power-iters", 0, 100, &a->svd.power_iters, NULL},
+        {"--power-tol", 0, 1, NULL, &a->svd.power_tol},
         {"--oversample", 0, 1000, &a->svd.oversample, NULL},
         {"-t", 1, 1024, &a->threads, NULL},
     };

@@ -9,8 +9,33 @@
 
 op_rsvd_options op_rsvd_defaults(void)
 {
-    return (op_rsvd_options){.oversample = 10, .power_iters = 4, .seed = 1,
+    return (op_rsvd_options){.oversample = 10, .power_iters = 4, .power_tol = 1e-3, .seed = 1,
                              .precision = OP_SVD_SINGLE, .exact = 0};
+}
+
+/* The squared Frobenius norm of n floats, accumulated in double. */
+static double squared_norm(const float *a, size_t n)
+{
+    double sum = 0.0;
+    for (size_t at = 0; at < n;) {
+        blasint len = (blasint)(n - at < ((size_t)1 << 30) ? n - at : (size_t)1 << 30);
+        sum += cblas_dsdot(len, a + at, 1, a + at, 1);
+        at += (size_t)len;
+    }
+    return sum;
+}
+
+/* Whether power iterations may stop: the estimated squared rank-k error, ||A||^2 minus the
+ * captured energy, fell by at most tol of itself since the previous iteration (so the error
+ * itself changes by about tol / 2 or less), or it is at the rounding level of ||A||^2. */
+static int converged(double captured_prev, double captured, double norm2, double tol)
+{
+    if (tol <= 0 || captured < 0 || captured_prev < 0)
+        return 0;
+    double residual = norm2 - captured;
+    if (residual <= 1e-6 * norm2)
+        return 1;
+    return captured - captured_prev <= tol * residual;
 }
 
 /* splitmix64: a small, well-mixed deterministic generator. */
@@ -134,7 +159,7 @@ op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_opt
     if (m < 1 || n < 1 || k < 1 || k > mn)
         return op_error_set(err, OP_ERR_INPUT, "SVD: rank %d is not in [1, %lld] for a %lld x %lld "
                             "matrix", k, (long long)mn, (long long)m, (long long)n);
-    if (opt->oversample < 0 || opt->power_iters < 0)
+    if (opt->oversample < 0 || opt->power_iters < 0 || !(opt->power_tol >= 0))
         return op_error_set(err, OP_ERR_INPUT, "SVD: negative oversampling or power iterations");
     if (m > INT32_MAX || n > INT32_MAX || m * n / n != m)
         return op_error_set(err, OP_ERR_INPUT, "SVD: %lld x %lld is too large for LAPACK",
@@ -146,11 +171,11 @@ op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_opt
     } else {
         int l = k + opt->oversample;
         if (opt->precision == OP_SVD_DOUBLE)
-            st = randomized_double(a, m, n, k, l, opt->power_iters, opt->seed, us, v, s, progress,
-                                   err);
+            st = randomized_double(a, m, n, k, l, opt->power_iters, opt->power_tol, opt->seed, us,
+                                   v, s, progress, err);
         else
-            st = randomized_single(a, m, n, k, l, opt->power_iters, opt->seed, us, v, s, progress,
-                                   err);
+            st = randomized_single(a, m, n, k, l, opt->power_iters, opt->power_tol, opt->seed, us,
+                                   v, s, progress, err);
     }
     return st == OP_OK ? fix_signs(m, n, k, us, v, err) : st;
 }

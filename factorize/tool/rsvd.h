@@ -3,7 +3,9 @@
  * The randomized method is Halko, Martinsson and Tropp (2011), algorithms 4.4 and 5.1: a
  * Gaussian test matrix with oversampling, power iterations with a QR re-orthonormalization
  * after every product with A or A^T (LAPACK geqrf/orgqr), then the SVD of the small projected
- * matrix (LAPACK gesdd). Products use OpenBLAS's gemm. The result is deterministic for a given
+ * matrix (LAPACK gesdd). Power iterations stop early once the rank-k error has converged: its
+ * estimate is ||A||_F^2 minus the top-k squared Ritz values of the current subspace, which
+ * cost an l x l eigenproblem per iteration. Products use OpenBLAS's gemm. The result is deterministic for a given
  * seed, and every singular pair's sign is fixed so that the entry of largest magnitude of its
  * right singular vector is positive. */
 #ifndef OP_FACTOR_RSVD_H
@@ -15,7 +17,9 @@ typedef enum op_svd_precision { OP_SVD_SINGLE, OP_SVD_DOUBLE } op_svd_precision;
 
 typedef struct op_rsvd_options {
     int oversample;   /* extra test vectors p (default 10) */
-    int power_iters;  /* power iterations q (default 4) */
+    int power_iters;  /* at most this many power iterations q (default 4) */
+    double power_tol; /* stop iterating once the squared rank-k error estimate improves by at
+                         most this fraction of itself (default 1e-3); 0: always q iterations */
     uint64_t seed;    /* test-matrix seed (default 1) */
     op_svd_precision precision; /* arithmetic of the randomized stages (default single) */
     int exact;        /* nonzero: full LAPACK SVD (gesdd in double) instead */

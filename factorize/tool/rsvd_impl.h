@@ -19,11 +19,33 @@ static op_status FN(orthonormalize)(REAL *y, int64_t rows, int64_t cols, REAL *t
     return OP_OK;
 }
 
-/* Randomized rank-k SVD with l >= k test vectors and q power iterations; see op_rsvd. */
+/* The energy the top k directions of the n x l matrix z hold: the sum of the k largest
+ * eigenvalues of z^T z (the squared Ritz values of A on the subspace z = A^T Y came from).
+ * gram (l x l) and eig (l) are scratch. Returns -1 if LAPACK fails (never converged). */
+static double FN(top_energy)(const REAL *z, int64_t n, int l, int k, double *gram, double *eig)
+{
+    for (int i = 0; i < l; i++)
+        for (int j = 0; j <= i; j++) {
+            double d = 0.0;
+            for (int64_t r = 0; r < n; r++)
+                d += (double)z[r + (size_t)i * n] * (double)z[r + (size_t)j * n];
+            gram[(size_t)i * l + j] = gram[(size_t)j * l + i] = d;
+        }
+    if (LAPACKE_dsyev(LAPACK_COL_MAJOR, 'N', 'L', l, gram, l, eig) != 0)
+        return -1.0;
+    double e = 0.0;
+    for (int i = l - k; i < l; i++) /* ascending order */
+        e += eig[i];
+    return e;
+}
+
+/* Randomized rank-k SVD with l >= k test vectors and at most q power iterations, fewer when
+ * the rank-k error has converged to tol (see converged()); see op_rsvd. */
 static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int l, int q,
-                                uint64_t seed, float *us, float *v, double *s,
+                                double tol, uint64_t seed, float *us, float *v, double *s,
                                 op_progress *progress, op_error *err)
 {
+    double norm2 = tol > 0 ? squared_norm(a, (size_t)m * (size_t)n) : 0.0;
     op_status st = OP_OK;
     const REAL *A;
     REAL *acopy = NULL;
@@ -58,16 +80,26 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
     uint64_t rng = seed;
     for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
         z[i] = (REAL)gaussian(&rng);
-    /* Y = A Omega, then alternate Z = orth(A^T Y), Y = orth(A Z). */
+    /* Y = orth(A Omega); then Z = A^T Y, which is B^T for the current Y, and while the
+     * estimate of the rank-k error still improves, Z = orth(Z), Y = orth(A Z) and again. */
     GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
          (blasint)n, z, (blasint)n, 0, y, (blasint)m);
     op_progress_advance(progress, 1);
     if ((st = FN(orthonormalize)(y, m, l, tau, err)) != OP_OK)
         goto done;
-    for (int it = 0; it < q; it++) {
+    double captured_prev = 0.0;
+    for (int it = 0;; it++) {
         GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1, A,
              (blasint)n, y, (blasint)m, 0, z, (blasint)n);
         op_progress_advance(progress, 1);
+        if (it == q)
+            break;
+        double captured = FN(top_energy)(z, n, l, k, xt, sv);
+        if (it > 0 && converged(captured_prev, captured, norm2, tol)) {
+            op_progress_advance(progress, (uint64_t)(2 * (q - it)));
+            break;
+        }
+        captured_prev = captured;
         if ((st = FN(orthonormalize)(z, n, l, tau, err)) != OP_OK)
             goto done;
         GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
@@ -76,10 +108,7 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
         if ((st = FN(orthonormalize)(y, m, l, tau, err)) != OP_OK)
             goto done;
     }
-    /* B^T = A^T Y (n x l); B^T = W S X^T, so A ~ Y B = (Y X) S W^T. */
-    GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1, A,
-         (blasint)n, y, (blasint)m, 0, z, (blasint)n);
-    op_progress_advance(progress, 1);
+    /* B^T = Z = A^T Y (n x l); B^T = W S X^T, so A ~ Y B = (Y X) S W^T. */
     for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
         bd[i] = z[i];
     lapack_int info = LAPACKE_dgesdd(LAPACK_COL_MAJOR, 'S', (lapack_int)n, (lapack_int)l, bd,
