@@ -34,6 +34,10 @@ import subprocess
 import sys
 import time
 
+from paper_scene import SCALE, find_mesh, pfm, scene_xml
+from paper_scene import compare as image_compare
+from paper_scene import render as render_once
+
 # --- configuration ----------------------------------------------------------------------------
 
 # name -> (dataset arguments, kind); kind 'chess' marks the chessboards of the NMF goal.
@@ -374,6 +378,145 @@ def nmf_baseline(np, skd, rec, ds_path):
     return res
 
 
+# --- rendering: the paper-style scene with every material ------------------------------------
+
+def slug(text):
+    return re.sub(r"[^A-Za-z0-9.-]+", "_", text).strip("_")
+
+
+def render_dataset(renderer, name, ds_path, recs, rs, repeats, work, log):
+    """Renders the paper-style scene (bench/paper_scene.py) with the dataset itself (`raw`, the
+    reference) and with every factored material of recs (this dataset's sweep), all at rs's size
+    and samples and the renderer's default seed; returns one record per material: the process's
+    wall and CPU time (median of `repeats` runs, fewer for slow ones, as factor_runs), the
+    renderer's own pre-pass and camera-pass seconds, and the image's RMSE, relative RMSE and PSNR
+    against the raw image. Its stderr goes to the log."""
+    os.makedirs(os.path.join(work, "scenes"), exist_ok=True)
+    os.makedirs(os.path.join(work, "images"), exist_ok=True)
+    out, ref = [], None
+    for rec in sorted(recs, key=lambda r: r["method"] != "raw"):  # raw first: the reference
+        mat = ds_path if rec["method"] == "raw" else rec["material"]
+        base = slug(f"{name}.{rec['label']}")
+        xml = os.path.join(work, "scenes", base + ".xml")
+        with open(xml, "w") as f:
+            f.write(scene_xml(rec["method"], os.path.abspath(mat), rs["spp"], rs["size"],
+                              rs["mesh"], SCALE))
+        img = os.path.join(work, "images", base + ".pfm")
+        n, runs = repeats, []
+        while len(runs) < n:
+            try:
+                r = render_once(renderer, xml, [img, img[:-4] + ".png"], rs["threads"])
+            except RuntimeError as e:
+                with open(log, "a") as f:
+                    f.write(str(e) + "\n")
+                raise
+            with open(log, "a") as f:
+                f.write(f"$ {renderer} -t {rs['threads']} -o {img} {xml}\n# {r['wall_s']:.3f} s"
+                        f"\n{r['stderr']}")
+            if not runs and r["wall_s"] * n > SLOW_SECONDS:
+                n = max(1, min(n, int(SLOW_SECONDS // r["wall_s"])))
+            runs.append(r)
+        image = pfm(img)
+        if ref is None:
+            ref = image
+        rmse, rel, psnr = image_compare(image, ref)
+
+        def med(key):
+            v = [x[key] for x in runs if x[key] is not None]
+            return statistics.median(v) if v else None
+
+        out.append({
+            "dataset": name, "method": rec["method"], "label": rec["label"], "T": rec["T"],
+            "P": rec["P"], "C": rec["C"], "Km": rec["Km"], "size_bytes": rec["size_bytes"],
+            "data_rmse": rec["rmse"], "data_psnr": rec["psnr"], "res": rs["size"],
+            "spp": rs["spp"], "threads": rs["threads"], "render_seconds": med("wall_s"),
+            "render_seconds_runs": [x["wall_s"] for x in runs], "cpu_seconds": med("cpu_s"),
+            "prepass_seconds": med("prepass_s"), "camera_seconds": med("render_s"),
+            "image_rmse": rmse, "image_relative_rmse": rel,
+            "image_psnr": psnr if math.isfinite(psnr) else None, "repeats": n, "image": img})
+    return out
+
+
+def spearman(xs, ys):
+    """Spearman's rank correlation (average ranks for ties), or None for fewer than 3 points or
+    a constant series."""
+    def ranks(v):
+        order = sorted(range(len(v)), key=lambda i: v[i])
+        r, i = [0.0] * len(v), 0
+        while i < len(order):
+            j = i
+            while j + 1 < len(order) and v[order[j + 1]] == v[order[i]]:
+                j += 1
+            for k in range(i, j + 1):
+                r[order[k]] = (i + j) / 2 + 1
+            i = j + 1
+        return r
+    if len(xs) < 3:
+        return None
+    a, b = ranks(xs), ranks(ys)
+    ma, mb_ = sum(a) / len(a), sum(b) / len(b)
+    sab = sum((x - ma) * (y - mb_) for x, y in zip(a, b))
+    saa = sum((x - ma) ** 2 for x in a)
+    sbb = sum((y - mb_) ** 2 for y in b)
+    return sab / math.sqrt(saa * sbb) if saa > 0 and sbb > 0 else None
+
+
+def rank_agreement(renders, name):
+    """How image error ranks against data error over the dataset's factored materials: Spearman's
+    rho, the number of pairs, the swapped (discordant) pairs and a one-line statement."""
+    rs = [r for r in renders if r["dataset"] == name and r["method"] != "raw"]
+    rho = spearman([r["data_rmse"] for r in rs], [r["image_rmse"] for r in rs])
+    swapped = [(a["label"], b["label"]) for i, a in enumerate(rs) for b in rs[i + 1:]
+               if (a["data_rmse"] - b["data_rmse"]) * (a["image_rmse"] - b["image_rmse"]) < 0]
+    pairs = len(rs) * (len(rs) - 1) // 2
+    if rho is None:
+        say = "not judged (fewer than 3 factored materials)"
+    elif rho >= 0.9:
+        say = "image error ranks like data error"
+    elif rho >= 0.5:
+        say = "image error ranks roughly like data error"
+    else:
+        say = "image error does NOT rank like data error"
+    return {"dataset": name, "spearman": rho, "materials": len(rs), "pairs": pairs,
+            "swapped": swapped, "statement": say}
+
+
+def render_table(renders, rs, agreement):
+    lines = ["## Render time and image error per method\n"]
+    add = lines.append
+    if not renders:
+        add(f"Not rendered: {rs['why']}.\n")
+        return lines
+    add(f"The paper-style scene ({rs['scene']}; bench/paper_scene.py) at {rs['size']} x "
+        f"{rs['size']} pixels, {rs['spp']} samples per pixel, {rs['threads']} threads, the "
+        "renderer's default seed for every material (equal samples, equal random streams), "
+        "material scale " + f"{SCALE}. Reference: the `raw` render (the dataset itself). "
+        "Render s is the opaline-render process's wall time (scene and material loading, the "
+        "subsurface pre-pass, the camera pass, writing the PFM and PNG), the median of the runs; "
+        "pre-pass and camera s are the renderer's own `subsurface pre-pass` and `camera pass` "
+        "lines; CPU s is the process's user + system time. Image PSNR: peak = the raw image's "
+        "largest value. Data RMSE is the material's RMSE of Rd (Table I).\n")
+    add("| material | method | parameters | size MB | data RMSE | render s | pre-pass s | "
+        "camera s | CPU s | image RMSE | image rel. RMSE | image PSNR dB |")
+    add("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in renders:
+        add(f"| {r['dataset']} | {r['method']} | {r['label'][len(r['method']):].strip()} | "
+            f"{mb(r['size_bytes']):.2f} | {r['data_rmse']:.4g} | {r['render_seconds']:.3f} | "
+            f"{r['prepass_seconds']:.3f} | {fmt(r['camera_seconds'], '.3f')} | "
+            f"{r['cpu_seconds']:.2f} | {r['image_rmse']:.4g} | "
+            f"{r['image_relative_rmse']:.4g} | {fmt(r['image_psnr'], '.2f')} |")
+    add("")
+    add("Does image error rank like data error? Spearman's rank correlation between data RMSE "
+        "and image RMSE over each material's factored configurations:\n")
+    for g in agreement:
+        sw = g["swapped"]
+        add(f"- {g['dataset']}: rho = {fmt(g['spearman'], '.3f')} over {g['materials']} "
+            f"materials ({len(sw)} of {g['pairs']} pairs swapped): {g['statement']}" +
+            (" (e.g. " + "; ".join(f"{a} vs {b}" for a, b in sw[:3]) + ")" if sw else ""))
+    add("")
+    return lines
+
+
 # --- machine and versions --------------------------------------------------------------------
 
 def environment(tool, root):
@@ -580,7 +723,7 @@ def goals(runs, datasets, kinds, baselines, renderer):
     return out
 
 
-def plots(plt, runs, datasets, baselines, outdir):
+def plots(plt, runs, datasets, baselines, outdir, renders=()):
     os.makedirs(outdir, exist_ok=True)
     made = []
     for name in datasets:
@@ -633,6 +776,46 @@ def plots(plt, runs, datasets, baselines, outdir):
             a.legend(fontsize=7)
         fig.tight_layout()
         p = os.path.join(outdir, "svd_baselines.png")
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        made.append(p)
+    names = [n for n in datasets if any(r["dataset"] == n for r in renders)]
+    if names:
+        fig, axs = plt.subplots(2, len(names), figsize=(5.5 * len(names), 9), squeeze=False)
+        for col, name in enumerate(names):
+            rs = [r for r in renders if r["dataset"] == name]
+            top, bot = axs[0][col], axs[1][col]
+            for r in rs:
+                if r["method"] == "raw":
+                    top.axvline(r["render_seconds"], color="black", ls="--",
+                                label="raw (the reference) render time")
+            for method in ("svd", "tucker", "kcta", "nmf"):
+                pts = [r for r in rs if r["method"] == method and r["image_rmse"] > 0]
+                if not pts:
+                    continue
+                c = COLOURS[method]
+                top.plot([r["render_seconds"] for r in pts], [r["image_rmse"] for r in pts], "o",
+                         color=c, label=method)
+                bot.plot([r["data_rmse"] for r in pts], [r["image_rmse"] for r in pts], "o",
+                         color=c, label=method)
+                for r in pts:
+                    par = r["label"][len(method):].strip().replace(" ", ",")
+                    top.annotate(par, (r["render_seconds"], r["image_rmse"]), fontsize=6,
+                                 color=c, xytext=(3, 3), textcoords="offset points")
+                    bot.annotate(par, (r["data_rmse"], r["image_rmse"]), fontsize=6,
+                                 color=c, xytext=(3, 3), textcoords="offset points")
+            r0 = rs[0]
+            top.set(yscale="log", xlabel="render time, process wall, median (s)",
+                    ylabel="image RMSE against raw",
+                    title=f"{name}: image RMSE against render time\n"
+                          f"({r0['res']}x{r0['res']}, {r0['spp']} spp, {r0['threads']} threads)")
+            bot.set(xscale="log", yscale="log", xlabel="data RMSE of Rd",
+                    ylabel="image RMSE against raw", title=f"{name}: image against data error")
+            for a in (top, bot):
+                a.grid(True, which="both", alpha=0.3)
+                a.legend(fontsize=8)
+        fig.tight_layout()
+        p = os.path.join(outdir, "renders.png")
         fig.savefig(p, dpi=110)
         plt.close(fig)
         made.append(p)
@@ -702,6 +885,11 @@ def main():
     ap.add_argument("--no-plots", action="store_true")
     ap.add_argument("--renderer-only", action="store_true",
                     help="only the renderer against Embree's tutorial and Cycles (no datasets)")
+    ap.add_argument("--render-size", type=int,
+                    help="side of the rendered images in pixels (256; quick 32)")
+    ap.add_argument("--render-spp", type=int, help="samples per pixel of the renders (16; quick 2)")
+    ap.add_argument("--no-render", action="store_true",
+                    help="skip rendering the scene with every material")
     a = ap.parse_args()
     if a.renderer_only and a.quick:
         sys.exit("bench_methods: --renderer-only measures nothing in quick mode")
@@ -728,6 +916,22 @@ def main():
         note("configurations SKIPPED on request (--skip): " + ", ".join(sorted(skip)))
     sweep = [(m, p) for m, p in sweep if label(m, p) not in skip]
     repeats = a.repeats or (1 if a.quick else 3)
+    rs = {"size": a.render_size or (32 if a.quick else 256),
+          "spp": a.render_spp or (2 if a.quick else 16), "threads": os.cpu_count() or 1,
+          "mesh": find_mesh(root), "why": None}
+    if rs["size"] < 8 or rs["spp"] < 1:
+        sys.exit("bench_methods: need --render-size >= 8 and --render-spp >= 1")
+    renderer = os.path.join(os.path.dirname(os.path.abspath(a.tool)), "opaline-render")
+    rs["scene"] = ("Spot the cow, " + rs["mesh"] if rs["mesh"] else
+                   "a sphere of radius 0.8 in place of Spot (../shared/meshes/spot.obj absent)")
+    if a.no_render:
+        rs["why"] = "--no-render given"
+    elif not a.renderer_only and not os.access(renderer, os.X_OK):
+        rs["why"] = f"{renderer} is not built"
+    if rs["why"] and not a.renderer_only:
+        note(f"rendering the scene with every material SKIPPED: {rs['why']}")
+    elif not rs["mesh"] and not a.renderer_only:
+        note("../shared/meshes/spot.obj is absent: the render scene uses a sphere instead of Spot")
     os.makedirs(a.out, exist_ok=True)
     log = os.path.join(a.out, "commands.log")
     open(log, "w").close()
@@ -747,7 +951,7 @@ def main():
 
     print(f"opaline method benchmark ({'quick' if a.quick else 'full'} mode, {repeats} run(s) "
           f"per configuration) -> {a.out}", flush=True)
-    runs, metas, kinds, paths, baselines = [], {}, {}, {}, []
+    runs, metas, kinds, paths, baselines, renders = [], {}, {}, {}, [], []
     for name, (args, kind) in dsets.items():
         path, _, meta = make_dataset(a.tool, name, args, a.out, log)
         metas[name], kinds[name], paths[name] = meta, kind, path
@@ -760,6 +964,18 @@ def main():
                   f"eval {rec['eval_ns']:6.1f} ns", flush=True)
             if method == "raw":
                 os.remove(rec["material"])  # as large as the dataset
+        if not rs["why"]:
+            print(f"== renders of {name}: the paper-style scene, {rs['size']}x{rs['size']}, "
+                  f"{rs['spp']} spp, {rs['threads']} threads ({rs['scene']})", flush=True)
+            for r in render_dataset(renderer, name, path,
+                                    [r for r in runs if r["dataset"] == name], rs, repeats,
+                                    a.out, log):
+                renders.append(r)
+                print(f"   {name:14s} {r['label']:22s} render {r['render_seconds']:7.3f} s "
+                      f"(pre-pass {r['prepass_seconds']:.3f} s, camera "
+                      f"{fmt(r['camera_seconds'], '.3f')} s)  image RMSE {r['image_rmse']:.4g}  "
+                      f"PSNR {fmt(r['image_psnr'], '6.2f')} dB  data RMSE {r['data_rmse']:.4g}",
+                      flush=True)
         if np is not None:
             svd_ref = find(runs, name, "svd", typical["svd"])
             nmf_ref = find(runs, name, "nmf", typical["nmf"])
@@ -803,20 +1019,42 @@ def main():
         for g in gl:
             if g["verdict"] in ("met", "NOT met"):
                 g["verdict"] += " (quick mode: toy sizes, not a verdict)"
+    agreement = [rank_agreement(renders, n) for n in metas
+                 if any(r["dataset"] == n for r in renders)]
     tab = tables(runs, metas, baselines, typical, typical["nmf"])
-    made = plots(plt, runs, metas, baselines, os.path.join(a.out, "plots")) if plt else []
+    if not a.renderer_only:
+        tab += render_table(renders, rs, agreement)
+    made = (plots(plt, runs, metas, baselines, os.path.join(a.out, "plots"), renders)
+            if plt else [])
+    by_label = {(r["dataset"], r["label"]): r for r in renders}
+    for r in runs:
+        x = by_label.get((r["dataset"], r["label"]), {})
+        r["render_seconds"] = x.get("render_seconds")
+        r["image_rmse"] = x.get("image_rmse")
+        r["image_psnr"] = x.get("image_psnr")
     if plt is None and not a.no_plots:
         note("plots SKIPPED: matplotlib is missing (Debian package python3-matplotlib)")
 
     fields = ["dataset", "method", "label", "T", "P", "C", "Km", "size_bytes", "original_bytes",
               "compression_ratio", "rmse", "relative_rmse", "psnr", "se_ratio_db", "max_error",
               "factor_seconds", "total_seconds", "eval_ns", "eval_random_ns",
-              "albedo_map_seconds", "peak_memory_bytes", "channel0_seconds", "repeats"]
+              "albedo_map_seconds", "peak_memory_bytes", "channel0_seconds", "repeats",
+              "render_seconds", "image_rmse", "image_psnr"]
     with open(os.path.join(a.out, "runs.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
         for r in runs:
             w.writerow(r)
+    rfields = ["dataset", "method", "label", "T", "P", "C", "Km", "size_bytes", "data_rmse",
+               "data_psnr", "res", "spp", "threads", "render_seconds", "cpu_seconds",
+               "prepass_seconds", "camera_seconds", "image_rmse", "image_relative_rmse",
+               "image_psnr", "repeats", "image"]
+    if renders:
+        with open(os.path.join(a.out, "renders.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=rfields, extrasaction="ignore")
+            w.writeheader()
+            for r in renders:
+                w.writerow(r)
     with open(os.path.join(a.out, "baselines.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["dataset", "problem", "channel", "rows", "cols", "rank", "who", "seconds",
@@ -865,13 +1103,20 @@ def main():
               "datasets": {k: {"args": dsets[k][0], "kind": kinds[k], "meta": metas[k]}
                            for k in metas},
               "runs": runs, "baselines": baselines, "goals": gl, "renderer": renderer,
+              "render_settings": {k: v for k, v in rs.items() if k != "why"},
+              "render_skipped": rs["why"], "renders": renders,
+              "render_rank_agreement": agreement,
               "plots": made, "notes": notes,
               "seconds": time.perf_counter() - t_start}
     with open(os.path.join(a.out, "results.json"), "w") as f:
         json.dump(result, f, indent=1, default=float)
     print("\n".join(lines[:lines.index("## Table 1 (as Kurt et al. 2013): statistics per "
                                        "material, typical parameters\n")]))
+    for g in agreement:
+        print(f"renders, {g['dataset']}: Spearman rho(data RMSE, image RMSE) = "
+              f"{fmt(g['spearman'], '.3f')}: {g['statement']}")
     print(f"results: {a.out}/results.json, runs.csv, baselines.csv, tables.md" +
+          (", renders.csv, images/" if renders else "") +
           (", plots/*.png" if made else "") + f" ({result['seconds']:.0f} s)")
 
 

@@ -3,7 +3,8 @@
 #
 # usage: bash bench/bench_methods.sh [--quick] [--out DIR] [--build DIR] [--repeats N]
 #                                    [--datasets a,b] [--skip CONFIGS] [--no-baselines] [--no-plots]
-#                                    [--renderer-only]
+#                                    [--renderer-only] [--render-size N] [--render-spp N]
+#                                    [--no-render]
 #   --build DIR   a Release build holding bin/opaline-factor (default build-bench-rel)
 #   --out DIR     results folder (default BUILD/bench-methods[-quick]); datasets made there are
 #                 reused by later runs while their arguments are unchanged
@@ -12,11 +13,17 @@
 #                 configuration whose first run is slow runs fewer times, at least once)
 #   --datasets    subset of chess4x4, chess8x8, veined-marble, chess4x4-mc
 #   --skip LIST   configurations to leave out, as labelled in the output, e.g. "nmf T=40,nmf T=20"
+#   --render-size N, --render-spp N  the renders of the paper-style scene (Spot on a floor under
+#                 a spot light, bench/paper_scene.py; a sphere when ../shared is absent) with raw
+#                 and every factored material: image side and samples per pixel (default 256 and
+#                 16; quick 32 and 2); render time against image RMSE versus raw, renders.csv
+#   --no-render   skip those renders
 #   --renderer-only  only the renderer goals (a minute or so): opaline-render against Embree's
 #                 pathtracer tutorial (bench_render_peers.sh, needs ../shared and embree-tools) and
 #                 against Cycles (bench_cycles_noise.sh, needs blender); the full mode runs them
 #                 too, the quick mode skips them with a message
-# The full mode takes long (tens of minutes per dataset: K-CTA and NMF at paper size).
+# The full mode takes long (tens of minutes per dataset: K-CTA and NMF at paper size; the
+# renders add a few seconds per material).
 # Needs python3; numpy, scikit-learn and matplotlib (Debian python3-numpy python3-sklearn
 # python3-matplotlib) add the baselines and plots; the full run installs them with
 # scripts/install-deps.sh --bench, quick mode skips what is missing and names it.
@@ -33,10 +40,10 @@ while [ $# -gt 0 ]; do
     --build) build=${2:?--build needs a folder}; shift 2 ;;
     --out) out=${2:?--out needs a folder}; shift 2 ;;
     --quick) quick=1; args+=(--quick); shift ;;
-    --repeats|--datasets) args+=("$1" "${2:?$1 needs a value}"); shift 2 ;;
-    --no-baselines|--no-plots|--renderer-only) args+=("$1"); shift ;;
+    --repeats|--datasets|--render-size|--render-spp) args+=("$1" "${2:?$1 needs a value}"); shift 2 ;;
+    --no-baselines|--no-plots|--renderer-only|--no-render) args+=("$1"); shift ;;
     --skip) args+=("$1" "${2:?--skip needs a list}"); shift 2 ;;
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'; exit 0 ;;
     *) echo "bench_methods: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done

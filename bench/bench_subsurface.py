@@ -27,11 +27,12 @@ on the camera's sample count, so this is the camera pass's noise; the pre-pass's
 against raw instead. The times are whole-process wall times (loading, pre-pass, camera pass,
 writing).
 
-Everything goes to OUT: datasets/ (only those not found in PRESETS/datasets), materials/
-(factored materials and their reports, reused while newer than the dataset and opaline-factor),
-scenes/, images/, results.csv, convergence.csv, results.json. The last line is the verdict
-against the goal: svd T = 10 on Chess4x4 converged (1 %) in at most 60 s with PSNR against raw of
-at least 40 dB (the goal is stated for 512 x 512 on this 2-core machine)."""
+The scene text and the image comparison live in bench/paper_scene.py (shared with
+bench_methods.py). Everything goes to OUT: datasets/ (only those not found in PRESETS/datasets),
+materials/ (factored materials and their reports, reused while newer than the dataset and
+opaline-factor), scenes/, images/, results.csv, convergence.csv, results.json. The last line is
+the verdict against the goal: svd T = 10 on Chess4x4 converged (1 %) in at most 60 s with PSNR
+against raw of at least 40 dB (the goal is stated for 512 x 512 on this 2-core machine)."""
 
 import argparse
 import csv
@@ -40,10 +41,12 @@ import math
 import os
 import platform
 import statistics
-import struct
 import subprocess
 import sys
 import time
+
+from paper_scene import compare, parse_time_v, pfm, scene_xml
+from paper_scene import render as render_once
 
 BOARDS = {"chess4x4": ("Chess4x4", 7), "chess8x8": ("Chess8x8", 4)}
 GOAL_SECONDS, GOAL_PSNR, GOAL_T = 60.0, 40.0, 10
@@ -125,99 +128,26 @@ def factor(board, method, terms):
         return label, path, float(f.read())
 
 
-def scene_xml(method, material, spp):
-    return """<scene version="0.6.0">
-  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="35"/>
-    <transform name="toWorld"><lookat origin="2.6, 1.2, 2.4" target="0, 0.05, 0.1" up="0, 1, 0"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="%d"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="%d"/><integer name="height" value="%d"/></film>
-  </sensor>
-  <emitter type="spot">
-    <transform name="toWorld"><lookat origin="1.5, 3.5, 2.0" target="0, 0, 0"/></transform>
-    <spectrum name="intensity" value="30"/>
-    <float name="cutoffAngle" value="40"/>
-  </emitter>
-  <emitter type="constant"><spectrum name="radiance" value="0.05"/></emitter>
-  <shape type="obj">
-    <string name="filename" value="%s"/>
-    <subsurface type="%s">
-      <string name="material" value="%s"/>
-      <float name="scale" value="19"/>
-    </subsurface>
-  </shape>
-  <shape type="rectangle">
-    <transform name="toWorld"><rotate x="1" angle="-90"/><scale value="4"/><translate y="-0.737"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-  </shape>
-</scene>
-""" % (spp, A.res, A.res, A.mesh, method, material)
-
-
-def parse_time_v(text):
-    wall = rss = None
-    for line in text.splitlines():
-        line = line.strip()
-        if line.startswith("Elapsed (wall clock) time"):
-            s = 0.0
-            for part in line.rsplit(": ", 1)[1].split(":"):
-                s = s * 60 + float(part)
-            wall = s
-        elif line.startswith("Maximum resident set size"):
-            rss = int(line.rsplit(": ", 1)[1]) / 1024.0
-    return wall, rss
-
-
-def grab(text, key):
-    """The number after 'key' on the last line holding it, or None."""
-    v = None
-    for line in text.splitlines():
-        i = line.find(key)
-        if i >= 0:
-            v = float(line[i + len(key):].split()[0])
-    return v
-
-
 def render(label, method, material, spp, repeat):
     """Renders `repeat` times; returns the image path and the median figures."""
     xml = os.path.join(A.out, "scenes", "%s_s%d.xml" % (label, spp))
     with open(xml, "w") as f:
-        f.write(scene_xml(method, material, spp))
+        f.write(scene_xml(method, material, spp, A.res, A.mesh))
     img = os.path.join(A.out, "images", "%s_s%d.pfm" % (label, spp))
     runs = []
     for _ in range(repeat):
-        p = subprocess.run(["/usr/bin/time", "-v", RENDER, "-t", str(A.threads), "-o", img, xml],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        if p.returncode != 0:
-            sys.stderr.write(p.stderr)
-            sys.exit("bench_subsurface: opaline-render failed on %s" % xml)
-        for line in sorted({l for l in p.stderr.splitlines() if "warn" in l.lower()})[:3]:
+        try:
+            r = render_once(RENDER, xml, [img], A.threads, prefix=["/usr/bin/time", "-v"])
+        except RuntimeError as e:
+            sys.exit("bench_subsurface: %s" % e)
+        for line in sorted({l for l in r["stderr"].splitlines() if "warn" in l.lower()})[:3]:
             sys.stderr.write(line + "\n")
-        wall, rss = parse_time_v(p.stderr)
-        runs.append({"prepass_s": grab(p.stderr, "subsurface pre-pass: ") or 0.0,
-                     "render_s": grab(p.stderr, "camera pass: "), "total_s": wall,
+        wall, rss = parse_time_v(r["stderr"])
+        runs.append({"prepass_s": r["prepass_s"], "render_s": r["render_s"], "total_s": wall,
                      "peak_MiB": rss})
     med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
     med["runs"] = runs
     return img, med
-
-
-def pfm(path):
-    with open(path, "rb") as f:
-        kind = f.readline().strip()
-        w, h = map(int, f.readline().split())
-        s = float(f.readline())
-        n = w * h * (3 if kind == b"PF" else 1)
-        return struct.unpack(("<" if s < 0 else ">") + "%df" % n, f.read(4 * n))
-
-
-def compare(a, ref):
-    """RMSE, relative RMSE (to the reference's mean) and PSNR (peak = its largest value)."""
-    mse = sum((x - y) ** 2 for x, y in zip(a, ref)) / len(ref)
-    rmse, mean, peak = math.sqrt(mse), sum(ref) / len(ref), max(ref)
-    psnr = float("inf") if rmse == 0 else 20 * math.log10(peak / rmse)
-    return rmse, rmse / mean, psnr
 
 
 def crossing(runs, target):

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # test_bench_quick.sh - keeps bench/bench_methods.sh working: its quick mode (tiny datasets,
-# every method, one run each) must finish and write sane runs.csv, results.json and tables.md.
+# every method, one run each) must finish and write sane runs.csv, results.json and tables.md,
+# and render the paper-style scene (32 x 32, 2 spp) with raw and every factored material:
+# renders.csv and the table "Render time and image error per method", raw's image error 0.
 # Needs python3 only (numpy, scikit-learn and matplotlib parts run when present, else are
 # skipped by the benchmark with a message). Exit 77 (skip) when python3 is absent.
 set -euo pipefail
@@ -13,10 +15,12 @@ trap 'rm -rf "$out"' EXIT
 
 bash "$src/bench/bench_methods.sh" --quick --build "$bin/.." --out "$out" > "$out/stdout.txt" ||
   { cat "$out/stdout.txt" "$out/commands.log" >&2; exit 1; }
-for f in runs.csv results.json tables.md baselines.csv; do
+for f in runs.csv results.json tables.md baselines.csv renders.csv; do
   [ -s "$out/$f" ] || { echo "FAIL: $f missing or empty" >&2; exit 1; }
 done
 grep -q "^## Goals" "$out/stdout.txt" || { echo "FAIL: no goals in the output" >&2; exit 1; }
+grep -q "^## Render time and image error per method" "$out/tables.md" ||
+  { echo "FAIL: no render table in tables.md" >&2; exit 1; }
 
 python3 - "$out" <<'PY'
 import csv, json, math, os, sys
@@ -59,6 +63,37 @@ for ds in datasets:
                 int(hi["size_bytes"]) > int(lo["size_bytes"])):
             fail(f"{ds} {m}: T=4 (RMSE {hi['rmse']}, {hi['size_bytes']} B) vs T=2 "
                  f"(RMSE {lo['rmse']}, {lo['size_bytes']} B)")
+# renders: raw and every factored material of each dataset, at the quick size, raw the reference
+renders = list(csv.DictReader(open(os.path.join(out, "renders.csv"))))
+if len(renders) != len(rows) or len(res["renders"]) != len(rows):
+    fail(f"{len(renders)} renders in the CSV, {len(res['renders'])} in the JSON, "
+         f"expected {len(rows)} (one per configuration)")
+table = open(os.path.join(out, "tables.md")).read().split("## Render time and image error")[1]
+for ds in datasets:
+    by = {r["label"]: r for r in renders if r["dataset"] == ds}
+    if set(by) != {r["label"] for r in rows if r["dataset"] == ds}:
+        fail(f"{ds}: rendered {sorted(by)}")
+    for r in by.values():
+        t, e = float(r["render_seconds"]), float(r["image_rmse"])
+        if not (t > 0 and math.isfinite(e) and e >= 0 and int(r["res"]) == 32 and
+                int(r["spp"]) == 2 and os.path.exists(r["image"])):
+            fail(f"{ds} {r['label']}: render {t} s, image RMSE {e}, {r['res']} px, "
+                 f"{r['spp']} spp, image {r['image']}")
+        par = r["label"][len(r["method"]):].strip()
+        if f"| {ds} | {r['method']} | {par} |" not in table:
+            fail(f"{ds} {r['label']}: no row in the render table")
+    if float(by["raw"]["image_rmse"]) != 0:
+        fail(f"{ds}: raw's image RMSE against itself is {by['raw']['image_rmse']}")
+    if not any(float(r["image_rmse"]) > 0 for r in by.values()):
+        fail(f"{ds}: every factored material renders exactly like raw")
+    # nmf misses Rd by far more than svd T=4 (see the data RMSE): so must its image
+    if not float(by["nmf T=4"]["image_rmse"]) > float(by["svd T=4"]["image_rmse"]):
+        fail(f"{ds}: image RMSE of nmf T=4 {by['nmf T=4']['image_rmse']} <= svd T=4's "
+             f"{by['svd T=4']['image_rmse']}")
+if len(res["render_rank_agreement"]) != len(datasets) or "Spearman" not in table:
+    fail("no rank agreement between image and data error")
+if res["plots"] and not any(p.endswith("renders.png") for p in res["plots"]):
+    fail("no render plot among " + ", ".join(res["plots"]))
 names = [g["goal"] for g in res["goals"]]
 if not any("Embree" in n for n in names) or not any("0.5 x NMF" in n for n in names):
     fail(f"goals incomplete: {names}")
@@ -71,6 +106,7 @@ if res["baselines"]:  # numpy present: opaline's svd against the LAPACK optimum
 elif not any("numpy" in n for n in res["notes"]):
     fail("no baselines and no note saying why")
 print(f"ok: {len(rows)} configurations on {len(datasets)} datasets, "
-      f"{len(res['baselines'])} baseline comparisons, {len(res['plots'])} plots, "
+      f"{len(res['baselines'])} baseline comparisons, {len(renders)} renders, "
+      f"{len(res['plots'])} plots, "
       f"{res['seconds']:.1f} s")
 PY
