@@ -306,7 +306,8 @@ def svd_baseline(np, skx, rec, ds_path, repeats):
         res["entries"].append(e)
         return e
 
-    entry("opaline svd (randomized, q=4, p=10, float32)", rec["channel0_seconds"], u, v,
+    entry("opaline svd (randomized, p=10, q<=4 stopping when converged, float32)",
+          rec["channel0_seconds"], u, v,
           {"seconds_of": "the SVD of channel 0 alone, median of the runs above"})
     if skx is not None:
         rs = skx.randomized_svd
@@ -314,7 +315,7 @@ def svd_baseline(np, skx, rec, ds_path, repeats):
         entry("sklearn randomized_svd (defaults: n_iter auto=7, p=10)", t, uu * ss, vt.T)
         t, (uu, ss, vt) = timed(lambda: rs(m, T, n_oversamples=10, n_iter=4,
                                            random_state=RANDOM_STATE), repeats)
-        entry("sklearn randomized_svd (n_iter=4, p=10, as opaline)", t, uu * ss, vt.T)
+        entry("sklearn randomized_svd (n_iter=4, p=10: opaline's maximum)", t, uu * ss, vt.T)
     m64 = m.astype(np.float64)
     t = time.perf_counter()
     uu, ss, vt = np.linalg.svd(m64, full_matrices=False)
