@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "dipole.h"
+#include "dipole_reference.h"
 #include "opaline_render.h"
 #include "render_scene.h"
 #include "subsurface.h"
@@ -15,25 +16,6 @@
 
 /* Skin1 from Jensen et al. 2001 (1/mm), eta 1.3, written out here independently of dipole.c. */
 static const double skin_sp[3] = {0.74, 0.88, 1.01}, skin_a[3] = {0.032, 0.17, 0.48};
-
-static double ref_rd(double sp, double sa, double eta, double r)
-{
-    double st = sa + sp, alpha = sp / st, str = sqrt(3.0 * sa * st);
-    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
-    double A = (1.0 + fdr) / (1.0 - fdr), zr = 1.0 / st, zv = zr * (1.0 + 4.0 * A / 3.0);
-    double dr = sqrt(r * r + zr * zr), dv = sqrt(r * r + zv * zv);
-    return alpha / (4.0 * M_PI) *
-           (zr * (str + 1.0 / dr) * exp(-str * dr) / (dr * dr) +
-            zv * (str + 1.0 / dv) * exp(-str * dv) / (dv * dv));
-}
-
-static double ref_total(double sp, double sa, double eta)
-{
-    double alpha = sp / (sa + sp);
-    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
-    double A = (1.0 + fdr) / (1.0 - fdr), s = sqrt(3.0 * (1.0 - alpha));
-    return 0.5 * alpha * (1.0 + exp(-4.0 / 3.0 * A * s)) * exp(-s);
-}
 
 static void test_profile(void **state)
 {
@@ -47,7 +29,7 @@ static void test_profile(void **state)
     static const double radii[] = {0.0, 0.1, 0.5, 1.0, 2.5, 7.0};
     for (int c = 0; c < 3; c++) {
         for (size_t k = 0; k < sizeof radii / sizeof radii[0]; k++) {
-            double want = ref_rd(skin_sp[c], skin_a[c], 1.3, radii[k]);
+            double want = ref_dipole_rd(skin_sp[c], skin_a[c], 1.3, radii[k]);
             double got = op_sss_dipole_rd(&d, c, radii[k]);
             if (fabs(got - want) > 1e-9 * want)
                 fail_msg("channel %d, r = %g mm: Rd %.9g, expected %.9g", c, radii[k], got, want);
@@ -56,12 +38,12 @@ static void test_profile(void **state)
         double sum = 0.0, prev_r = 0.0, prev_f = 0.0;
         for (int i = 0; i <= 200000; i++) {
             double r = 1e-5 * pow(1e7, i / 200000.0);
-            double f = 2.0 * M_PI * r * ref_rd(skin_sp[c], skin_a[c], 1.3, r);
+            double f = 2.0 * M_PI * r * ref_dipole_rd(skin_sp[c], skin_a[c], 1.3, r);
             sum += 0.5 * (f + prev_f) * (r - prev_r);
             prev_r = r;
             prev_f = f;
         }
-        double total = op_sss_dipole_total(&d, c), closed = ref_total(skin_sp[c], skin_a[c], 1.3);
+        double total = op_sss_dipole_total(&d, c), closed = ref_dipole_total(skin_sp[c], skin_a[c], 1.3);
         if (fabs(total - closed) > 1e-9 || fabs(sum - closed) > 1e-4 * closed)
             fail_msg("channel %d: Rd_total %.6f, closed form %.6f, integral %.6f", c, total, closed,
                      sum);
@@ -130,7 +112,7 @@ static void test_slab_total_reflectance(void **state)
                                              "<float name=\"scale\" value=\"1000\"/>"),
                   15.0, mm);
     for (int c = 0; c < 3; c++) {
-        double want = ref_total(skin_sp[c], skin_a[c], 1.3);
+        double want = ref_dipole_total(skin_sp[c], skin_a[c], 1.3);
         if (fabs(m[c] - want) > 0.03 * want || fabs(mm[c] - want) > 0.03 * want)
             fail_msg("channel %d: exitance %.4f (m), %.4f (mm); Rd_total %.4f", c, m[c], mm[c],
                      want);
@@ -161,7 +143,7 @@ static void test_slab_total_reflectance(void **state)
                   0.02, mb);
     static const double msp[3] = {2.19, 2.62, 3.00}, ma[3] = {0.0021, 0.0041, 0.0071};
     for (int c = 0; c < 3; c++) {
-        double want = ref_total(msp[c], ma[c], 1.5);
+        double want = ref_dipole_total(msp[c], ma[c], 1.5);
         if (fabs(mb[c] - want) > 0.03 * want)
             fail_msg("marble channel %d: exitance %.4f, Rd_total %.4f", c, mb[c], want);
     }

@@ -13,32 +13,22 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dipole_reference.h"
 #include "opaline_render.h"
 #include "test_support.h"
 
 static const double sk_sp[3] = {0.70, 1.22, 1.90}, sk_a[3] = {0.0014, 0.0025, 0.0142};
 static const double sk_eta = 1.3;
 
-/* Jensen et al.'s closed form, written from the paper's formula (per channel). */
+/* The closed form for Skimmilk's channel c (dipole_reference.h). */
 static double ref_total(int c)
 {
-    double alpha = sk_sp[c] / (sk_sp[c] + sk_a[c]), eta = sk_eta;
-    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
-    double A = (1.0 + fdr) / (1.0 - fdr), s = sqrt(3.0 * (1.0 - alpha));
-    return 0.5 * alpha * (1.0 + exp(-4.0 / 3.0 * A * s)) * exp(-s);
+    return ref_dipole_total(sk_sp[c], sk_a[c], sk_eta);
 }
 
-/* The profile Rd(r), r in mm, per mm^2. */
 static double ref_rd(int c, double r)
 {
-    double sp = sk_sp[c], sa = sk_a[c], eta = sk_eta;
-    double st = sa + sp, alpha = sp / st, str = sqrt(3.0 * sa * st);
-    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
-    double A = (1.0 + fdr) / (1.0 - fdr), zr = 1.0 / st, zv = zr * (1.0 + 4.0 * A / 3.0);
-    double dr = sqrt(r * r + zr * zr), dv = sqrt(r * r + zv * zv);
-    return alpha / (4.0 * M_PI) *
-           (zr * (str + 1.0 / dr) * exp(-str * dr) / (dr * dr) +
-            zv * (str + 1.0 / dv) * exp(-str * dv) / (dv * dv));
+    return ref_dipole_rd(sk_sp[c], sk_a[c], sk_eta, r);
 }
 
 /* The exitance at distance r (mm) from the centre of a disk of radius a (mm) under irradiance 1:
