@@ -81,25 +81,14 @@ static void reference_reinhard(const op_image *img, double key, double burn, dou
  * and the HDR render into *hdr. */
 static void render_png(const char *film_extra, op_image *hdr, op_image *png)
 {
+    const char *xml = op_test_write_temp("tm.xml", scene_text(film_extra));
+    *hdr = op_test_render_image(xml, 4, 2, 1);
     op_scene *sc = NULL;
     op_error err;
-    OP_ASSERT_OK(
-        op_scene_load(op_test_write_temp("tm.xml", scene_text(film_extra)), NULL, 0, &sc, &err),
-        err);
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.threads = 2;
-    opt.spp = 4;
-    op_renderer *r = op_renderer_new(&opt);
-    assert_non_null(r);
-    OP_ASSERT_OK(op_renderer_render(r, sc, &err), err);
-    const op_image *img = op_renderer_image(r);
-    OP_ASSERT_OK(op_image_alloc(hdr, img->width, img->height, 4, &err), err);
-    memcpy(hdr->pixels, img->pixels, sizeof(float) * 4 * img->width * img->height);
+    OP_ASSERT_OK(op_scene_load(xml, NULL, 0, &sc, &err), err);
     const char *path = op_test_tmp_path("tm.png");
-    OP_ASSERT_OK(op_scene_write_image(sc, img, path, &err), err);
+    OP_ASSERT_OK(op_scene_write_image(sc, hdr, path, &err), err);
     OP_ASSERT_OK(op_image_read(path, png, &err), err);
-    op_renderer_free(r);
     op_scene_free(sc);
 }
 
@@ -243,17 +232,12 @@ static void test_hdrfilm_rgbe(void **state)
     memcpy(end, ff, strlen(ff));
     op_scene *sc = NULL;
     op_error err;
-    OP_ASSERT_OK(op_scene_load(op_test_write_temp("rgbe.xml", text), NULL, 0, &sc, &err), err);
+    const char *xml = op_test_write_temp("rgbe.xml", text);
+    OP_ASSERT_OK(op_scene_load(xml, NULL, 0, &sc, &err), err);
     op_scene_info info;
     op_scene_get_info(sc, &info);
     assert_string_equal(info.film_extension, ".hdr");
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.threads = 2;
-    opt.spp = 4;
-    op_renderer *r = op_renderer_new(&opt);
-    assert_non_null(r);
-    OP_ASSERT_OK(op_renderer_render(r, sc, &err), err);
+    op_renderer *r = op_test_render(xml, 4, 2, 1);
     const op_image *img = op_renderer_image(r);
     const char *path = op_test_tmp_path("out.hdr");
     OP_ASSERT_OK(op_scene_write_image(sc, img, path, &err), err);
