@@ -32,8 +32,8 @@ def fail(msg):
 datasets = {"chess4x4", "chess8x8", "veined-marble", "chess4x4-mc"}
 if set(res["datasets"]) != datasets:
     fail(f"datasets {sorted(res['datasets'])}")
-if len(rows) != len(res["runs"]) or len(rows) != 7 * len(datasets):
-    fail(f"{len(rows)} CSV rows, {len(res['runs'])} runs in the JSON, expected {7 * 4}")
+if len(rows) != len(res["runs"]) or len(rows) != 8 * len(datasets):
+    fail(f"{len(rows)} CSV rows, {len(res['runs'])} runs in the JSON, expected {8 * 4}")
 for key in ("cpu", "python", "opaline_factor"):
     if key not in res["environment"]:
         fail(f"environment lacks {key}")
@@ -43,6 +43,11 @@ for ds in datasets:
         fail(f"{ds}: methods {sorted(got)}")
     by = {r["label"]: r for r in rows if r["dataset"] == ds}
     raw = by["raw"]
+    # nmf twice over: the baseline (E=1) and NMF of Rd itself (E=0), its own series
+    e0 = by.get("nmf E=0 T=4")
+    if not (e0 and e0["series"] == "nmf E=0" and e0["E"] == "0" and e0["T"] == "4" and
+            by["nmf T=4"]["series"] == "nmf" and by["nmf T=4"]["E"] == "1"):
+        fail(f"{ds}: nmf series/E columns wrong: {e0}, {by.get("nmf T=4")}")
     for r in by.values():
         size, cr, rmse = int(r["size_bytes"]), float(r["compression_ratio"]), float(r["rmse"])
         ft, ev = float(r["factor_seconds"]), float(r["eval_ns"])
@@ -79,8 +84,8 @@ for ds in datasets:
                 int(r["spp"]) == 2 and os.path.exists(r["image"])):
             fail(f"{ds} {r['label']}: render {t} s, image RMSE {e}, {r['res']} px, "
                  f"{r['spp']} spp, image {r['image']}")
-        par = r["label"][len(r["method"]):].strip()
-        if f"| {ds} | {r['method']} | {par} |" not in table:
+        par = r["label"][len(r["series"]):].strip()
+        if f"| {ds} | {r['series']} | {par} |" not in table:
             fail(f"{ds} {r['label']}: no row in the render table")
     if float(by["raw"]["image_rmse"]) != 0:
         fail(f"{ds}: raw's image RMSE against itself is {by['raw']['image_rmse']}")
@@ -95,7 +100,8 @@ if len(res["render_rank_agreement"]) != len(datasets) or "Spearman" not in table
 if res["plots"] and not any(p.endswith("renders.png") for p in res["plots"]):
     fail("no render plot among " + ", ".join(res["plots"]))
 names = [g["goal"] for g in res["goals"]]
-if not any("Embree" in n for n in names) or not any("0.5 x NMF" in n for n in names):
+if not (any("Embree" in n for n in names) and any("0.5 x NMF of the remainder" in n for n in names)
+        and any("0.5 x NMF of Rd itself" in n for n in names)):
     fail(f"goals incomplete: {names}")
 if res["baselines"]:  # numpy present: opaline's svd against the LAPACK optimum
     for b in res["baselines"]:
