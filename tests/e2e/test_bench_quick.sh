@@ -47,7 +47,7 @@ for ds in datasets:
     e0 = by.get("nmf E=0 T=4")
     if not (e0 and e0["series"] == "nmf E=0" and e0["E"] == "0" and e0["T"] == "4" and
             by["nmf T=4"]["series"] == "nmf" and by["nmf T=4"]["E"] == "1"):
-        fail(f"{ds}: nmf series/E columns wrong: {e0}, {by.get("nmf T=4")}")
+        fail(f"{ds}: nmf series/E columns wrong: {e0}, {by.get('nmf T=4')}")
     for r in by.values():
         size, cr, rmse = int(r["size_bytes"]), float(r["compression_ratio"]), float(r["rmse"])
         ft, ev = float(r["factor_seconds"]), float(r["eval_ns"])
