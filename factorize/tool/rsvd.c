@@ -2,6 +2,7 @@
 #include "rsvd.h"
 
 #include <cblas.h>
+#include <float.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
@@ -27,15 +28,18 @@ static double squared_norm(const float *a, size_t n)
 
 /* Whether power iterations may stop: the estimated squared rank-k error, ||A||^2 minus the
  * captured energy, fell by at most tol of itself since the previous iteration (so the error
- * itself changes by about tol / 2 or less), or it is at the rounding level of ||A||^2. */
-static int converged(double captured_prev, double captured, double norm2, double tol)
+ * itself changes by about tol / 2 or less), or by less than the rounding level of the energies
+ * (resolution x ||A||^2: changes below it are rounding noise of the products, not progress), or
+ * the error is itself at that level. */
+static int converged(double captured_prev, double captured, double norm2, double tol,
+                     double resolution)
 {
     if (tol <= 0 || captured < 0 || captured_prev < 0)
         return 0;
     double residual = norm2 - captured;
-    if (residual <= 1e-6 * norm2)
+    if (residual <= resolution * norm2)
         return 1;
-    return captured - captured_prev <= tol * residual;
+    return captured - captured_prev <= fmax(tol * residual, resolution * norm2);
 }
 
 /* splitmix64: a small, well-mixed deterministic generator. */
@@ -61,6 +65,7 @@ static double gaussian(uint64_t *state)
 #define GEMM cblas_sgemm
 #define GEQRF LAPACKE_sgeqrf
 #define ORGQR LAPACKE_sorgqr
+#define ENERGY_RESOLUTION (8 * FLT_EPSILON)
 #include "rsvd_impl.h"
 
 #define REAL double
@@ -69,6 +74,7 @@ static double gaussian(uint64_t *state)
 #define GEMM cblas_dgemm
 #define GEQRF LAPACKE_dgeqrf
 #define ORGQR LAPACKE_dorgqr
+#define ENERGY_RESOLUTION (64 * DBL_EPSILON)
 #include "rsvd_impl.h"
 
 /* Full SVD in double (gesdd), truncated to k. */

@@ -19,7 +19,9 @@ typedef struct op_rsvd_options {
     int oversample;   /* extra test vectors p (default 10) */
     int power_iters;  /* at most this many power iterations q (default 4) */
     double power_tol; /* stop iterating once the squared rank-k error estimate improves by at
-                         most this fraction of itself (default 1e-3); 0: always q iterations */
+                         most this fraction of itself (default 1e-3) or by less than the
+                         rounding level of the energies (8 FLT_EPSILON ||A||^2 in single
+                         precision, 64 DBL_EPSILON in double); 0: always q iterations */
     uint64_t seed;    /* test-matrix seed (default 1) */
     op_svd_precision precision; /* arithmetic of the randomized stages (default single) */
     int exact;        /* nonzero: full LAPACK SVD (gesdd in double) instead */

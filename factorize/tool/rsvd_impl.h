@@ -1,5 +1,7 @@
 /* rsvd_impl.h - the randomized stages of rsvd.c in one precision. Included by rsvd.c only,
- * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF and ORGQR defined;
+ * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF, ORGQR and
+ * ENERGY_RESOLUTION (the relative rounding level of energies computed from products in REAL)
+ * defined;
  * it undefines them at its end, ready for the next precision. */
 
 /* Replaces the columns of the column-major rows x cols matrix y by an orthonormal basis of
@@ -95,7 +97,7 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
         if (it == q)
             break;
         double captured = FN(top_energy)(z, n, l, k, xt, sv);
-        if (it > 0 && converged(captured_prev, captured, norm2, tol)) {
+        if (it > 0 && converged(captured_prev, captured, norm2, tol, ENERGY_RESOLUTION)) {
             op_progress_advance(progress, (uint64_t)(2 * (q - it)));
             break;
         }
@@ -157,3 +159,4 @@ done:
 #undef GEMM
 #undef GEQRF
 #undef ORGQR
+#undef ENERGY_RESOLUTION
