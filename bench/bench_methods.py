@@ -764,6 +764,13 @@ def goals(runs, datasets, kinds, baselines, renderer):
 def plots(plt, runs, datasets, baselines, outdir, renders=()):
     os.makedirs(outdir, exist_ok=True)
     made = []
+
+    def save(fig, filename):
+        fig.tight_layout()
+        p = os.path.join(outdir, filename)
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        made.append(p)
     for name in datasets:
         rs = [r for r in runs if r["dataset"] == name]
         fig, ax = plt.subplots(1, 2, figsize=(12, 4.8))
@@ -796,11 +803,7 @@ def plots(plt, runs, datasets, baselines, outdir, renders=()):
         for a in ax:
             a.grid(True, which="both", alpha=0.3)
             a.legend(fontsize=8)
-        fig.tight_layout()
-        p = os.path.join(outdir, f"{name}.png")
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        made.append(p)
+        save(fig, f"{name}.png")
     svd = [b for b in baselines if "optimal_log_domain_error" in b]
     if svd:
         fig, axs = plt.subplots(1, len(svd), figsize=(6 * len(svd), 4.5), squeeze=False)
@@ -816,11 +819,7 @@ def plots(plt, runs, datasets, baselines, outdir, renders=()):
                   title=f"{b['dataset']}: rank-{b['rank']} SVD of {b['rows']}x{b['cols']}")
             a.grid(True, which="both", alpha=0.3)
             a.legend(fontsize=7)
-        fig.tight_layout()
-        p = os.path.join(outdir, "svd_baselines.png")
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        made.append(p)
+        save(fig, "svd_baselines.png")
     names = [n for n in datasets if any(r["dataset"] == n for r in renders)]
     if names:
         fig, axs = plt.subplots(2, len(names), figsize=(5.5 * len(names), 9), squeeze=False)
@@ -856,11 +855,7 @@ def plots(plt, runs, datasets, baselines, outdir, renders=()):
             for a in (top, bot):
                 a.grid(True, which="both", alpha=0.3)
                 a.legend(fontsize=8)
-        fig.tight_layout()
-        p = os.path.join(outdir, "renders.png")
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        made.append(p)
+        save(fig, "renders.png")
     return made
 
 
