@@ -73,7 +73,7 @@ static void usage(FILE *f)
             "  --precision single|double  arithmetic of the randomized SVD (default single)\n"
             "  --power-iters Q    randomized SVD power iterations, at most (default 4)\n"
             "  --power-tol E      stop them once the squared rank-T error estimate improves by\n"
-            "                     less than E of itself (default 1e-3; 0: always Q)\n"
+            "                     less than E of itself (default 1e-2; 0: always Q)\n"
             "  --oversample P     randomized SVD oversampling (default 10)\n"
             "  --exact-svd        full LAPACK SVD instead of the randomized one (slow)\n"
             "  -t THREADS         preprocessing and evaluation threads (default: all cores;\n"

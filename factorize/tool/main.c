@@ -12,7 +12,7 @@ static const struct {
 } commands[] = {
     {"dataset", op_cmd_dataset, "make a synthetic heterogeneous subsurface dataset"},
     {"import", op_cmd_import, "convert a NumPy .npy dataset (3, H, W, K, K) to opaline's format"},
-    {"factor", op_cmd_factor, "factor a dataset into a material (svd, tucker, raw)"},
+    {"factor", op_cmd_factor, "factor a dataset into a material (svd, tucker, kcta, nmf, raw)"},
     {"info", op_cmd_info, "describe a material or dataset file"},
 };
 

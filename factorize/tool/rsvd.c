@@ -10,7 +10,7 @@
 
 op_rsvd_options op_rsvd_defaults(void)
 {
-    return (op_rsvd_options){.oversample = 10, .power_iters = 4, .power_tol = 1e-3, .seed = 1,
+    return (op_rsvd_options){.oversample = 10, .power_iters = 4, .power_tol = 1e-2, .seed = 1,
                              .precision = OP_SVD_SINGLE, .exact = 0};
 }
 
@@ -65,6 +65,7 @@ static double gaussian(uint64_t *state)
 #define GEMM cblas_sgemm
 #define GEQRF LAPACKE_sgeqrf
 #define ORGQR LAPACKE_sorgqr
+#define DOT cblas_dsdot
 #define ENERGY_RESOLUTION (8 * FLT_EPSILON)
 #include "rsvd_impl.h"
 
@@ -74,6 +75,7 @@ static double gaussian(uint64_t *state)
 #define GEMM cblas_dgemm
 #define GEQRF LAPACKE_dgeqrf
 #define ORGQR LAPACKE_dorgqr
+#define DOT cblas_ddot
 #define ENERGY_RESOLUTION (64 * DBL_EPSILON)
 #include "rsvd_impl.h"
 

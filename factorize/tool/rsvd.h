@@ -3,11 +3,12 @@
  * The randomized method is Halko, Martinsson and Tropp (2011), algorithms 4.4 and 5.1: a
  * Gaussian test matrix with oversampling, power iterations with a QR re-orthonormalization
  * after every product with A or A^T (LAPACK geqrf/orgqr), then the SVD of the small projected
- * matrix (LAPACK gesdd). Power iterations stop early once the rank-k error has converged: its
- * estimate is ||A||_F^2 minus the top-k squared Ritz values of the current subspace, which
- * cost an l x l eigenproblem per iteration. Products use OpenBLAS's gemm. The result is deterministic for a given
- * seed, and every singular pair's sign is fixed so that the entry of largest magnitude of its
- * right singular vector is positive. */
+ * matrix (its QR, then gesdd of the l x l R in double). Power iterations stop early once the
+ * rank-k error has converged: its estimate is ||A||_F^2 minus the top-k squared Ritz values of
+ * the current subspace, which cost an l x l eigenproblem per iteration. Products use
+ * OpenBLAS's gemm. The result is deterministic for a given seed, and every singular pair's
+ * sign is fixed so that the entry of largest magnitude of its right singular vector is
+ * positive. */
 #ifndef OP_FACTOR_RSVD_H
 #define OP_FACTOR_RSVD_H
 
@@ -19,9 +20,10 @@ typedef struct op_rsvd_options {
     int oversample;   /* extra test vectors p (default 10) */
     int power_iters;  /* at most this many power iterations q (default 4) */
     double power_tol; /* stop iterating once the squared rank-k error estimate improves by at
-                         most this fraction of itself (default 1e-3) or by less than the
-                         rounding level of the energies (8 FLT_EPSILON ||A||^2 in single
-                         precision, 64 DBL_EPSILON in double); 0: always q iterations */
+                         most this fraction of itself (default 1e-2: the error itself by
+                         about 0.5 %) or by less than the rounding level of the energies
+                         (8 FLT_EPSILON ||A||^2 in single precision, 64 DBL_EPSILON in
+                         double); 0: always q iterations */
     uint64_t seed;    /* test-matrix seed (default 1) */
     op_svd_precision precision; /* arithmetic of the randomized stages (default single) */
     int exact;        /* nonzero: full LAPACK SVD (gesdd in double) instead */

@@ -1,23 +1,26 @@
 /* rsvd_impl.h - the randomized stages of rsvd.c in one precision. Included by rsvd.c only,
- * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF, ORGQR and
+ * once per precision, with REAL, FN(name), RSVD_IS_DOUBLE, GEMM, GEQRF, ORGQR, DOT (a dot
+ * product of REALs accumulated in double) and
  * ENERGY_RESOLUTION (the relative rounding level of energies computed from products in REAL)
  * defined;
  * it undefines them at its end, ready for the next precision. */
 
-/* Replaces the columns of the column-major rows x cols matrix y by an orthonormal basis of
- * their span (Householder QR; rank-deficient input still yields orthonormal columns). */
-static op_status FN(orthonormalize)(REAL *y, int64_t rows, int64_t cols, REAL *tau,
+/* Replaces the columns of the column-major rows x cols matrix y by an orthonormal basis Q of
+ * their span (Householder QR; rank-deficient input still yields orthonormal columns). If r is
+ * not NULL it receives the cols x cols upper triangular R (column-major) with y = Q R. */
+static op_status FN(orthonormalize)(REAL *y, int64_t rows, int cols, REAL *tau, double *r,
                                     op_error *err)
 {
-    lapack_int info = GEQRF(LAPACK_COL_MAJOR, (lapack_int)rows, (lapack_int)cols, y,
-                            (lapack_int)rows, tau);
+    lapack_int info = GEQRF(LAPACK_COL_MAJOR, (lapack_int)rows, cols, y, (lapack_int)rows, tau);
+    if (info == 0 && r)
+        for (int j = 0; j < cols; j++)
+            for (int i = 0; i < cols; i++)
+                r[i + (size_t)j * cols] = i <= j ? (double)y[i + (size_t)j * rows] : 0.0;
     if (info == 0)
-        info = ORGQR(LAPACK_COL_MAJOR, (lapack_int)rows, (lapack_int)cols, (lapack_int)cols, y,
-                     (lapack_int)rows, tau);
+        info = ORGQR(LAPACK_COL_MAJOR, (lapack_int)rows, cols, cols, y, (lapack_int)rows, tau);
     if (info != 0)
-        return op_error_set(err, OP_ERR_NUMERIC, "randomized SVD: QR of a %lld x %lld basis "
-                            "failed (LAPACK info %d)", (long long)rows, (long long)cols,
-                            (int)info);
+        return op_error_set(err, OP_ERR_NUMERIC, "randomized SVD: QR of a %lld x %d basis "
+                            "failed (LAPACK info %d)", (long long)rows, cols, (int)info);
     return OP_OK;
 }
 
@@ -27,12 +30,8 @@ static op_status FN(orthonormalize)(REAL *y, int64_t rows, int64_t cols, REAL *t
 static double FN(top_energy)(const REAL *z, int64_t n, int l, int k, double *gram, double *eig)
 {
     for (int i = 0; i < l; i++)
-        for (int j = 0; j <= i; j++) {
-            double d = 0.0;
-            for (int64_t r = 0; r < n; r++)
-                d += (double)z[r + (size_t)i * n] * (double)z[r + (size_t)j * n];
-            gram[(size_t)i * l + j] = gram[(size_t)j * l + i] = d;
-        }
+        for (int j = 0; j <= i; j++)
+            gram[(size_t)j * l + i] = DOT((blasint)n, z + (size_t)i * n, 1, z + (size_t)j * n, 1);
     if (LAPACKE_dsyev(LAPACK_COL_MAJOR, 'N', 'L', l, gram, l, eig) != 0)
         return -1.0;
     double e = 0.0;
@@ -67,18 +66,21 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
     REAL *z = malloc((size_t)n * (size_t)l * sizeof *z);
     REAL *tau = malloc((size_t)l * sizeof *tau);
     REAL *mk = malloc((size_t)l * (size_t)k * sizeof *mk);
-    double *bd = malloc((size_t)n * (size_t)l * sizeof *bd);
-    double *w = malloc((size_t)n * (size_t)l * sizeof *w);
-    double *xt = malloc((size_t)l * (size_t)l * sizeof *xt);
-    double *sv = malloc((size_t)l * sizeof *sv);
-    REAL *usr = NULL;
+    REAL *wk = malloc((size_t)l * (size_t)k * sizeof *wk);
+    double *small = malloc((3 * (size_t)l * (size_t)l + (size_t)l) * sizeof *small);
+    REAL *usr = NULL, *vr = NULL;
 #if RSVD_IS_DOUBLE
     usr = malloc((size_t)m * (size_t)k * sizeof *usr);
+    vr = malloc((size_t)n * (size_t)k * sizeof *vr);
 #endif
-    if (!y || !z || !tau || !mk || !bd || !w || !xt || !sv || (RSVD_IS_DOUBLE && !usr)) {
+    if (!y || !z || !tau || !mk || !wk || !small || (RSVD_IS_DOUBLE && (!usr || !vr))) {
         st = op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory");
         goto done;
     }
+    /* l x l scratch: r (R, then overwritten by dgesdd), wr (its left singular vectors), xt
+     * (its right ones, transposed; also the Gram matrix of top_energy), and l values sv. */
+    double *r = small, *wr = r + (size_t)l * l, *xt = wr + (size_t)l * l;
+    double *sv = xt + (size_t)l * l;
     uint64_t rng = seed;
     for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
         z[i] = (REAL)gaussian(&rng);
@@ -87,7 +89,7 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
     GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
          (blasint)n, z, (blasint)n, 0, y, (blasint)m);
     op_progress_advance(progress, 1);
-    if ((st = FN(orthonormalize)(y, m, l, tau, err)) != OP_OK)
+    if ((st = FN(orthonormalize)(y, m, l, tau, NULL, err)) != OP_OK)
         goto done;
     double captured_prev = 0.0;
     for (int it = 0;; it++) {
@@ -102,40 +104,45 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
             break;
         }
         captured_prev = captured;
-        if ((st = FN(orthonormalize)(z, n, l, tau, err)) != OP_OK)
+        if ((st = FN(orthonormalize)(z, n, l, tau, NULL, err)) != OP_OK)
             goto done;
         GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
              (blasint)n, z, (blasint)n, 0, y, (blasint)m);
         op_progress_advance(progress, 1);
-        if ((st = FN(orthonormalize)(y, m, l, tau, err)) != OP_OK)
+        if ((st = FN(orthonormalize)(y, m, l, tau, NULL, err)) != OP_OK)
             goto done;
     }
-    /* B^T = Z = A^T Y (n x l); B^T = W S X^T, so A ~ Y B = (Y X) S W^T. */
-    for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
-        bd[i] = z[i];
-    lapack_int info = LAPACKE_dgesdd(LAPACK_COL_MAJOR, 'S', (lapack_int)n, (lapack_int)l, bd,
-                                     (lapack_int)n, sv, w, (lapack_int)n, xt, (lapack_int)l);
+    /* B^T = Z = A^T Y (n x l) = Qz R, and R = Wr S X^T (l x l, in double), so
+     * A ~ Y B = (Y X) S (Qz Wr)^T. */
+    if ((st = FN(orthonormalize)(z, n, l, tau, r, err)) != OP_OK)
+        goto done;
+    lapack_int info = LAPACKE_dgesdd(LAPACK_COL_MAJOR, 'A', l, l, r, l, sv, wr, l, xt, l);
     if (info != 0) {
-        st = op_error_set(err, OP_ERR_NUMERIC, "randomized SVD: SVD of the %lld x %d projection "
-                          "failed (LAPACK info %d)", (long long)n, l, (int)info);
+        st = op_error_set(err, OP_ERR_NUMERIC, "randomized SVD: SVD of the %d x %d projection "
+                          "failed (LAPACK info %d)", l, l, (int)info);
         goto done;
     }
-    /* mk[j][t] = X(j, t) * s_t, with X(j, t) = xt[t + j * l]. */
+    /* mk[j][t] = X(j, t) s_t with X(j, t) = xt[t + j l]; wk[j][t] = Wr(j, t). */
     for (int j = 0; j < l; j++)
-        for (int t = 0; t < k; t++)
+        for (int t = 0; t < k; t++) {
             mk[(size_t)j * k + t] = (REAL)(xt[t + (size_t)j * l] * sv[t]);
+            wk[(size_t)j * k + t] = (REAL)wr[j + (size_t)t * l];
+        }
 #if RSVD_IS_DOUBLE
     GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)m, k, l, 1, y, (blasint)m, mk, k, 0,
          usr, k);
+    GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)n, k, l, 1, z, (blasint)n, wk, k, 0,
+         vr, k);
     for (size_t i = 0; i < (size_t)m * (size_t)k; i++)
         us[i] = (float)usr[i];
+    for (size_t i = 0; i < (size_t)n * (size_t)k; i++)
+        v[i] = (float)vr[i];
 #else
     GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)m, k, l, 1, y, (blasint)m, mk, k, 0,
          us, k);
+    GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)n, k, l, 1, z, (blasint)n, wk, k, 0,
+         v, k);
 #endif
-    for (int64_t j = 0; j < n; j++)
-        for (int t = 0; t < k; t++)
-            v[j * k + t] = (float)w[j + (size_t)t * n];
     if (s)
         for (int t = 0; t < k; t++)
             s[t] = sv[t];
@@ -145,11 +152,10 @@ done:
     free(z);
     free(tau);
     free(mk);
-    free(bd);
-    free(w);
-    free(xt);
-    free(sv);
+    free(wk);
+    free(small);
     free(usr);
+    free(vr);
     return st;
 }
 
@@ -159,4 +165,5 @@ done:
 #undef GEMM
 #undef GEQRF
 #undef ORGQR
+#undef DOT
 #undef ENERGY_RESOLUTION

@@ -18,6 +18,12 @@ bash "$src/bench/bench_methods.sh" --quick --build "$bin/.." --out "$out" > "$ou
 for f in runs.csv results.json tables.md baselines.csv renders.csv; do
   [ -s "$out/$f" ] || { echo "FAIL: $f missing or empty" >&2; exit 1; }
 done
+# opaline-bench-rsvd refuses a matrix file of the wrong size, naming it.
+head -c 100 /dev/zero > "$out/short.f32"
+rc=0
+"$bin/opaline-bench-rsvd" "$out/short.f32" 10 5 2 2> "$out/err.txt" || rc=$?
+[ "$rc" = 2 ] && grep -q "short.f32: too short" "$out/err.txt" ||
+  { echo "FAIL: opaline-bench-rsvd on a short file: exit $rc, $(cat "$out/err.txt")" >&2; exit 1; }
 grep -q "^## Goals" "$out/stdout.txt" || { echo "FAIL: no goals in the output" >&2; exit 1; }
 grep -q "^## Render time and image error per method" "$out/tables.md" ||
   { echo "FAIL: no render table in tables.md" >&2; exit 1; }
@@ -109,6 +115,10 @@ if res["baselines"]:  # numpy present: opaline's svd against the LAPACK optimum
             e = b["entries"][0]["error_over_optimal"]
             if not (e is not None and e <= 1.01):
                 fail(f"{b['dataset']}: opaline svd error {e} x optimum")
+            whos = [x["who"] for x in b["entries"]]
+            if not (whos[1].startswith("opaline-factor") and b["entries"][0]["seconds"] > 0
+                    and len(b["entries"][0]["seconds_runs"]) >= 3):
+                fail(f"{b['dataset']}: opaline's svd not timed both ways: {whos}")
 elif not any("numpy" in n for n in res["notes"]):
     fail("no baselines and no note saying why")
 print(f"ok: {len(rows)} configurations on {len(datasets)} datasets, "
