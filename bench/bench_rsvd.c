@@ -44,7 +44,7 @@ static float *read_matrix(const char *path, long long rows, long long cols)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
-        fprintf(stderr, "opaline-bench-rsvd: %s: %s\n", path, strerror(errno));
+        op_log(OP_LOG_ERROR, "%s: %s", path, strerror(errno));
         return NULL;
     }
     size_t count = (size_t)rows * (size_t)cols;
@@ -53,23 +53,23 @@ static float *read_matrix(const char *path, long long rows, long long cols)
     int extra = a && got == count && fgetc(f) != EOF;
     fclose(f);
     if (!a || got != count || extra) {
-        fprintf(stderr,
-                "opaline-bench-rsvd: %s: %s (expected %lld x %lld float32 values, "
-                "%zu bytes)\n",
-                path,
-                !a      ? "out of memory"
-                : extra ? "too long"
-                        : "too short",
-                rows, cols, count * sizeof *a);
+        op_log(OP_LOG_ERROR,
+               "%s: %s (expected %lld x %lld float32 values, "
+               "%zu bytes)",
+               path,
+               !a      ? "out of memory"
+               : extra ? "too long"
+                       : "too short",
+               rows, cols, count * sizeof *a);
         free(a);
         return NULL;
     }
     for (size_t i = 0; i < count; i++)
         if (!isfinite(a[i])) {
-            fprintf(stderr,
-                    "opaline-bench-rsvd: %s: value %zu (row %zu, column %zu) is not "
-                    "finite\n",
-                    path, i, i / (size_t)cols, i % (size_t)cols);
+            op_log(OP_LOG_ERROR,
+                   "%s: value %zu (row %zu, column %zu) is not "
+                   "finite",
+                   path, i, i / (size_t)cols, i % (size_t)cols);
             free(a);
             return NULL;
         }
@@ -93,13 +93,12 @@ int main(int argc, char **argv)
             return usage();
     }
     if (!rows || !cols || !rank || !repeats) {
-        fprintf(stderr, "opaline-bench-rsvd: ROWS, COLS, RANK and --repeats must be positive "
-                        "integers\n");
+        op_log(OP_LOG_ERROR, "ROWS, COLS, RANK and --repeats must be positive "
+                             "integers");
         return 2;
     }
     if (rank > (rows < cols ? rows : cols)) {
-        fprintf(stderr, "opaline-bench-rsvd: rank %lld exceeds min(%lld, %lld)\n", rank, rows,
-                cols);
+        op_log(OP_LOG_ERROR, "rank %lld exceeds min(%lld, %lld)", rank, rows, cols);
         return 2;
     }
     float *a = read_matrix(argv[1], rows, cols);
@@ -109,7 +108,7 @@ int main(int argc, char **argv)
     int rc = 0;
     if (!a || !us || !v || !seconds) {
         if (a)
-            fprintf(stderr, "opaline-bench-rsvd: out of memory\n");
+            op_log(OP_LOG_ERROR, "out of memory");
         rc = 2;
         goto done;
     }
@@ -118,7 +117,7 @@ int main(int argc, char **argv)
         op_error err = {0};
         double t0 = op_now();
         if (op_rsvd(a, rows, cols, (int)rank, &opt, us, v, NULL, NULL, &err) != OP_OK) {
-            fprintf(stderr, "opaline-bench-rsvd: %s: %s\n", argv[1], err.message);
+            op_log(OP_LOG_ERROR, "%s: %s", argv[1], err.message);
             rc = 1;
             goto done;
         }
@@ -128,14 +127,14 @@ int main(int argc, char **argv)
         op_error err = {0};
         op_output *out;
         if (op_output_open(factors, &out, &err) != OP_OK) {
-            fprintf(stderr, "opaline-bench-rsvd: %s\n", err.message);
+            op_log(OP_LOG_ERROR, "%s", err.message);
             rc = 1;
             goto done;
         }
         op_output_write(out, us, (size_t)rows * (size_t)rank * sizeof *us);
         op_output_write(out, v, (size_t)cols * (size_t)rank * sizeof *v);
         if (op_output_commit(out, &err) != OP_OK) {
-            fprintf(stderr, "opaline-bench-rsvd: %s\n", err.message);
+            op_log(OP_LOG_ERROR, "%s", err.message);
             rc = 1;
             goto done;
         }
@@ -146,7 +145,7 @@ int main(int argc, char **argv)
     qsort(seconds, (size_t)repeats, sizeof *seconds, compare_doubles);
     double median = repeats % 2 ? seconds[repeats / 2]
                                 : 0.5 * (seconds[repeats / 2 - 1] + seconds[repeats / 2]);
-    printf("], \"median_seconds\": %.6f}\n", median);
+    printf("], \"median_seconds\": %.6f}", median);
 done:
     free(a);
     free(us);
