@@ -338,13 +338,14 @@ def svd_baseline(np, skx, rec, ds_path, repeats, tool, work, log):
         res["entries"].append(e)
         return e
 
+    runs = max(repeats, 3)  # opaline and scikit-learn alike: the median of at least 3
     bench = os.path.join(os.path.dirname(tool), "opaline-bench-rsvd")
     mat = os.path.join(work, f"{rec['dataset']}.channel0.f32")
     fac = mat[:-4] + ".factors.f32"
     m.tofile(mat)
     try:
         stdout = run([bench, mat, str(m.shape[0]), str(m.shape[1]), str(T), "--repeats",
-                      str(max(repeats, 3)), "--factors", fac], log)[0]
+                      str(runs), "--factors", fac], log)[0]
     finally:
         os.remove(mat)
     timing = json.loads(stdout)
@@ -362,10 +363,10 @@ def svd_baseline(np, skx, rec, ds_path, repeats, tool, work, log):
                          "above"})
     if skx is not None:
         rs = skx.randomized_svd
-        t, (uu, ss, vt) = timed(lambda: rs(m, T, random_state=RANDOM_STATE), repeats)
+        t, (uu, ss, vt) = timed(lambda: rs(m, T, random_state=RANDOM_STATE), runs)
         entry("sklearn randomized_svd (defaults: n_iter auto=7, p=10)", t, uu * ss, vt.T)
         t, (uu, ss, vt) = timed(lambda: rs(m, T, n_oversamples=10, n_iter=4,
-                                           random_state=RANDOM_STATE), repeats)
+                                           random_state=RANDOM_STATE), runs)
         entry("sklearn randomized_svd (n_iter=4, p=10: opaline's maximum)", t, uu * ss, vt.T)
     m64 = m.astype(np.float64)
     t = time.perf_counter()
