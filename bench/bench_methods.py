@@ -312,7 +312,7 @@ def frob_err(np, m, u, v):
 def svd_baseline(np, skx, rec, ds_path, repeats, tool, work, log):
     """Opaline's svd (rec, a T-term run) against scikit-learn's randomized_svd and LAPACK on
     channel 0 of the same preprocessed matrix. Opaline's SVD is timed twice: like the peer
-    (opaline-bench-rsvd on the very matrix handed to scikit-learn, median of `repeats` runs in
+    (opaline-bench-rsvd on the very matrix handed to scikit-learn, median of at least 3 runs in
     one process; the goal's figure) and inside opaline-factor (channel 0 of a fresh process,
     so with the BLAS library's start-up)."""
     secs, meta = opm_sections(ds_path)
