@@ -312,6 +312,8 @@ static int copy_through(op_output *out)
         for (ssize_t done = 0, w; !e && done < n; done += w > 0 ? w : 0)
             if ((w = write(fd, buf + done, (size_t)(n - done))) < 0 && errno != EINTR)
                 e = errno;
+            else if (w == 0)
+                e = EIO;
     }
     free(buf);
     if (close(fd) != 0 && !e && errno != EINTR)
