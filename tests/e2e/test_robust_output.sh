@@ -4,7 +4,8 @@
 #  - a character device (made with mknod here) and a FIFO are written through, never replaced;
 #  - a symlink stays a link and its target is replaced (a dangling one gets its target made);
 #  - a 0600 file keeps its mode (and, as root, its owner);
-#  - a write error (a /dev/full node, stdout on it) exits 1 and leaves the old material intact;
+#  - a write error (a /dev/full node, stdout on it, a pipe closed early) exits 1 and leaves the old
+#    material intact;
 #  - the temporary file of a SIGKILLed run is removed by the next run to the same output, one of
 #    a live process is kept;
 #  - SIGINT, SIGTERM and SIGHUP during dataset, import and factor (while computing, and while the
@@ -105,6 +106,16 @@ for out in "--report $FULL" "--albedo-png $FULL" "stdout"; do
   cmp -s "$T/m.opm" "$T/m.old" || fail "factor with $out failing replaced the old material"
 done
 [ "$FULL" = /dev/full ] || [ -c "$FULL" ] || fail "$FULL was replaced: $(ls -l "$FULL")"
+# A reader that leaves early: EPIPE (the 560 KB dataset outgrows the pipe's buffer), exit 1.
+mkfifo "$T/pipe"
+timeout 20 head -c 10 "$T/pipe" >/dev/null &
+reader=$!
+timeout 20 "$F" dataset "${small[@]}" -o "$T/pipe" 2>"$T/err"
+rc=$?
+[ $rc = 1 ] || fail "dataset into a closed pipe: exit $rc, expected 1"
+grep -q "Broken pipe" "$T/err" || fail "dataset into a closed pipe: no message: $(tail -1 "$T/err")"
+wait $reader
+[ -p "$T/pipe" ] || fail "the FIFO was replaced: $(ls -l "$T/pipe")"
 no_temps "write errors"
 
 # ---- a dataset that takes about a second, and a .npy of the same size
