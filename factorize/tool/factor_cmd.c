@@ -612,17 +612,12 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
     return st;
 }
 
-/* Opens a material writer on path and adds the sections of s; on failure *w is NULL. */
-static op_status write_sections(const char *path, const op_material_info *info,
-                                const section_list *s, op_material_writer **w, op_error *err)
+/* Adds the sections of s to w. */
+static op_status write_sections(op_material_writer *w, const section_list *s, op_error *err)
 {
-    op_status st = op_material_writer_open(path, info, w, err);
+    op_status st = OP_OK;
     for (int i = 0; i < s->n && st == OP_OK; i++)
-        st = op_material_writer_add(*w, s->tag[i], s->data[i], s->bytes[i], err);
-    if (st != OP_OK) {
-        op_material_writer_abort(*w);
-        *w = NULL;
-    }
+        st = op_material_writer_add(w, s->tag[i], s->data[i], s->bytes[i], err);
     return st;
 }
 
@@ -859,6 +854,9 @@ int op_cmd_factor(int argc, char **argv)
         if (*p == '\n' || *p == '\r')
             *p = ' ';
 
+    /* Opened before the work, so that an output that cannot be written fails at once. */
+    if ((st = op_material_writer_open(a.output, &info, &writer, &err)) != OP_OK)
+        goto done;
     t = op_now();
     double prep = 0;
     if (a.method == OP_METHOD_SVD)
@@ -888,7 +886,7 @@ int op_cmd_factor(int argc, char **argv)
         goto done;
     }
     const char *pending;
-    if ((st = write_sections(a.output, &info, &secs, &writer, &err)) != OP_OK ||
+    if ((st = write_sections(writer, &secs, &err)) != OP_OK ||
         (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK)
         goto done;
     op_report_stage(&rep, "write", op_now() - t);

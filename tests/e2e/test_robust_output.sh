@@ -131,10 +131,14 @@ with open(sys.argv[1], "wb") as f:
 EOF
 echo '{"size_cm": [5, 5]}' >"$T/big.json"
 
-# Waits (at most 30 s) until a temporary file for $1 exists while process $2 runs.
+# Waits (at most 30 s) until a temporary file for $1 of at least $3 bytes (default 0) exists
+# while process $2 runs.
 wait_for_temp() {
+  local f
   for _ in $(seq 3000); do
-    compgen -G "$1.tmp-*" >/dev/null && return 0
+    for f in "$1".tmp-*; do
+      [ -f "$f" ] && [ "$(stat -c %s "$f" 2>/dev/null || echo -1)" -ge "${3:-0}" ] && return 0
+    done
     kill -0 "$2" 2>/dev/null || return 1
     sleep 0.01
   done
@@ -163,8 +167,8 @@ else
 fi
 no_temps "SIGKILL"
 
-# ---- signals: $1 signal, $2 point ("after S seconds" or "temp": once the temporary file
-# ---- exists), $3 output, then the command
+# ---- signals: $1 signal, $2 point (S: after S seconds; temp: once the temporary file exists;
+# ---- temp+N: once it holds N bytes), $3 output, then the command
 interrupt() {
   local sig=$1 point=$2 out=$3
   shift 3
@@ -172,8 +176,10 @@ interrupt() {
   cp "$out" "$T/previous"
   "$@" >/dev/null 2>"$T/err" &
   local pid=$!
-  if [ "$point" = temp ]; then
-    wait_for_temp "$out" $pid || fail "$* made no temporary file before it ended"
+  if [ "${point%%+*}" = temp ]; then
+    local min=0
+    [ "$point" = temp ] || min=${point#temp+}
+    wait_for_temp "$out" $pid $min || fail "$* made no temporary file of $min bytes before it ended"
   else
     sleep "$point"
   fi
@@ -194,9 +200,10 @@ interrupt TERM 0.15 "$T/out.opm" "$F" import "$T/big.npy" -o "$T/out.opm"
 interrupt INT temp "$T/out.opm" "$F" import "$T/big.npy" -o "$T/out.opm"
 factor=(factor "$T/big.opm" --method svd -T 4 -t 2 -o "$T/out.opm" --report "$T/out.json"
         --albedo-png "$T/out.png")
+# factor: loading; factoring (the material's temporary file holds its header); verifying it
 interrupt HUP 0.3 "$T/out.opm" "$F" "${factor[@]}"
 interrupt INT temp "$T/out.opm" "$F" "${factor[@]}"
-interrupt TERM temp "$T/out.opm" "$F" "${factor[@]}"
+interrupt TERM temp+100000 "$T/out.opm" "$F" "${factor[@]}"
 [ -e "$T/out.json" ] || [ -e "$T/out.png" ] && fail "an interrupted factor left its report or png"
 
 [ $FAILS = 0 ] || { echo "$FAILS failure(s)"; exit 1; }
