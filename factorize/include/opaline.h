@@ -98,18 +98,46 @@ int op_parallel_threads(int nthreads);
 
 /* ---------------------------------------------------------------- output files */
 
-/* A file written under a temporary name in the destination folder and renamed over the
- * destination only by op_output_commit, so readers never see half-written output. */
+/* An output file that appears whole or not at all (docs/limits.md, "Output files").
+ * op_output_open writes to a temporary file "<dest>.tmp-opaline-<pid>-XXXXXX" beside the file
+ * it replaces, symbolic links followed (a link stays a link; its target is replaced, or created
+ * when missing); commit renames it over that file, which keeps its permission bits (and, when
+ * run as root, its owner); a new file gets 0666 less the umask. A destination that is a
+ * character device (/dev/null, /dev/stdout on a terminal) or a FIFO is never replaced: the data
+ * waits in $TMPDIR (default /tmp) and commit copies it through. Directories, block devices and
+ * sockets are refused (OP_ERR_IO). Opening also removes the temporary files for the same
+ * destination that a process no longer running left (after SIGKILL), never one of a live
+ * process. All functions are thread-safe for distinct objects. */
 typedef struct op_output op_output;
 
 op_status op_output_open(const char *path, op_output **out, op_error *err);
+/* The stream to write to (seekable: it is always the temporary file). */
 FILE *op_output_stream(op_output *out);
 /* Writes n bytes; the first failure is remembered and reported by commit. */
 void op_output_write(op_output *out, const void *data, size_t n);
-/* Flushes, syncs and renames into place; frees out whatever the result. */
+/* Flushes what was written so far and gives the temporary file's name in *tmp_path, for reading
+ * it back (e.g. to verify it) before commit or abort; the name is valid until then. Fails with
+ * the first write error. */
+op_status op_output_pending(op_output *out, const char **tmp_path, op_error *err);
+/* Flushes, syncs and puts the file in place; frees out whatever the result. */
 op_status op_output_commit(op_output *out, op_error *err);
 /* Removes the temporary file and frees out. Accepts NULL. */
 void op_output_abort(op_output *out);
+
+/* ---------------------------------------------------------------- interruption */
+
+/* Called, from a thread of its own, on the first SIGINT, SIGTERM or SIGHUP. */
+typedef void (*op_interrupt_fn)(void *user, int signo);
+
+/* Makes SIGINT, SIGTERM and SIGHUP interrupt the process cleanly, and ignores SIGPIPE (a closed
+ * pipe is then a write error, EPIPE, that reaches the exit code like any other). With fn NULL, a
+ * signal removes the temporary file of every op_output not yet committed or aborted, logs
+ * "interrupted by SIGxxx" and exits with 130 at once, from any point of the work (it waits only
+ * for a commit's rename in progress). With fn, the first signal calls fn (cooperative
+ * cancellation: the program stops, aborts its outputs and exits 130 itself) and a second one
+ * does the above. A signal ignored when the process started (nohup) stays ignored. Call once,
+ * from main, before starting threads. */
+op_status op_interrupt_install(op_interrupt_fn fn, void *user, op_error *err);
 
 /* ---------------------------------------------------------------- images */
 
@@ -194,15 +222,21 @@ op_status op_material_albedo_map(const op_material *m, float *out, op_error *err
 const void *op_material_section(const op_material *m, const char *tag, uint64_t *bytes);
 
 /* Writing: open, add each section once, commit. Section tags are 1 to 8 printable characters;
- * "META" is written by the library from info. */
+ * "META" is written by the library from info. The file is an op_output: it appears whole at
+ * path on commit, or not at all. */
 typedef struct op_material_writer op_material_writer;
 
 op_status op_material_writer_open(const char *path, const op_material_info *info,
                                   op_material_writer **out, op_error *err);
 op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
                                  uint64_t bytes, op_error *err);
-/* Writes the section table and renames the file into place; frees w whatever the result. */
+/* Completes the file under its temporary name (section table and header) without putting it in
+ * place, and gives that name in *tmp_path, valid until commit or abort: the file can be read
+ * back with op_material_open to verify it. Sections may still be added after. */
+op_status op_material_writer_finish(op_material_writer *w, const char **tmp_path, op_error *err);
+/* Writes the section table and puts the file in place; frees w whatever the result. */
 op_status op_material_writer_commit(op_material_writer *w, op_error *err);
+/* Removes the temporary file and frees w. Accepts NULL. */
 void op_material_writer_abort(op_material_writer *w);
 
 /* CRC-32 (zlib's) of a buffer, continuing from crc (start with 0). */

@@ -572,9 +572,10 @@ op_status op_material_albedo_map(const op_material *m, float *out, op_error *err
 
 struct op_material_writer {
     op_output *out;
-    uint64_t pos;
+    uint64_t pos; /* end of the sections: where the next one, or the table, goes */
     unsigned char *table;
     uint32_t count, capacity;
+    int finished; /* the table and header are written: the next section replaces the table */
 };
 
 static void pad_to_alignment(op_material_writer *w)
@@ -583,6 +584,19 @@ static void pad_to_alignment(op_material_writer *w)
     uint64_t pad = (OPM_ALIGN - w->pos % OPM_ALIGN) % OPM_ALIGN;
     op_output_write(w->out, zeros, (size_t)pad);
     w->pos += pad;
+}
+
+/* After finish: moves the stream back to the end of the sections, over the table. */
+static op_status resume_sections(op_material_writer *w, op_error *err)
+{
+    if (!w->finished)
+        return OP_OK;
+    FILE *f = op_output_stream(w->out);
+    if (fflush(f) != 0 || fseek(f, (long)w->pos, SEEK_SET) != 0)
+        return op_error_set(err, OP_ERR_IO, "cannot write material sections: %s",
+                            strerror(errno));
+    w->finished = 0;
+    return OP_OK;
 }
 
 op_status op_material_writer_open(const char *path, const op_material_info *info,
@@ -614,6 +628,9 @@ op_status op_material_writer_open(const char *path, const op_material_info *info
 op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
                                  uint64_t bytes, op_error *err)
 {
+    op_status st = resume_sections(w, err);
+    if (st != OP_OK)
+        return st;
     if (!valid_tag(tag))
         return op_error_set(err, OP_ERR_INTERNAL, "invalid section tag '%s'", tag);
     for (uint32_t j = 0; j < w->count; j++)
@@ -641,8 +658,13 @@ op_status op_material_writer_add(op_material_writer *w, const char *tag, const v
     return OP_OK;
 }
 
-op_status op_material_writer_commit(op_material_writer *w, op_error *err)
+/* Writes the section table after the sections and the header that points to it: the file is
+ * then complete. */
+static op_status write_table_and_header(op_material_writer *w, op_error *err)
 {
+    op_status st = resume_sections(w, err);
+    if (st != OP_OK)
+        return st;
     pad_to_alignment(w);
     uint64_t table = w->pos;
     size_t table_bytes = (size_t)w->count * OPM_ENTRY_SIZE;
@@ -657,14 +679,27 @@ op_status op_material_writer_commit(op_material_writer *w, op_error *err)
     put_u32(header + 32, op_crc32(0, w->table, table_bytes));
     put_u32(header + 36, op_crc32(0, header, 36));
     FILE *f = op_output_stream(w->out);
-    op_status st;
-    if (fflush(f) != 0 || fseek(f, 0, SEEK_SET) != 0) {
+    if (fflush(f) != 0 || fseek(f, 0, SEEK_SET) != 0)
+        return op_error_set(err, OP_ERR_IO, "cannot write material header: %s", strerror(errno));
+    op_output_write(w->out, header, sizeof header);
+    w->finished = 1;
+    return OP_OK;
+}
+
+op_status op_material_writer_finish(op_material_writer *w, const char **tmp_path, op_error *err)
+{
+    *tmp_path = NULL;
+    op_status st = write_table_and_header(w, err);
+    return st != OP_OK ? st : op_output_pending(w->out, tmp_path, err);
+}
+
+op_status op_material_writer_commit(op_material_writer *w, op_error *err)
+{
+    op_status st = write_table_and_header(w, err);
+    if (st != OP_OK)
         op_output_abort(w->out);
-        st = op_error_set(err, OP_ERR_IO, "cannot write material header: %s", strerror(errno));
-    } else {
-        op_output_write(w->out, header, sizeof header);
+    else
         st = op_output_commit(w->out, err);
-    }
     free(w->table);
     free(w);
     return st;

@@ -612,21 +612,13 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
     return st;
 }
 
-static op_status write_material(const char *path, const op_material_info *info,
-                                const section_list *s, const float *albedo,
-                                uint64_t albedo_count, op_error *err)
+/* Adds the sections of s to w. */
+static op_status write_sections(op_material_writer *w, const section_list *s, op_error *err)
 {
-    op_material_writer *w;
-    op_status st = op_material_writer_open(path, info, &w, err);
+    op_status st = OP_OK;
     for (int i = 0; i < s->n && st == OP_OK; i++)
         st = op_material_writer_add(w, s->tag[i], s->data[i], s->bytes[i], err);
-    if (st == OP_OK && albedo)
-        st = op_material_writer_add(w, "ALBEDO", albedo, albedo_count * sizeof *albedo, err);
-    if (st != OP_OK) {
-        op_material_writer_abort(w);
-        return st;
-    }
-    return op_material_writer_commit(w, err);
+    return st;
 }
 
 /* Reads the material back through libopaline and compares every row with the dataset; fills
@@ -823,8 +815,8 @@ int op_cmd_factor(int argc, char **argv)
     dataset ds = {0};
     section_list secs = {0};
     float *albedo = NULL;
-    char tmp[1100];
-    tmp[0] = '\0';
+    op_material_writer *writer = NULL;
+    op_output *report = NULL;
     st = load_dataset(&a, &ds, &rep, &err);
     if (st != OP_OK)
         goto done;
@@ -862,6 +854,9 @@ int op_cmd_factor(int argc, char **argv)
         if (*p == '\n' || *p == '\r')
             *p = ' ';
 
+    /* Opened before the work, so that an output that cannot be written fails at once. */
+    if ((st = op_material_writer_open(a.output, &info, &writer, &err)) != OP_OK)
+        goto done;
     t = op_now();
     double prep = 0;
     if (a.method == OP_METHOD_SVD)
@@ -880,8 +875,9 @@ int op_cmd_factor(int argc, char **argv)
         op_report_stage(&rep, "preprocess", prep);
     op_report_stage(&rep, "factor", op_now() - t - prep);
 
-    /* Write without the albedo map, read back to measure it and the errors, then write the
-     * final file with it. */
+    /* Write without the albedo map and read the file back (still under its temporary name) to
+     * measure it and the errors; then add the map. Every output is put in place only at the
+     * end, the material last: an interruption or a failure before leaves the old files. */
     t = op_now();
     uint64_t albedo_count = (uint64_t)ds.rows * (uint64_t)ds.info.channels;
     albedo = alloc_or_null(albedo_count * sizeof *albedo);
@@ -889,38 +885,29 @@ int op_cmd_factor(int argc, char **argv)
         st = op_error_set(&err, OP_ERR_NOMEM, "out of memory");
         goto done;
     }
-    snprintf(tmp, sizeof tmp, "%s.unverified", a.output);
-    st = write_material(tmp, &info, &secs, NULL, 0, &err);
-    if (st != OP_OK) {
-        tmp[0] = '\0';
+    const char *pending;
+    if ((st = write_sections(writer, &secs, &err)) != OP_OK ||
+        (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK)
         goto done;
-    }
     op_report_stage(&rep, "write", op_now() - t);
     t = op_now();
-    st = evaluate(tmp, &ds, a.threads, &rep, albedo, &err);
+    st = evaluate(pending, &ds, a.threads, &rep, albedo, &err);
     if (st != OP_OK)
         goto done;
     op_report_stage(&rep, "evaluate", op_now() - t);
     t = op_now();
-    if (a.method == OP_METHOD_RAW) {
-        if (rename(tmp, a.output) != 0) {
-            st = op_error_set(&err, OP_ERR_IO, "%s: cannot rename into place: %s", a.output,
-                              strerror(errno));
-            goto done;
-        }
-        tmp[0] = '\0';
-    } else {
-        st = write_material(a.output, &info, &secs, albedo, albedo_count, &err);
-        if (st != OP_OK)
-            goto done;
-    }
-    if (a.albedo_png && (st = write_albedo_png(a.albedo_png, &ds, albedo, &err)) != OP_OK)
+    if (a.method != OP_METHOD_RAW &&
+        ((st = op_material_writer_add(writer, "ALBEDO", albedo, albedo_count * sizeof *albedo,
+                                      &err)) != OP_OK ||
+         (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK))
         goto done;
     op_report_stage(&rep, "finish", op_now() - t);
 
     op_material *out;
-    if ((st = op_material_open(a.output, &out, &err)) != OP_OK)
+    if ((st = op_material_open(pending, &out, &err)) != OP_OK) {
+        op_error_prefix(&err, "reading back the new material: ");
         goto done;
+    }
     rep.size_bytes = op_material_file_size(out);
     st = time_evaluation(out, &rep, &err);
     op_material_close(out);
@@ -944,12 +931,27 @@ int op_cmd_factor(int argc, char **argv)
     rep.total_seconds = op_now() - t0;
     rep.peak_memory_bytes = op_peak_memory_bytes();
     op_report_print(&rep, stdout);
-    if (a.report)
-        st = op_report_write_json(&rep, a.report, &err);
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        st = op_error_set(&err, OP_ERR_IO, "stdout: cannot write the report: %s",
+                          strerror(errno ? errno : EIO));
+        goto done;
+    }
+    if (a.report && (st = op_report_write_json(&rep, a.report, &report, &err)) != OP_OK)
+        goto done;
+    if (a.albedo_png && (st = write_albedo_png(a.albedo_png, &ds, albedo, &err)) != OP_OK)
+        goto done;
+    if (report) {
+        st = op_output_commit(report, &err);
+        report = NULL;
+        if (st != OP_OK)
+            goto done;
+    }
+    st = op_material_writer_commit(writer, &err);
+    writer = NULL;
 
 done:
-    if (tmp[0])
-        unlink(tmp);
+    op_output_abort(report);
+    op_material_writer_abort(writer);
     free(albedo);
     sections_free(&secs);
     op_material_close(ds.file);

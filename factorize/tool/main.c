@@ -2,6 +2,7 @@
 #include "commands.h"
 #include "opaline.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -24,23 +25,39 @@ static void usage(FILE *f)
     fprintf(f, "\n'opaline-factor COMMAND --help' describes a command's options.\n");
 }
 
+/* A command's exit code, made 1 when it succeeded but what it printed on stdout could not all
+ * be written. */
+static int check_stdout(int code)
+{
+    if (code || (fflush(stdout) == 0 && !ferror(stdout)))
+        return code;
+    op_log(OP_LOG_ERROR, "stdout: cannot write: %s", strerror(errno ? errno : EIO));
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
+    /* SIGINT, SIGTERM, SIGHUP: remove the temporary files, exit 130; SIGPIPE: an EPIPE error. */
+    op_error err = {0};
+    if (op_interrupt_install(NULL, NULL, &err) != OP_OK) {
+        op_log(OP_LOG_ERROR, "%s", err.message);
+        return op_exit_code(err.status);
+    }
     if (argc < 2) {
         usage(stderr);
         return 2;
     }
     if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
         usage(stdout);
-        return 0;
+        return check_stdout(0);
     }
     if (!strcmp(argv[1], "--version")) {
         printf("opaline-factor %s\n", op_version());
-        return 0;
+        return check_stdout(0);
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (!strcmp(argv[1], commands[i].name))
-            return commands[i].run(argc - 1, argv + 1);
+            return check_stdout(commands[i].run(argc - 1, argv + 1));
     op_log(OP_LOG_ERROR, "unknown command '%s'", argv[1]);
     usage(stderr);
     return 2;

@@ -134,9 +134,11 @@ static void json_field_number(FILE *f, const char *key, double v)
     json_number(f, v);
 }
 
-op_status op_report_write_json(const op_factor_report *r, const char *path, op_error *err)
+op_status op_report_write_json(const op_factor_report *r, const char *path, op_output **pending,
+                               op_error *err)
 {
     op_output *out;
+    *pending = NULL;
     op_status st = op_output_open(path, &out, err);
     if (st != OP_OK)
         return st;
@@ -175,5 +177,10 @@ op_status op_report_write_json(const op_factor_report *r, const char *path, op_e
     json_field_number(f, "albedo_map_seconds", r->albedo_map_seconds);
     json_field_string(f, "tool_version", op_version());
     fputs("\n}\n", f);
-    return op_output_commit(out, err);
+    const char *unused;
+    if ((st = op_output_pending(out, &unused, err)) != OP_OK)
+        op_output_abort(out);
+    else
+        *pending = out;
+    return st;
 }

@@ -52,7 +52,9 @@ void op_error_accum_merge(op_error_accum *acc, const op_error_accum *part);
 void op_error_accum_finish(const op_error_accum *acc, op_factor_report *r);
 /* Human-readable report to f. */
 void op_report_print(const op_factor_report *r, FILE *f);
-/* The JSON report, written through op_output. */
-op_status op_report_write_json(const op_factor_report *r, const char *path, op_error *err);
+/* Writes the JSON report into a new op_output on path, returned in *pending for the caller to
+ * commit (or abort); NULL on failure. */
+op_status op_report_write_json(const op_factor_report *r, const char *path, op_output **pending,
+                               op_error *err);
 
 #endif
