@@ -4,7 +4,6 @@
 #include "subsurface.h"
 
 #include <errno.h>
-#include <float.h>
 #include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -66,7 +65,7 @@ op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_e
     static const struct {
         const char *name;
         double max;
-    } known[] = {{"coordinate", 1e15}, {"image-pixels", 1LL << 32}, {"kernel", 4095},
+    } known[] = {{"coordinate", 1e15}, {"image-pixels", 1LL << 30}, {"kernel", 4095},
                  {"sss-points", 1e9}};
     const char *eq = strchr(assignment, '=');
     size_t n = eq ? (size_t)(eq - assignment) : strlen(assignment);

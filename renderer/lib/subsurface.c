@@ -232,8 +232,8 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
             continue;
         op_sss_desc *d = &scene->sss[sh->sss];
         double px, py, size_x = 0.0, size_y = 0.0;
-        int half;
         if (d->is_dipole) {
+            int half;
             px = py = dipole_pixel(&d->dipole, &half);
         } else {
             const op_material_info *info = op_material_get_info(d->material);
@@ -241,18 +241,17 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
             size_y = info->size_y_cm;
             px = (info->size_x_cm * 0.01 * d->scale) / info->width;
             py = (info->size_y_cm * 0.01 * d->scale) / info->height;
-            half = info->kernel / 2;
         }
-        /* the gather grid's cells are the kernel footprint: the scene must span fewer than
-         * 2^30 of them, and a pixel's area must be a normal float */
-        double radius = (half + 1.5) * fmax(px, py);
+        /* the pre-pass grids cells of at least 2 pixels (the kernel footprint, the
+         * interpolation radius) over the scene, counted in int32: at most 2^30 across; a
+         * pixel's area must be a normal float */
         if (!(px > 0.0 && py > 0.0 && px <= FLT_MAX && py <= FLT_MAX) ||
-            !((float)px * (float)py >= FLT_MIN) ||
-            !((float)px * (float)py <= FLT_MAX) || !(radius * 0x1p30 >= extent))
+            !((float)px * (float)py >= FLT_MIN) || !((float)px * (float)py <= FLT_MAX) ||
+            !(2.0 * fmax(px, py) * 0x1p30 >= extent))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: a material pixel of %g x %g "
                                 "scene units (size %g x %g cm, scale %g) is out of range for a "
                                 "scene %g units across in single precision: it must be > 0, finite, "
-                                "and its kernel footprint at least 2^-30 of the scene",
+                                "and at least 2^-31 of the scene's extent",
                                 sh->label, px, py, size_x, size_y, d->scale, extent);
         float a_pix = (float)px * (float)py; /* as make_points computes it */
         double want = (double)sh->mesh.area / a_pix * d->density;
@@ -264,8 +263,6 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
                    "material pixel; capped at %d (coarser than the material: raise maxPoints or "
                    "lower scale)", sh->label, want, d->max_points);
         d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
-        d->px = px;
-        d->py = py;
         total += d->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "

@@ -45,7 +45,7 @@ typedef struct op_sss_stats {
  * (its bounds set): checks that a material pixel in scene units is finite, positive and within
  * what single precision can grid across the scene, fixes each shape's point count (about
  * `density` per material pixel area, at most its maxPoints; computed in double) and refuses a
- * total over max_total ("sss-points"). Fills points, px and py of each op_sss_desc. */
+ * total over max_total ("sss-points"). Fills each op_sss_desc's points. */
 op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err);
 
 /* Builds the cache for the translucent shapes of scene (see above for which parts). */
