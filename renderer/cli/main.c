@@ -213,7 +213,7 @@ int main(int argc, char **argv)
         } else if (strcmp(a, "--limit") == 0) {
             op_error lerr = {0};
             if (op_scene_limits_set(&limits, argv[++i], &lerr) != OP_OK) {
-                op_log(OP_LOG_ERROR, "--limit %s", lerr.message);
+                op_log(OP_LOG_ERROR, "--%s", lerr.message); /* "--limit ...: ..." */
                 bad = 1;
             }
         } else if (strcmp(a, "--check") == 0) {
