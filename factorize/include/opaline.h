@@ -163,6 +163,13 @@ op_status op_image_read(const char *path, op_image *img, op_error *err);
  * sRGB-decoded, so that a caller can apply another transfer curve; *encoded is set to 1 for
  * those and to 0 for float files (OpenEXR, PFM), whose values both functions return as stored. */
 op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err);
+/* The most pixels (width x height) the two readers above accept: 2^27 (16384 x 8192). */
+#define OP_IMAGE_DEFAULT_MAX_PIXELS ((uint64_t)1 << 27)
+/* op_image_read (decode != 0) or op_image_read_stored (decode == 0; encoded may be NULL) with
+ * another pixel limit: an image whose header says it has more than max_pixels pixels is refused
+ * (OP_ERR_INPUT naming the limit "image-pixels") before anything is decoded or allocated. */
+op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
+                                int *encoded, op_error *err);
 
 /* ---------------------------------------------------------------- materials */
 

@@ -127,10 +127,24 @@ op_status op_image_write_png(const char *path, const op_image *img, float exposu
     return op_output_commit(out, err);
 }
 
+/* Refuses an image whose header says it has more than max_pixels pixels, before any of it is
+ * decoded: a small compressed file can describe gigabytes of pixels. */
+static op_status check_pixels(const char *path, const char *kind, uint64_t w, uint64_t h,
+                              uint64_t max_pixels, op_error *err)
+{
+    if (w * h <= max_pixels)
+        return OP_OK;
+    return op_error_set(err, OP_ERR_INPUT, "%s: %s image of %llu x %llu = %llu pixels is over the "
+                        "limit of %llu pixels (image-pixels)", path, kind, (unsigned long long)w,
+                        (unsigned long long)h, (unsigned long long)(w * h),
+                        (unsigned long long)max_pixels);
+}
+
 /* Reads a PNG through libpng's simplified API (which never prints), as 8-bit sRGB, decoded to
  * linear light when decode is set (else byte / 255); alpha stays as stored. Grey+alpha becomes
  * RGBA. */
-static op_status read_png(const char *path, int decode, op_image *img, op_error *err)
+static op_status read_png(const char *path, int decode, uint64_t max_pixels, op_image *img,
+                          op_error *err)
 {
     png_image pi;
     memset(&pi, 0, sizeof pi);
@@ -151,7 +165,9 @@ static op_status read_png(const char *path, int decode, op_image *img, op_error 
         png_image_free(&pi);
         return OP_ERR_FORMAT;
     }
-    op_status st = op_image_alloc(img, (int)pi.width, (int)pi.height, c, err);
+    op_status st = check_pixels(path, "PNG", pi.width, pi.height, max_pixels, err);
+    if (st == OP_OK)
+        st = op_image_alloc(img, (int)pi.width, (int)pi.height, c, err);
     if (st != OP_OK) {
         png_image_free(&pi);
         return st;
@@ -334,7 +350,8 @@ op_status op_image_write_exr(const char *path, const op_image *img, int half_flo
 
 /* Reads the first part of a flat (not deep) scanline or tiled OpenEXR file; channels R, G, B
  * and A (or Y) by name, any pixel type, converted to float. */
-static op_status read_exr(const char *path, int fd, int64_t size, op_image *img, op_error *err)
+static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_pixels,
+                          op_image *img, op_error *err)
 {
     exr_io io;
     memset(&io, 0, sizeof io);
@@ -374,6 +391,8 @@ static op_status read_exr(const char *path, int fd, int64_t size, op_image *img,
                           path, (long long)w, (long long)h);
         goto done;
     }
+    if ((st = check_pixels(path, "OpenEXR", (uint64_t)w, (uint64_t)h, max_pixels, err)) != OP_OK)
+        goto done;
     /* Map channel names to slots: R G B A, or Y (else R alone) for grey. */
     int has[5] = {0};
     static const char *slot_names[5] = {"R", "G", "B", "A", "Y"};
@@ -573,7 +592,8 @@ static int pfm_token(const unsigned char *buf, size_t n, size_t *pos, char *tok,
     return 1;
 }
 
-static op_status read_pfm(const char *path, int fd, int64_t size, op_image *img, op_error *err)
+static op_status read_pfm(const char *path, int fd, int64_t size, uint64_t max_pixels,
+                          op_image *img, op_error *err)
 {
     unsigned char head[128];
     ssize_t got = pread(fd, head, sizeof head, 0);
@@ -593,6 +613,9 @@ static op_status read_pfm(const char *path, int fd, int64_t size, op_image *img,
     if (!c || *e1 || *e2 || *e3 || w <= 0 || h <= 0 || w > OP_IMAGE_MAX_SIDE ||
         h > OP_IMAGE_MAX_SIDE || scale == 0.0 || !isfinite(scale))
         return op_error_set(err, OP_ERR_FORMAT, "%s: bad PFM header", path);
+    op_status lim = check_pixels(path, "PFM", (uint64_t)w, (uint64_t)h, max_pixels, err);
+    if (lim != OP_OK)
+        return lim;
     size_t count = (size_t)w * (size_t)h * (size_t)c;
     if ((uint64_t)size < pos + count * sizeof(float))
         return op_error_set(err, OP_ERR_FORMAT, "%s: truncated PFM (%lld bytes, need %zu)", path,
@@ -625,8 +648,8 @@ static op_status read_pfm(const char *path, int fd, int64_t size, op_image *img,
 /* ---------------------------------------------------------------- reading */
 
 /* Reads any supported file; 8-bit ones are sRGB-decoded when decode is set. */
-static op_status read_any(const char *path, int decode, op_image *img, int *encoded,
-                          op_error *err)
+static op_status read_any(const char *path, int decode, uint64_t max_pixels, op_image *img,
+                          int *encoded, op_error *err)
 {
     memset(img, 0, sizeof *img);
     *encoded = 0;
@@ -649,13 +672,13 @@ static op_status read_any(const char *path, int decode, op_image *img, int *enco
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     op_status st;
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
-        st = read_exr(path, fd, (int64_t)sb.st_size, img, err);
+        st = read_exr(path, fd, (int64_t)sb.st_size, max_pixels, img, err);
     } else if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
-        st = read_png(path, decode, img, err);
+        st = read_png(path, decode, max_pixels, img, err);
         *encoded = 1;
     } else if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
                (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r')) {
-        st = read_pfm(path, fd, (int64_t)sb.st_size, img, err);
+        st = read_pfm(path, fd, (int64_t)sb.st_size, max_pixels, img, err);
     } else {
         st = op_error_set(err, OP_ERR_FORMAT, "%s: not an OpenEXR, PNG or PFM image", path);
     }
@@ -666,10 +689,17 @@ static op_status read_any(const char *path, int decode, op_image *img, int *enco
 op_status op_image_read(const char *path, op_image *img, op_error *err)
 {
     int encoded;
-    return read_any(path, 1, img, &encoded, err);
+    return read_any(path, 1, OP_IMAGE_DEFAULT_MAX_PIXELS, img, &encoded, err);
 }
 
 op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err)
 {
-    return read_any(path, 0, img, encoded, err);
+    return read_any(path, 0, OP_IMAGE_DEFAULT_MAX_PIXELS, img, encoded, err);
+}
+
+op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
+                                int *encoded, op_error *err)
+{
+    int ignored;
+    return read_any(path, decode, max_pixels, img, encoded ? encoded : &ignored, err);
 }

@@ -29,6 +29,8 @@ static void usage(FILE *f)
             "  -s N           samples per pixel (overrides the scene's sampler)\n"
             "  -D name=value  overrides <default name=...>; repeatable\n"
             "  --check        parse and validate only\n"
+            "  --limit NAME=VALUE  raise or lower a scene limit (coordinate, image-pixels,\n"
+            "                 kernel, sss-points; see docs/limits.md); repeatable\n"
             "  --stream       write the tile stream to stdout\n"
             "  -q / -v        quieter / more verbose\n");
 }
@@ -161,11 +163,13 @@ int main(int argc, char **argv)
     char *define_buf[MAX_DEFINES];
     int ndefines = 0;
     const char *scene_path = NULL;
+    op_scene_limits limits;
+    op_scene_limits_init(&limits);
     int bad = 0;
     for (int i = 1; i < argc && !bad; i++) {
         const char *a = argv[i];
         int need = strcmp(a, "-o") == 0 || strcmp(a, "-t") == 0 || strcmp(a, "-s") == 0 ||
-                   strcmp(a, "-D") == 0;
+                   strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0;
         if (need && i + 1 >= argc) {
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             bad = 1;
@@ -205,6 +209,12 @@ int main(int argc, char **argv)
                 defines[ndefines].name = copy;
                 defines[ndefines].value = copy + (eq - d) + 1;
                 ndefines++;
+            }
+        } else if (strcmp(a, "--limit") == 0) {
+            op_error lerr = {0};
+            if (op_scene_limits_set(&limits, argv[++i], &lerr) != OP_OK) {
+                op_log(OP_LOG_ERROR, "--%s", lerr.message); /* "--limit ...: ..." */
+                bad = 1;
             }
         } else if (strcmp(a, "--check") == 0) {
             check = 1;
@@ -246,7 +256,7 @@ int main(int argc, char **argv)
 
     op_error err = {0};
     op_scene *scene = NULL;
-    op_status st = op_scene_load(scene_path, defines, ndefines, &scene, &err);
+    op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
     for (int k = 0; k < ndefines; k++)
         free(define_buf[k]);
     if (st) {

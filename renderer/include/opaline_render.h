@@ -32,8 +32,34 @@ typedef struct op_scene_define {
     const char *value;
 } op_scene_define;
 
+/* What a scene may ask for, checked while it loads (so that --check and rendering agree): a
+ * scene over a limit is refused with OP_ERR_INPUT naming the limit, before the work or the
+ * memory it would take. docs/limits.md explains each one and its default. */
+typedef struct op_scene_limits {
+    double coordinate;      /* "coordinate": the largest |x|, |y|, |z| of any position (camera,
+                               lights, shape vertices after toWorld), in scene units; single-
+                               precision ray tracing has a spacing of coordinate * 2^-24 there */
+    long long image_pixels; /* "image-pixels": the most pixels (width x height) of one texture
+                               or environment map, checked from its header before decoding */
+    int kernel;             /* "kernel": the largest kernel side K of a measured subsurface
+                               material (the pre-pass costs K^2 per irradiance point) */
+    long long sss_points;   /* "sss-points": the most irradiance points of all translucent
+                               shapes together, after each shape's maxPoints cap */
+} op_scene_limits;
+
+/* The defaults: coordinate 1e7, image-pixels 2^27 (16384 x 8192), kernel 255, sss-points 5e7. */
+void op_scene_limits_init(op_scene_limits *lim);
+/* Sets one limit from "name=value" (a name above, a positive number within the limit's hard
+ * range); anything else is OP_ERR_INPUT naming the known limits. */
+op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_error *err);
+
 /* Parses and builds the scene at path: geometry, acceleration structure, materials (only what
- * the scene uses). Bad input gives OP_ERR_INPUT naming file:line. */
+ * the scene uses), within the limits (NULL: the defaults). Bad input (including a missing or
+ * unreadable file it names, and anything over a limit) gives OP_ERR_INPUT or OP_ERR_FORMAT
+ * naming file:line; err may be NULL. */
+op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
+                                const op_scene_limits *limits, op_scene **out, op_error *err);
+/* op_scene_load_limited with the default limits. */
 op_status op_scene_load(const char *path, const op_scene_define *defines, int ndefines,
                         op_scene **out, op_error *err);
 void op_scene_free(op_scene *scene);

@@ -139,9 +139,21 @@ void op_accel_free(op_accel *a)
     free(a);
 }
 
+/* Whether Embree may be given the ray: its ray.valid() asserts that every origin and direction
+ * component is at most 1.844e18 in magnitude (so finite) and that tnear and tfar are not NaN. The
+ * scene builder keeps positions far inside that; this keeps a stray NaN from aborting. */
+static int ray_ok(op_v3 o, op_v3 d, float tmin, float tmax)
+{
+    const float big = 1e18f;
+    return fabsf(o.x) <= big && fabsf(o.y) <= big && fabsf(o.z) <= big && fabsf(d.x) <= big &&
+           fabsf(d.y) <= big && fabsf(d.z) <= big && tmin >= 0.0f && !isnan(tmax);
+}
+
 int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax,
                        op_ray_hit *hit)
 {
+    if (!ray_ok(org, dir, tmin, tmax))
+        return 0; /* no hit */
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
@@ -179,6 +191,8 @@ int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, floa
 
 int op_accel_occluded(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax)
 {
+    if (!ray_ok(org, dir, tmin, tmax))
+        return 1; /* blocked: no light arrives along a ray that cannot be traced */
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay r;

@@ -31,10 +31,11 @@ void op_accel_free(op_accel *a);
 /* Bytes Embree holds for the built structure (its memory monitor's net count). */
 long long op_accel_bytes(const op_accel *a);
 
-/* Nearest hit with t in (tmin, tmax); returns 0 when none. */
+/* Nearest hit with t in (tmin, tmax); returns 0 when none, also for a ray Embree cannot take
+ * (a component beyond 1e18 or not finite, tmin < 0 or NaN, tmax NaN). */
 int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax,
                        op_ray_hit *hit);
-/* Whether anything lies on the ray with t in (tmin, tmax). */
+/* Whether anything lies on the ray with t in (tmin, tmax); 1 for a ray Embree cannot take. */
 int op_accel_occluded(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float tmax);
 
 #endif

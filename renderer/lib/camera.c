@@ -39,10 +39,8 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
     op_matrix4_vector(&to_world, ey, ey);
     op_matrix4_vector(&to_world, ez, ez);
     cam->origin = v3_from_d(o);
-    cam->axis_x = v3_norm(v3_from_d(ex));
-    cam->axis_y = v3_norm(v3_from_d(ey));
-    cam->axis_z = v3_norm(v3_from_d(ez));
-    if (v3_len(cam->axis_z) == 0.0f || v3_len(cam->axis_x) == 0.0f)
+    if (!v3_unit_from_d(ex, &cam->axis_x) || !v3_unit_from_d(ey, &cam->axis_y) ||
+        !v3_unit_from_d(ez, &cam->axis_z))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: toWorld is degenerate",
                             sensor ? sensor->file : "?", sensor ? sensor->line : 0);
     double w = full_width, h = full_height, t = tan(fov * 0.5 * M_PI / 180.0);

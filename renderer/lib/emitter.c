@@ -94,7 +94,7 @@ static int cdf_find(const float *cdf, int n, float u, float *frac)
 }
 
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
-                           op_emitter *e, op_error *err)
+                           long long max_pixels, op_emitter *e, op_error *err)
 {
     memset(e, 0, sizeof *e);
     node->used = 1;
@@ -126,8 +126,8 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
                 beam = c;
             }
             op_matrix4_vector(&xf, z, z);
-            op_v3 axis = v3_norm(v3_from_d(z));
-            if (v3_len(axis) == 0.0f)
+            op_v3 axis;
+            if (!v3_unit_from_d(z, &axis))
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: toWorld "
                                     "is degenerate", node->file, node->line);
             e->frame = op_frame_from_normal(axis);
@@ -155,10 +155,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         op_matrix4_vector(&xf, z, z);
         GET_OR_FAIL(op_node_vec3(node, "direction", z, d, err));
         e->type = OP_EM_DIRECTIONAL;
-        e->dir = v3_norm(v3_from_d(d));
-        if (v3_len(e->dir) == 0.0f)
+        if (!v3_unit_from_d(d, &e->dir))
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: zero "
-                                "direction", node->file, node->line);
+                                "or non-finite direction", node->file, node->line);
         return read_nonneg_color(node, "irradiance", 1.0, &e->value, err);
     }
     if (strcmp(t, "constant") == 0) {
@@ -179,7 +178,7 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         else
             snprintf(path, sizeof path, "%s/%s", base_dir, fn);
         e->type = OP_EM_ENVMAP;
-        op_status st = op_image_read(path, &e->env, err);
+        op_status st = op_image_read_limited(path, 1, (uint64_t)max_pixels, &e->env, NULL, err);
         if (st)
             return op_error_prefix(err, "%s:%d: <emitter type=\"envmap\">: ", node->file,
                                    node->line);
@@ -191,7 +190,11 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         e->value = v3s((float)scale);
         /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
         op_matrix4 inv;
-        op_matrix4_inverse(&xf, &inv);
+        if (!op_matrix4_inverse(&xf, &inv) || !op_matrix4_is_finite(&inv)) {
+            op_image_free(&e->env);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: toWorld is "
+                                "singular", node->file, node->line);
+        }
         double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
         op_matrix4_vector(&inv, ex, ex);
         op_matrix4_vector(&inv, ey, ey);
@@ -207,6 +210,17 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         e->env_to_world.s = v3_from_d(fx);
         e->env_to_world.t = v3_from_d(fy);
         e->env_to_world.n = v3_from_d(fz);
+        const op_v3 *axes[6] = {&e->frame.s, &e->frame.t, &e->frame.n, &e->env_to_world.s,
+                                &e->env_to_world.t, &e->env_to_world.n};
+        for (int k = 0; k < 6; k++) {
+            float len = v3_len(*axes[k]);
+            if (!(len > 0.0f) || !isfinite(len)) {
+                op_image_free(&e->env);
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: "
+                                    "toWorld's rotation is degenerate in single precision",
+                                    node->file, node->line);
+            }
+        }
         if (env_build_distribution(e) != 0) {
             op_emitter_free(e);
             return op_error_set(err, OP_ERR_NOMEM, "out of memory");

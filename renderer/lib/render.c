@@ -13,9 +13,17 @@
 #include "scene_color.h"
 #include "subsurface.h"
 
-op_status op_scene_load(const char *path, const op_scene_define *defines, int ndefines,
-                        op_scene **out, op_error *err)
+op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
+                                const op_scene_limits *limits, op_scene **out, op_error *err)
 {
+    /* the builder passes nested statuses through err, so it always gets one */
+    op_error scratch = {0};
+    if (!err)
+        err = &scratch;
+    op_scene_limits defaults;
+    op_scene_limits_init(&defaults);
+    if (!limits)
+        limits = &defaults;
     *out = NULL;
     if (ndefines < 0 || (ndefines > 0 && !defines))
         return op_error_set(err, OP_ERR_INPUT, "bad define list");
@@ -36,7 +44,7 @@ op_status op_scene_load(const char *path, const op_scene_define *defines, int nd
         op_desc_free(root);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
-    st = op_scene_build(root, path, s, err);
+    st = op_scene_build(root, path, limits, s, err);
     op_desc_free(root);
     if (st) {
         op_scene_release(s);
@@ -45,6 +53,12 @@ op_status op_scene_load(const char *path, const op_scene_define *defines, int nd
     }
     *out = s;
     return OP_OK;
+}
+
+op_status op_scene_load(const char *path, const op_scene_define *defines, int ndefines,
+                        op_scene **out, op_error *err)
+{
+    return op_scene_load_limited(path, defines, ndefines, NULL, out, err);
 }
 
 void op_scene_free(op_scene *scene)

@@ -39,6 +39,17 @@ static inline float v3_max(op_v3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
 static inline float v3_lum(op_v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
 static inline int v3_is_black(op_v3 a) { return a.x == 0.0f && a.y == 0.0f && a.z == 0.0f; }
 static inline op_v3 v3_from_d(const double d[3]) { return v3((float)d[0], (float)d[1], (float)d[2]); }
+/* d normalized in double precision (a vector too long or short for float is fine); returns 0
+ * when d has no finite, non-zero direction. */
+static inline int v3_unit_from_d(const double d[3], op_v3 *out)
+{
+    double big = fmax(fabs(d[0]), fmax(fabs(d[1]), fabs(d[2])));
+    if (!(big > 0.0) || !isfinite(big))
+        return 0;
+    double x = d[0] / big, y = d[1] / big, z = d[2] / big, len = sqrt(x * x + y * y + z * z);
+    *out = v3((float)(x / len), (float)(y / len), (float)(z / len));
+    return 1;
+}
 static inline float v3_get(op_v3 a, int i) { return i == 0 ? a.x : (i == 1 ? a.y : a.z); }
 
 /* An orthonormal frame (s, t, n); local z is n. */

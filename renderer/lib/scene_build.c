@@ -24,6 +24,7 @@
 /* Growing arrays and what the builder needs while it works. */
 typedef struct builder {
     op_scene *s;
+    const op_scene_limits *lim;
     char dir[4096];
     int cap_shapes, cap_bsdfs, cap_emitters, cap_sss, cap_mats;
     const op_node **bsdf_nodes; /* node of each bsdf, to share referenced ones */
@@ -48,6 +49,64 @@ static int grow(void **arr, int *cap, int n, size_t elem)
     *arr = p;
     *cap = c;
     return 1;
+}
+
+void op_scene_limits_init(op_scene_limits *lim)
+{
+    lim->coordinate = 1e7;
+    lim->image_pixels = 1LL << 27;
+    lim->kernel = 255;
+    lim->sss_points = 50000000;
+}
+
+op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_error *err)
+{
+    /* each limit's hard range: what the renderer's data types and single precision allow */
+    static const struct {
+        const char *name;
+        double max;
+    } known[] = {{"coordinate", 1e15}, {"image-pixels", 1LL << 30}, {"kernel", 4095},
+                 {"sss-points", 1e9}};
+    const char *eq = strchr(assignment, '=');
+    size_t n = eq ? (size_t)(eq - assignment) : strlen(assignment);
+    int k = 0;
+    while (k < 4 && !(strlen(known[k].name) == n && strncmp(known[k].name, assignment, n) == 0))
+        k++;
+    if (k == 4 || !eq)
+        return op_error_set(err, OP_ERR_INPUT, "limit '%s': expected NAME=VALUE with NAME one of "
+                            "coordinate, image-pixels, kernel, sss-points", assignment);
+    char *end;
+    errno = 0;
+    double v = strtod(eq + 1, &end);
+    if (end == eq + 1 || *end || errno == ERANGE || !(v > 0.0) || v > known[k].max ||
+        (k > 0 && v != floor(v)))
+        return op_error_set(err, OP_ERR_INPUT, "limit %s: '%s' is not a %s in (0, %g]",
+                            known[k].name, eq + 1, k > 0 ? "whole number" : "number",
+                            known[k].max);
+    if (k == 0)
+        lim->coordinate = v;
+    else if (k == 1)
+        lim->image_pixels = (long long)v;
+    else if (k == 2)
+        lim->kernel = (int)v;
+    else
+        lim->sss_points = (long long)v;
+    return OP_OK;
+}
+
+/* Refuses a position of node's object farther from the origin than the coordinate limit
+ * (also a non-finite one): single precision cannot place anything there. */
+static op_status check_position(const builder *b, const op_node *node, const char *what, op_v3 p,
+                                op_error *err)
+{
+    double lim = b->lim->coordinate;
+    if (fabsf(p.x) <= lim && fabsf(p.y) <= lim && fabsf(p.z) <= lim)
+        return OP_OK;
+    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s type=\"%s\">: %s (%g, %g, %g) is beyond "
+                        "the coordinate limit of %g scene units from the origin (single-precision "
+                        "ray tracing; move the scene toward the origin or raise the limit with "
+                        "--limit coordinate=VALUE)", node->file, node->line, node->tag,
+                        node->type ? node->type : "", what, p.x, p.y, p.z, lim);
 }
 
 static int file_exists(const char *p)
@@ -141,11 +200,20 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
     op_scene *s = b->s;
     if (!grow((void **)&s->emitters, &b->cap_emitters, s->nemitters, sizeof *s->emitters))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    GET_OR_FAIL(op_emitter_build(node, mesh, shape, b->dir, &s->emitters[s->nemitters], err));
+    op_emitter *e = &s->emitters[s->nemitters];
+    op_status st = op_emitter_build(node, mesh, shape, b->dir, b->lim->image_pixels, e, err);
+    if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT))
+        st = check_position(b, node, "the light's position", e->pos, err);
+    if (st) {
+        op_emitter_free(e);
+        return st;
+    }
     if (op_emitter_is_env(&s->emitters[s->nemitters])) {
-        if (s->env >= 0)
+        if (s->env >= 0) {
+            op_emitter_free(e);
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: a scene may have "
                                 "only one environment emitter", node->file, node->line, node->type);
+        }
         s->env = s->nemitters;
     }
     *index = s->nemitters++;
@@ -299,6 +367,11 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
         return op_error_prefix(err, "%s:%d: <subsurface>: ", node->file, node->line);
     }
     const op_material_info *info = op_material_get_info(d->material);
+    if (info->kernel > b->lim->kernel)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: %s has kernel size %d, over "
+                            "the limit of %d (kernel; the pre-pass costs K^2 per irradiance point; "
+                            "raise it with --limit kernel=VALUE)", node->file, node->line, path,
+                            info->kernel, b->lim->kernel);
     if (info->method != want)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: %s holds a %s "
                             "material (its META says method=%s): the type must agree with it",
@@ -466,16 +539,21 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
                                        node->line, t);
             *m = b->s->protos[p]; /* borrowed */
             sh->instanced = 1;
-            return OP_OK;
+            op_v3 lo, hi;
+            op_placement_bounds(&sh->place, m, &lo, &hi);
+            if ((st = check_position(b, node, "a corner of its bounds", lo, err)) == OP_OK)
+                st = check_position(b, node, "a corner of its bounds", hi, err);
+            return st;
         }
         st = op_mesh_cache_get(b->meshes, path, t, face, fliptex, m, err);
     } else if (strcmp(t, "sphere") == 0) {
         double c[3], zero[3] = {0, 0, 0}, r;
         GET_OR_FAIL(op_node_vec3(node, "center", zero, c, err));
         GET_OR_FAIL(op_node_float(node, "radius", 1.0, &r, err));
-        if (!(r > 0.0) || !isfinite(r))
+        if (!(r > 0.0) || !(r <= b->lim->coordinate))
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"sphere\">: radius %g must "
-                                "be > 0", node->file, node->line, r);
+                                "be > 0 and within the coordinate limit of %g", node->file,
+                                node->line, r, b->lim->coordinate);
         op_matrix4 tr = op_matrix4_translate(c[0], c[1], c[2]), sc = op_matrix4_scale(r, r, r);
         op_matrix4 local = op_matrix4_mul(&tr, &sc);
         xf = op_matrix4_mul(&xf, &local);
@@ -492,9 +570,15 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     }
     if (st == OP_OK)
         st = op_trimesh_finish(m, &xf, flip, err);
-    if (st)
+    if (st) {
+        op_trimesh_free(m); /* not yet the scene's: add_shape counts the shape on success only */
         return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file, node->line, t);
-    return OP_OK;
+    }
+    if ((st = check_position(b, node, "a corner of its bounds", m->bmin, err)) == OP_OK)
+        st = check_position(b, node, "a corner of its bounds", m->bmax, err);
+    if (st)
+        op_trimesh_free(m);
+    return st;
 }
 
 static op_status add_shape(builder *b, op_node *node, op_error *err)
@@ -647,6 +731,8 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     GET_OR_FAIL(op_film_build(film, &s->film, err));
     GET_OR_FAIL(op_sampler_build(sampler, &s->sampler, err));
     GET_OR_FAIL(op_camera_build(sensor, s->film.full_width, s->film.full_height, &s->camera, err));
+    if (sensor)
+        GET_OR_FAIL(check_position(b, sensor, "the camera's position", s->camera.origin, err));
     GET_OR_FAIL(build_integrator(integrator, &s->integrator, err));
     GET_OR_FAIL(count_file_uses(b, root, err));
     for (int i = 0; i < root->nchildren; i++) {
@@ -695,6 +781,7 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         lo = hi = v3s(0.0f);
     s->bmin = lo;
     s->bmax = hi;
+    GET_OR_FAIL(op_sss_plan(s, b->lim->sss_points, err));
     op_accel_shape *shapes = calloc((size_t)(s->nshapes ? s->nshapes : 1), sizeof *shapes);
     if (!shapes)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -713,16 +800,18 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     return st;
 }
 
-op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error *err)
+op_status op_scene_build(op_node *root, const char *path, const op_scene_limits *limits,
+                         op_scene *s, op_error *err)
 {
     builder b;
     memset(&b, 0, sizeof b);
     b.s = s;
+    b.lim = limits;
     s->env = -1;
     s->path = strdup(path);
     char *tmp = strdup(path);
     b.meshes = op_mesh_cache_new();
-    s->textures = op_tex_cache_new();
+    s->textures = op_tex_cache_new(limits->image_pixels);
     if (!s->path || !tmp || !b.meshes || !s->textures) {
         free(tmp);
         op_mesh_cache_free(b.meshes);

@@ -8,9 +8,11 @@
 #include "render_scene.h"
 #include "scene_desc.h"
 
-/* Fills the zeroed scene s from root (path: the scene file, for relative file names). On
- * failure s may be partly filled; op_scene_release frees it either way. */
-op_status op_scene_build(op_node *root, const char *path, op_scene *s, op_error *err);
+/* Fills the zeroed scene s from root (path: the scene file, for relative file names), refusing
+ * what is over limits. On failure s may be partly filled; op_scene_release frees it either way.
+ * err must not be NULL (the statuses of nested calls travel through it). */
+op_status op_scene_build(op_node *root, const char *path, const op_scene_limits *limits,
+                         op_scene *s, op_error *err);
 /* Frees everything s owns (not s itself). */
 void op_scene_release(op_scene *s);
 

@@ -82,16 +82,32 @@ static int grow(void **arr, int *cap, int n, size_t elem)
 
 /* ---------------------------------------------------------------- errors */
 
+/* The text of attribute a as parsed, without expanding entity references: libxml2 keeps a
+ * value that references a declared entity as a list of text and entity-reference nodes, whose
+ * expansion (xmlNodeListGetString) is quadratic in the number of references and exponential in
+ * their nesting. Returns NULL when the value holds such a reference (character references and
+ * the predefined entities are plain text by then). */
+static const char *attr_text(const xmlAttr *a)
+{
+    const xmlNode *k = a->children;
+    if (!k)
+        return "";
+    if (k->type != XML_TEXT_NODE || k->next)
+        return NULL;
+    return k->content ? (const char *)k->content : "";
+}
+
 /* "<tag type="..." id="..." name="...">" from the element's raw attributes. */
 static void describe(xmlNode *e, char *buf, size_t cap)
 {
     static const char *keys[] = {"type", "id", "name"};
     size_t k = (size_t)snprintf(buf, cap, "<%s", (const char *)e->name);
     for (int i = 0; i < 3 && k < cap; i++) {
-        xmlChar *v = xmlGetNoNsProp(e, (const xmlChar *)keys[i]);
-        if (v) {
-            k += (size_t)snprintf(buf + k, cap - k, " %s=\"%s\"", keys[i], (const char *)v);
-            xmlFree(v);
+        xmlAttr *a = xmlHasNsProp(e, (const xmlChar *)keys[i], NULL);
+        if (a) {
+            const char *v = attr_text(a);
+            k += (size_t)snprintf(buf + k, cap - k, " %s=\"%.60s%s\"", keys[i], v ? v : "&...;",
+                                  v && strlen(v) > 60 ? "..." : "");
         }
     }
     if (k < cap)
@@ -146,7 +162,8 @@ static int ident_char(int ch, int first)
     return isalpha(ch) || ch == '_' || (!first && isdigit(ch));
 }
 
-/* Replaces every $name in value by the parameter's value; an undefined one is an error. */
+/* Replaces every $name in value by the parameter's value (an undefined one is an error) and
+ * every $$ by one $. */
 static op_status substitute(xml_ctx *c, xmlNode *e, const char *attr, const char *value, char **out)
 {
     size_t cap = strlen(value) + 1, n = 0;
@@ -156,7 +173,9 @@ static op_status substitute(xml_ctx *c, xmlNode *e, const char *attr, const char
     for (const char *p = value; *p;) {
         const char *piece = p;
         size_t len = 1;
-        if (*p == '$' && ident_char((unsigned char)p[1], 1)) {
+        if (*p == '$' && p[1] == '$') {
+            p += 2; /* piece: the first '$' */
+        } else if (*p == '$' && ident_char((unsigned char)p[1], 1)) {
             size_t k = 1;
             while (ident_char((unsigned char)p[k], 0))
                 k++;
@@ -219,10 +238,12 @@ static op_status get_attr(xml_ctx *c, xmlNode *e, const char *name, int required
             return elem_error(c, e, "missing attribute '%s'", name);
         return OP_OK;
     }
-    xmlChar *raw = xmlNodeListGetString(e->doc, a->children, 1);
-    op_status st = substitute(c, e, name, raw ? (const char *)raw : "", out);
-    xmlFree(raw);
-    return st;
+    const char *raw = attr_text(a);
+    if (!raw)
+        return elem_error(c, e, "attribute %s: entity references (&name;) are not supported; "
+                                "use a $parameter",
+                          name);
+    return substitute(c, e, name, raw, out);
 }
 
 /* ---------------------------------------------------------------- numbers */

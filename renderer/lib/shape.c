@@ -58,11 +58,18 @@ op_status op_trimesh_finish(op_trimesh *m, const op_matrix4 *to_world, int flip,
     if (!op_matrix4_is_finite(to_world) || !op_matrix4_inverse(to_world, &inv))
         return op_error_set(err, OP_ERR_INPUT, "toWorld is singular or not finite");
     int mirror = det3(to_world) < 0.0;
+    op_v3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
     for (int i = 0; i < m->nverts; i++) {
         double p[3] = {m->pos[3 * i], m->pos[3 * i + 1], m->pos[3 * i + 2]};
         op_matrix4_point(to_world, p, p);
         for (int k = 0; k < 3; k++)
             m->pos[3 * i + k] = (float)p[k];
+        op_v3 q = v3(m->pos[3 * i], m->pos[3 * i + 1], m->pos[3 * i + 2]);
+        if (!isfinite(q.x) || !isfinite(q.y) || !isfinite(q.z))
+            return op_error_set(err, OP_ERR_INPUT, "vertex %d is not finite (%g, %g, %g) in "
+                                "world space", i, p[0], p[1], p[2]);
+        lo = v3(fminf(lo.x, q.x), fminf(lo.y, q.y), fminf(lo.z, q.z));
+        hi = v3(fmaxf(hi.x, q.x), fmaxf(hi.y, q.y), fmaxf(hi.z, q.z));
         if (m->nrm) {
             double n[3] = {m->nrm[3 * i], m->nrm[3 * i + 1], m->nrm[3 * i + 2]};
             op_matrix4_normal(&inv, n, n);
@@ -94,9 +101,11 @@ op_status op_trimesh_finish(op_trimesh *m, const op_matrix4 *to_world, int flip,
         sum += area;
         m->area_cdf[t] = (float)sum;
     }
-    if (!(sum > 0.0))
+    if (!(sum > 0.0) || !((float)sum > 0.0f))
         return op_error_set(err, OP_ERR_INPUT, "the mesh has zero area");
     m->area = (float)sum;
+    m->bmin = lo;
+    m->bmax = hi;
     return OP_OK;
 }
 
@@ -114,6 +123,23 @@ op_status op_placement_make(const op_matrix4 *to_world, int flip, op_placement *
     pl->flip = flip != 0;
     pl->swap = (det3(to_world) < 0.0) != (flip != 0);
     return OP_OK;
+}
+
+void op_placement_bounds(const op_placement *pl, const op_trimesh *m, op_v3 *lo, op_v3 *hi)
+{
+    *lo = v3s(INFINITY);
+    *hi = v3s(-INFINITY);
+    for (int k = 0; k < 8; k++) {
+        op_v3 c = v3(k & 1 ? m->bmax.x : m->bmin.x, k & 2 ? m->bmax.y : m->bmin.y,
+                     k & 4 ? m->bmax.z : m->bmin.z);
+        op_v3 p = op_place_point(pl, c);
+        if (!isfinite(p.x) || !isfinite(p.y) || !isfinite(p.z)) {
+            *lo = *hi = v3s(NAN); /* fails every comparison */
+            return;
+        }
+        *lo = v3(fminf(lo->x, p.x), fminf(lo->y, p.y), fminf(lo->z, p.z));
+        *hi = v3(fmaxf(hi->x, p.x), fmaxf(hi->y, p.y), fmaxf(hi->z, p.z));
+    }
 }
 
 int op_trimesh_pick(const op_trimesh *m, float u)

@@ -19,6 +19,7 @@ typedef struct op_trimesh {
     uint32_t *idx;   /* 3 * ntris + 1 padding */
     float *area_cdf; /* ntris running sums of triangle areas (filled by op_trimesh_finish) */
     float area;
+    op_v3 bmin, bmax; /* the bounds of all vertices (filled by op_trimesh_finish) */
 } op_trimesh;
 
 /* Allocates a mesh of the given size (normals and uvs only when asked); zeroed. */
@@ -28,8 +29,8 @@ void op_trimesh_free(op_trimesh *m);
 /* The bytes m's arrays hold. */
 long long op_trimesh_bytes(const op_trimesh *m);
 /* Transforms positions and normals by to_world (flipping the winding when it mirrors), flips
- * normals and winding when flip is set, then computes the area table. Fails on non-finite or
- * degenerate (zero total area) results. */
+ * normals and winding when flip is set, then computes the bounds and the area table. Fails on
+ * non-finite or degenerate (zero total area) results; m stays the caller's to free either way. */
 op_status op_trimesh_finish(op_trimesh *m, const op_matrix4 *to_world, int flip, op_error *err);
 
 /* The corner positions of triangle t. */
@@ -54,6 +55,8 @@ typedef struct op_placement {
 
 /* Fills pl from to_world and flip; fails when to_world is singular or not finite. */
 op_status op_placement_make(const op_matrix4 *to_world, int flip, op_placement *pl, op_error *err);
+/* The bounds of mesh m (finished) placed by pl; NaN when a corner is not finite. */
+void op_placement_bounds(const op_placement *pl, const op_trimesh *m, op_v3 *lo, op_v3 *hi);
 static inline op_v3 op_place_point(const op_placement *pl, op_v3 p)
 {
     const float *m = pl->m;

@@ -2,6 +2,7 @@
 #include "subsurface.h"
 
 #include <ctype.h>
+#include <float.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -178,16 +179,23 @@ static float wrap(float x, int n)
  * path, R / 15), R the radius holding all but 0.1 % of Rd's integral, so the kernel has at most
  * 31 x 31 offsets; each offset's value is Rd integrated over its pixel (midpoint rule, 8 x 8
  * per pixel, 48 x 48 for the 3 x 3 around the peak), the measured materials' convention. */
-static op_status dipole_table(sss_shape *ss, op_error *err)
+static double dipole_pixel(const op_sss_dipole *d, int *half)
 {
-    const op_sss_dipole *d = &ss->desc->dipole;
     double R = op_sss_dipole_radius(d, 1e-3), mfp = INFINITY;
     for (int c = 0; c < 3; c++)
         mfp = fmin(mfp, 1.0 / (d->sigma_a[c] + d->sigma_sp[c]));
     double px = fmax(mfp, R / 15.0);
-    int half = (int)ceil(R / px - 0.5);
-    if (half < 1)
-        half = 1;
+    *half = (int)ceil(R / px - 0.5);
+    if (*half < 1 || !(px > 0.0) || !isfinite(px))
+        *half = 1;
+    return px;
+}
+
+static op_status dipole_table(sss_shape *ss, op_error *err)
+{
+    const op_sss_dipole *d = &ss->desc->dipole;
+    int half;
+    double px = dipole_pixel(d, &half);
     int K = 2 * half + 1;
     ss->width = ss->height = 1;
     ss->kernel = K;
@@ -214,6 +222,57 @@ static op_status dipole_table(sss_shape *ss, op_error *err)
     return OP_OK;
 }
 
+op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
+{
+    op_v3 ext = v3_sub(scene->bmax, scene->bmin);
+    double extent = fmax(ext.x, fmax(ext.y, ext.z)), total = 0.0;
+    for (int i = 0; i < scene->nshapes; i++) {
+        const op_shape_rec *sh = &scene->shapes[i];
+        if (sh->sss < 0)
+            continue;
+        op_sss_desc *d = &scene->sss[sh->sss];
+        double px, py, size_x = 0.0, size_y = 0.0;
+        if (d->is_dipole) {
+            int half;
+            px = py = dipole_pixel(&d->dipole, &half);
+        } else {
+            const op_material_info *info = op_material_get_info(d->material);
+            size_x = info->size_x_cm;
+            size_y = info->size_y_cm;
+            px = (info->size_x_cm * 0.01 * d->scale) / info->width;
+            py = (info->size_y_cm * 0.01 * d->scale) / info->height;
+        }
+        /* the pre-pass grids cells of at least 2 pixels (the kernel footprint, the
+         * interpolation radius) over the scene, counted in int32: at most 2^30 across; a
+         * pixel's area must be a normal float */
+        if (!(px > 0.0 && py > 0.0 && px <= FLT_MAX && py <= FLT_MAX) ||
+            !((float)px * (float)py >= FLT_MIN) || !((float)px * (float)py <= FLT_MAX) ||
+            !(2.0 * fmax(px, py) * 0x1p30 >= extent))
+            return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: a material pixel of %g x %g "
+                                "scene units (size %g x %g cm, scale %g) is out of range for a "
+                                "scene %g units across in single precision: it must be > 0, finite, "
+                                "and at least 2^-31 of the scene's extent",
+                                sh->label, px, py, size_x, size_y, d->scale, extent);
+        float a_pix = (float)px * (float)py; /* as make_points computes it */
+        double want = (double)sh->mesh.area / a_pix * d->density;
+        if (!isfinite(want))
+            return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
+                                "material pixel's area is not finite", sh->label);
+        if (want > d->max_points)
+            op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
+                   "material pixel; capped at %d (coarser than the material: raise maxPoints or "
+                   "lower scale)", sh->label, want, d->max_points);
+        d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
+        total += d->points;
+        if (total > (double)max_total)
+            return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
+                                "need %.0f irradiance points so far, over the limit of %lld "
+                                "(sss-points; lower maxPoints or raise it with --limit "
+                                "sss-points=VALUE)", sh->label, total, max_total);
+    }
+    return OP_OK;
+}
+
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
                              op_error *err)
 {
@@ -237,12 +296,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         ss->py = (float)(sy / info->height);
     }
     ss->a_pix = ss->px * ss->py;
-    double want = (double)m->area / ss->a_pix * ss->desc->density;
-    int n = want < 1.0 ? 1 : (want > ss->desc->max_points ? ss->desc->max_points : (int)ceil(want));
-    if (want > ss->desc->max_points)
-        op_log(OP_LOG_WARN, "%s: subsurface needs %.0f irradiance points for one per material "
-               "pixel; capped at %d (coarser than the material: raise maxPoints or lower scale)",
-               sh->label, want, ss->desc->max_points);
+    int n = ss->desc->points; /* op_sss_plan */
     ss->n = n;
     ss->a_i = m->area / (float)n;
     ss->spacing = sqrtf(ss->a_i);

@@ -24,11 +24,15 @@ typedef struct tex_entry {
 struct op_tex_cache {
     tex_entry **entries; /* each allocated alone, so that textures' pointers stay valid */
     int n, cap;
+    long long max_pixels;
 };
 
-op_tex_cache *op_tex_cache_new(void)
+op_tex_cache *op_tex_cache_new(long long max_pixels)
 {
-    return calloc(1, sizeof(op_tex_cache));
+    op_tex_cache *c = calloc(1, sizeof(op_tex_cache));
+    if (c)
+        c->max_pixels = max_pixels;
+    return c;
 }
 
 void op_tex_cache_free(op_tex_cache *c)
@@ -94,7 +98,7 @@ static op_status cache_get(op_tex_cache *c, const op_node *node, const char *pat
     }
     op_image raw;
     int encoded = 0;
-    op_status st = op_image_read_stored(path, &raw, &encoded, err);
+    op_status st = op_image_read_limited(path, 0, (uint64_t)c->max_pixels, &raw, &encoded, err);
     if (st) {
         if (st == OP_ERR_IO && access(path, F_OK) != 0 && err)
             err->status = OP_ERR_INPUT; /* a missing file is a fault of the scene (exit 2) */

@@ -37,7 +37,7 @@ typedef struct op_texture {
 typedef struct op_tex_cache op_tex_cache;
 
 /* NULL when out of memory. */
-op_tex_cache *op_tex_cache_new(void);
+op_tex_cache *op_tex_cache_new(long long max_pixels); /* images over max_pixels are refused */
 /* Frees the cache and its images. Accepts NULL. */
 void op_tex_cache_free(op_tex_cache *c);
 /* How many images the cache holds (how many files were read). */

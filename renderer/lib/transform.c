@@ -151,7 +151,8 @@ int op_matrix4_inverse(const op_matrix4 *a, op_matrix4 *out)
         for (int j = 0; j < 4; j++) {
             w[i][j] = a->m[i][j];
             w[i][j + 4] = i == j;
-            scale = fmax(scale, fabs(a->m[i][j]));
+            if (j < 3 || i == 3) /* a translation, however far, does not make it singular */
+                scale = fmax(scale, fabs(a->m[i][j]));
         }
     if (scale == 0.0)
         return 0;

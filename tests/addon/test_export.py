@@ -623,6 +623,34 @@ class TestCheck(Base):
         self.export()
         S.check_xml(self, self.xml)
 
+    def test_check_dollar_in_paths(self):
+        """A `$` in a path the exporter writes (here a material file in a folder named
+        'ma$terials', itself named 'm$a.opm') is written `$$`, so opaline-render reads it back as
+        the path instead of as a $parameter."""
+        S.need_renderer(self)
+        presets = S.presets_dir()
+        if presets is None or not os.path.isfile(os.path.join(presets, "SVD_S10_Chess4x4.opm")):
+            self.skipTest("the SVD_S10_Chess4x4 preset is not built (OPALINE_PRESETS_DIR)")
+        folder = os.path.join(self.dir, "ma$terials")
+        os.makedirs(folder)
+        opm = os.path.join(folder, "m$a.opm")
+        os.symlink(os.path.join(presets, "SVD_S10_Chess4x4.opm"), opm)
+        S.add_camera((0, 0, 5))
+        S.add_light('SUN', (0, 0, 5))
+        mat = bpy.data.materials.new("m$a")
+        mat.opaline.enabled = True
+        mat.opaline.kind = 'FILE'
+        mat.opaline.filepath = opm
+        S.add_mesh("m$a", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], mat)
+        root = self.export()
+        subs = list(root.iter("subsurface"))
+        self.assertEqual(len(subs), 1)
+        self.assertEqual(value(subs[0], "string", "material"), opm.replace("$", "$$"))
+        for el in root.iter():
+            for k, v in el.attrib.items():
+                self.assertNotIn("$", v.replace("$$", ""), "<%s %s=%r>" % (el.tag, k, v))
+        S.check_xml(self, self.xml)
+
 
 if __name__ == "__main__":
     S.run_tests(TestRegistration, TestConversions, TestCamera, TestLights, TestMeshes,

@@ -320,7 +320,7 @@ static void defaults_and_overrides(void **state)
     OP_ASSERT_OK(op_node_int(root->children[0], "sampleCount", 0, &spp, &err), err);
     assert_int_equal(spp, 16);
     OP_ASSERT_OK(op_node_string(root->children[0], "label", NULL, &label, &err), err);
-    assert_string_equal(label, "a-x-b $$ $1");
+    assert_string_equal(label, "a-x-b $ $1"); /* $$ is one literal $ */
     op_desc_free(root);
 
     const op_define defs[2] = {{"spp", "64"}, {"name", "with space"}};
@@ -328,7 +328,7 @@ static void defaults_and_overrides(void **state)
     OP_ASSERT_OK(op_node_int(root->children[0], "sampleCount", 0, &spp, &err), err);
     assert_int_equal(spp, 64);
     OP_ASSERT_OK(op_node_string(root->children[0], "label", NULL, &label, &err), err);
-    assert_string_equal(label, "a-with space-b $$ $1");
+    assert_string_equal(label, "a-with space-b $ $1");
     op_desc_free(root);
 
     /* An undefined parameter is an error naming it. */

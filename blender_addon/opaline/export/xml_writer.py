@@ -3,7 +3,8 @@
 Elements are built as a tree of `Element` objects and serialized with two-space indentation.
 Numbers are written with `fmt()`, which keeps nine significant digits (enough for float32
 round-trips) and never writes exponents for ordinary scene values; attribute values are
-escaped. The writer knows nothing of Blender, so it can be tested on its own.
+escaped, for XML and for opaline's `$name` parameters (`attr_value`). The writer knows nothing
+of Blender, so it can be tested on its own.
 """
 
 from xml.sax.saxutils import quoteattr
@@ -22,6 +23,12 @@ def fmt(x):
         return "0"
     s = "%.9g" % v
     return s
+
+
+def attr_value(v):
+    """v as an attribute value that opaline-render reads back as v: a `$` there starts a
+    $parameter, so a literal one is written `$$` (docs/scene-format.md); quoted for XML."""
+    return quoteattr(str(v).replace("$", "$$"))
 
 
 def fmt_list(values, sep=", "):
@@ -71,7 +78,7 @@ class Element:
         pad = "    " * depth
         if self.comment:
             out.append("%s<!-- %s -->" % (pad, self.comment.replace("--", "- -")))
-        attrs = "".join(" %s=%s" % (k, quoteattr(str(v))) for k, v in self.attrs)
+        attrs = "".join(" %s=%s" % (k, attr_value(v)) for k, v in self.attrs)
         if not self.children:
             out.append("%s<%s%s/>" % (pad, self.tag, attrs))
             return

@@ -1,0 +1,137 @@
+#!/usr/bin/env bash
+# Bad scenes and resource bombs through opaline-render (issue 14): `--check` and rendering agree
+# on a camera or light too far for single precision (exit 2 naming the line, never Embree's
+# abort), an attribute with 20000 entity references is refused in well under 2 s, a PNG whose
+# header says 16384 x 16384 is refused before decoding, `--limit` raises and lowers a limit,
+# and `$$` reaches a file with a `$` in its name. Needs the built opaline-render and python3.
+set -euo pipefail
+BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
+R="$BIN/opaline-render"
+[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
+command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_scene.XXXXXX")
+trap 'rm -rf "$T"' EXIT
+
+fail() { echo "FAIL: $*"; exit 1; }
+
+# expect CODE WORDS -- ARGS...: runs opaline-render ARGS, checks the exit code and that stderr
+# holds WORDS (a fixed string), and that it took less than 2 s.
+expect() {
+  local code=$1 words=$2
+  shift 3
+  local t0 t1 rc=0
+  t0=$(date +%s%N)
+  "$R" -q "$@" >"$T/out" 2>"$T/err" || rc=$?
+  t1=$(date +%s%N)
+  [ "$rc" = "$code" ] || { cat "$T/err"; fail "opaline-render $*: exit $rc, expected $code"; }
+  grep -qF -- "$words" "$T/err" || { cat "$T/err"; fail "opaline-render $*: no '$words'"; }
+  local ms=$(( (t1 - t0) / 1000000 ))
+  [ "$ms" -lt 2000 ] || fail "opaline-render $*: took $ms ms"
+  echo "ok: exit $rc in $ms ms: $(head -c 200 "$T/err")"
+}
+
+head='<scene version="0.6.0">
+<integrator type="path"><integer name="maxDepth" value="2"/></integrator>
+<shape type="sphere"/>'
+film='<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+<sampler type="independent"><integer name="sampleCount" value="1"/></sampler>'
+
+# a camera at x = 1e19 (line 4): refused by --check and by rendering alike
+cat > "$T/far_camera.xml" <<XML
+$head
+<sensor type="perspective">
+  <transform name="toWorld"><translate x="1e19"/></transform>
+  $film
+</sensor>
+<emitter type="constant"/>
+</scene>
+XML
+for mode in --check render; do
+  args=("$T/far_camera.xml"); [ "$mode" = render ] && args+=(-o "$T/far.exr") || args+=(--check)
+  expect 2 "far_camera.xml:4: <sensor type=\"perspective\">: the camera's position (1e+19, 0, 0) is beyond the coordinate limit" -- "${args[@]}"
+done
+[ ! -e "$T/far.exr" ] || fail "an image was written for a refused scene"
+
+# a point light at 1e39 (line 9)
+cat > "$T/far_light.xml" <<XML
+$head
+<sensor type="perspective">
+  <transform name="toWorld"><lookat origin="0,0,-4" target="0,0,0"/></transform>
+  $film
+</sensor>
+<emitter type="point"><point name="position" x="0" y="1e39" z="0"/></emitter>
+</scene>
+XML
+expect 2 "far_light.xml:9: <emitter type=\"point\">: the light's position" -- "$T/far_light.xml" --check
+expect 2 "far_light.xml:9: <emitter type=\"point\">: the light's position" -- "$T/far_light.xml" -o "$T/l.exr"
+# raising the limit far enough is not possible: 1e39 is not even a float
+expect 2 "coordinate limit of 1e+15" -- "$T/far_light.xml" --check --limit coordinate=1e15
+
+# a shape at 2e7 is beyond the default; --limit coordinate=1e8 lets it render
+cat > "$T/far_shape.xml" <<XML
+<scene version="0.6.0">
+<sensor type="perspective">
+  <transform name="toWorld"><lookat origin="2e7,0,-400" target="2e7,0,0"/></transform>
+  $film
+</sensor>
+<shape type="rectangle"><transform name="toWorld"><scale value="100"/><translate x="2e7"/></transform></shape>
+<emitter type="constant"/>
+</scene>
+XML
+expect 2 "far_shape.xml:2: <sensor type=\"perspective\">: the camera's position (2e+07, 0, -400)" -- "$T/far_shape.xml" --check
+"$R" -q "$T/far_shape.xml" --limit coordinate=1e8 -o "$T/shape.pfm" || fail "raised coordinate limit: render failed"
+[ -s "$T/shape.pfm" ] || fail "raised coordinate limit: no image"
+expect 2 "expected NAME=VALUE with NAME one of coordinate, image-pixels, kernel, sss-points" -- "$T/far_shape.xml" --check --limit radius=3
+expect 2 "limit coordinate: 'x' is not a number" -- "$T/far_shape.xml" --check --limit coordinate=x
+
+# 20000 references to a 500-character entity in one attribute (60 KB): refused at once
+python3 - "$T/entity.xml" <<'PY'
+import sys
+refs = "&a;" * 20000
+open(sys.argv[1], "w").write('<?xml version="1.0"?>\n<!DOCTYPE scene [<!ENTITY a "%s">]>\n'
+    '<scene version="0.6.0">\n<shape type="sphere" id="%s"/>\n</scene>\n' % ("x" * 500, refs))
+PY
+expect 2 "entity.xml:4: <shape type=\"sphere\" id=\"&...;\">: attribute id: entity references (&name;) are not supported" -- "$T/entity.xml" --check
+
+# a 16384 x 16384 PNG of a few KB (1-bit grey, all zero): refused from its header
+python3 - "$T/bomb.png" "$T/small.png" <<'PY'
+import struct, sys, zlib
+def png(path, w, h, depth, colour, row_bytes):
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
+    raw = (b"\0" + b"\0" * row_bytes) * h
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, colour, 0, 0, 0))
+                + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+png(sys.argv[1], 16384, 16384, 1, 0, 2048)
+png(sys.argv[2], 64, 32, 8, 2, 64 * 3)
+PY
+[ "$(stat -c %s "$T/bomb.png")" -lt 200000 ] || fail "the bomb PNG is not small"
+for img in bomb small; do
+cat > "$T/$img.xml" <<XML
+<scene version="0.6.0">
+<sensor type="perspective">
+  <transform name="toWorld"><lookat origin="0,0,-4" target="0,0,0"/></transform>
+  $film
+</sensor>
+<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+  <string name="filename" value="$img.png"/></texture></bsdf></shape>
+<emitter type="constant"/>
+</scene>
+XML
+done
+expect 2 "bomb.png: PNG image of 16384 x 16384 = 268435456 pixels is over the limit of 134217728 pixels (image-pixels)" -- "$T/bomb.xml" --check
+expect 2 "small.png: PNG image of 64 x 32 = 2048 pixels is over the limit of 2047 pixels" -- "$T/small.xml" --check --limit image-pixels=2047
+"$R" -q "$T/small.xml" --check --limit image-pixels=2048 || fail "image-pixels=2048: refused"
+
+# $$ is a literal $: m$a.obj is reached as m$$a.obj
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' > "$T/m\$a.obj"
+cat > "$T/dollar.xml" <<'XML'
+<scene version="0.6.0">
+<shape type="obj"><string name="filename" value="m$$a.obj"/></shape>
+</scene>
+XML
+"$R" -q "$T/dollar.xml" --check || fail "m\$\$a.obj was not found"
+sed -i 's/m\$\$a/m$a/' "$T/dollar.xml"
+expect 2 "dollar.xml:2: <string name=\"filename\">: attribute value: undefined parameter '\$a'" -- "$T/dollar.xml" --check
+echo "all robust scene checks passed"
