@@ -31,10 +31,17 @@ if(OPALINE_BUILD_TESTS)
   opaline_require_pkg(OP_CMOCKA cmocka libcmocka-dev)
 endif()
 
-find_package(embree 3.13 QUIET CONFIG)
+# Embree 4 (Debian 13 and later) or Embree 3 (Debian 12): the renderer's one acceleration module
+# (renderer/lib/accel.c) adapts to either through OPALINE_EMBREE_MAJOR.
+find_package(embree 4 QUIET CONFIG)
 if(NOT embree_FOUND)
-  message(FATAL_ERROR "opaline needs Embree 3: install the Debian package 'libembree-dev'")
+  find_package(embree 3.13 QUIET CONFIG)
 endif()
+if(NOT embree_FOUND)
+  message(FATAL_ERROR "opaline needs Embree 3.13 or 4: install the Debian package 'libembree-dev'")
+endif()
+string(REGEX MATCH "^[0-9]+" OPALINE_EMBREE_MAJOR "${embree_VERSION}")
+message(STATUS "opaline: Embree ${embree_VERSION}")
 
 find_package(Threads REQUIRED)
 find_library(OP_LIBM m REQUIRED)
