@@ -22,8 +22,11 @@ find_library(OP_OPENEXR_CORE_LIBRARY NAMES OpenEXRCore OpenEXRCore-3_1)
 if(NOT OP_OPENEXR_INCLUDE_DIR OR NOT OP_OPENEXR_CORE_LIBRARY)
   message(FATAL_ERROR "opaline needs OpenEXR's C API: install the Debian package 'libopenexr-dev'")
 endif()
+# OpenEXR 3.2+ (Debian sid) has openexr_config.h include Imath's ImathConfig.h.
+find_path(OP_IMATH_INCLUDE_DIR ImathConfig.h PATH_SUFFIXES Imath)
 add_library(op_openexr_core INTERFACE)
-target_include_directories(op_openexr_core INTERFACE ${OP_OPENEXR_INCLUDE_DIR})
+target_include_directories(op_openexr_core INTERFACE ${OP_OPENEXR_INCLUDE_DIR}
+                           $<$<BOOL:${OP_IMATH_INCLUDE_DIR}>:${OP_IMATH_INCLUDE_DIR}>)
 target_link_libraries(op_openexr_core INTERFACE ${OP_OPENEXR_CORE_LIBRARY})
 opaline_require_pkg(OP_LIBPNG libpng libpng-dev)
 opaline_require_pkg(OP_ZLIB zlib zlib1g-dev)
