@@ -22,8 +22,11 @@ find_library(OP_OPENEXR_CORE_LIBRARY NAMES OpenEXRCore OpenEXRCore-3_1)
 if(NOT OP_OPENEXR_INCLUDE_DIR OR NOT OP_OPENEXR_CORE_LIBRARY)
   message(FATAL_ERROR "opaline needs OpenEXR's C API: install the Debian package 'libopenexr-dev'")
 endif()
+# OpenEXR 3.2+ (Debian sid) has openexr_config.h include Imath's ImathConfig.h.
+find_path(OP_IMATH_INCLUDE_DIR ImathConfig.h PATH_SUFFIXES Imath)
 add_library(op_openexr_core INTERFACE)
-target_include_directories(op_openexr_core INTERFACE ${OP_OPENEXR_INCLUDE_DIR})
+target_include_directories(op_openexr_core INTERFACE ${OP_OPENEXR_INCLUDE_DIR}
+                           $<$<BOOL:${OP_IMATH_INCLUDE_DIR}>:${OP_IMATH_INCLUDE_DIR}>)
 target_link_libraries(op_openexr_core INTERFACE ${OP_OPENEXR_CORE_LIBRARY})
 opaline_require_pkg(OP_LIBPNG libpng libpng-dev)
 opaline_require_pkg(OP_ZLIB zlib zlib1g-dev)
@@ -31,10 +34,17 @@ if(OPALINE_BUILD_TESTS)
   opaline_require_pkg(OP_CMOCKA cmocka libcmocka-dev)
 endif()
 
-find_package(embree 3.13 QUIET CONFIG)
+# Embree 4 (Debian 13 and later) or Embree 3 (Debian 12): the renderer's one acceleration module
+# (renderer/lib/accel.c) adapts to either through OPALINE_EMBREE_MAJOR.
+find_package(embree 4 QUIET CONFIG)
 if(NOT embree_FOUND)
-  message(FATAL_ERROR "opaline needs Embree 3: install the Debian package 'libembree-dev'")
+  find_package(embree 3.13 QUIET CONFIG)
 endif()
+if(NOT embree_FOUND)
+  message(FATAL_ERROR "opaline needs Embree 3.13 or 4: install the Debian package 'libembree-dev'")
+endif()
+string(REGEX MATCH "^[0-9]+" OPALINE_EMBREE_MAJOR "${embree_VERSION}")
+message(STATUS "opaline: Embree ${embree_VERSION}")
 
 find_package(Threads REQUIRED)
 find_library(OP_LIBM m REQUIRED)

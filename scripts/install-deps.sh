@@ -1,20 +1,37 @@
 #!/usr/bin/env bash
-# Installs the Debian packages opaline builds, tests and runs with. Idempotent:
-# does nothing when every package is already installed. Runs as root or via sudo.
+# Installs the Debian packages opaline builds, tests and runs with. Idempotent: does nothing
+# when every package is already installed. Runs as root or via sudo. Works on Debian 12, 13 and
+# sid (the same names everywhere).
+#
+#   install-deps.sh                 what the build, the demo and the tests need
+#   install-deps.sh --bench         also what the benchmarks compare against (bench/)
+#   install-deps.sh --print GROUP   prints a group's packages, one a line, and installs nothing
+#
+# Groups: core (build, run, add-on tests), fuzz (clang's libFuzzer, left out when
+# OPALINE_FUZZ_SECONDS=0), platforms (debootstrap, for the Debian 13 / sid test runs; left out
+# when OPALINE_PLATFORMS=none), bench.
 set -euo pipefail
 
-packages=(
-  build-essential cmake pkg-config
-  libembree-dev liblapacke-dev libopenblas-dev libxml2-dev libcmocka-dev
-  libopenexr-dev libpng-dev zlib1g-dev
-  blender python3
-  clang libclang-rt-14-dev
-)
-# --bench adds what the benchmarks compare against (bench/): scikit-learn, plots, Embree's
-# own path tracer.
-if [ "${1:-}" = --bench ]; then
-  packages+=(python3-numpy python3-sklearn python3-matplotlib embree-tools)
+group() {
+  case $1 in
+    core) echo build-essential cmake pkg-config libembree-dev liblapacke-dev libopenblas-dev \
+               libxml2-dev libcmocka-dev libopenexr-dev libpng-dev zlib1g-dev blender python3 ;;
+    fuzz) echo clang libclang-rt-dev ;;
+    platforms) echo debootstrap ;;
+    bench) echo python3-numpy python3-sklearn python3-matplotlib embree-tools ;;
+    *) echo "install-deps.sh: unknown group '$1' (core, fuzz, platforms, bench)" >&2; return 2 ;;
+  esac
+}
+
+if [ "${1:-}" = --print ]; then
+  group "${2:-core}" | tr ' ' '\n'
+  exit 0
 fi
+
+packages=($(group core))
+[ "${OPALINE_FUZZ_SECONDS:-30}" = 0 ] || packages+=($(group fuzz))
+[ "${OPALINE_PLATFORMS:-}" = none ] || packages+=($(group platforms))
+[ "${1:-}" = --bench ] && packages+=($(group bench))
 
 missing=()
 for p in "${packages[@]}"; do

@@ -3,7 +3,7 @@
 # errors, and runs the whole test suite (cmocka, end-to-end, Blender add-on) through ctest.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-build="$root/build-test"
+build=${OPALINE_BUILD_DIR:-$root/build-test}
 
 bash "$root/scripts/install-deps.sh"
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_SANITIZE=ON \
@@ -21,4 +21,23 @@ if [ "$seconds" != 0 ] && [ $# -eq 0 ]; then
     -DOPALINE_FUZZ_SECONDS="$seconds" >/dev/null
   cmake --build "$fuzz" --parallel "$(nproc)" --target opaline_fuzz_targets
   (cd "$fuzz" && ctest --output-on-failure --parallel "$(nproc)" -R '^fuzz\.')
+fi
+
+# The same suite on Debian 13 (Embree 4, Blender 4.3) and Debian sid (the newest Blender), each
+# in a cached chroot made by scripts/debian-chroot.sh; OPALINE_PLATFORMS picks the suites
+# ("none" skips). A suite that cannot be made here (no root, no registry, sid's packages not
+# installable today) is reported and skipped; one that runs must pass.
+platforms=${OPALINE_PLATFORMS-trixie sid}
+if [ "$platforms" != none ] && [ $# -eq 0 ]; then
+  for suite in $platforms; do
+    echo "== opaline tests on Debian $suite =="
+    rc=0
+    bash "$root/scripts/debian-chroot.sh" "$suite" \
+      env OPALINE_BUILD_DIR=/root/build-test bash /opaline/scripts/test.sh || rc=$?
+    case $rc in
+      0) echo "== Debian $suite: all tests passed ==" ;;
+      77) echo "== Debian $suite: skipped (see above) ==" ;;
+      *) echo "== Debian $suite: FAILED (exit $rc) =="; exit "$rc" ;;
+    esac
+  done
 fi

@@ -94,6 +94,11 @@ def get(context=None):
     if addons is None:
         return None
     entry = addons.get(ADDON_ID)
+    if entry is None:
+        # this module imported under another name than the registered add-on's (batch.py run
+        # as a script while the add-on is installed as the extension bl_ext.<repo>.opaline)
+        entry = next((addons[k] for k in addons.keys()
+                      if k == "opaline" or k.endswith(".opaline")), None)
     return entry.preferences if entry is not None else None
 
 

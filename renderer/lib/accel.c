@@ -1,7 +1,38 @@
-/* accel.c - Embree 3 acceleration structure (see accel.h). */
+/* accel.c - the Embree acceleration structure (see accel.h), for Embree 3 or 4: the build
+ * defines OPALINE_EMBREE_MAJOR, and the two differences that matter here (the header, and the
+ * intersection context of Embree 3 against the optional arguments of Embree 4) stay in this
+ * file's first lines. */
 #include "accel.h"
 
+#if OPALINE_EMBREE_MAJOR >= 4
+#include <embree4/rtcore.h>
+/* Embree 4: the default arguments (no filter, coherent flags off) match Embree 3's default
+ * context. */
+static void rtc_intersect(RTCScene s, struct RTCRayHit *rh)
+{
+    rtcIntersect1(s, rh, NULL);
+}
+static void rtc_occluded(RTCScene s, struct RTCRay *r)
+{
+    rtcOccluded1(s, r, NULL);
+}
+#elif OPALINE_EMBREE_MAJOR == 3
 #include <embree3/rtcore.h>
+static void rtc_intersect(RTCScene s, struct RTCRayHit *rh)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    rtcIntersect1(s, &ctx, rh);
+}
+static void rtc_occluded(RTCScene s, struct RTCRay *r)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    rtcOccluded1(s, &ctx, r);
+}
+#else
+#error "OPALINE_EMBREE_MAJOR must be 3 or 4 (set by cmake/OpalineDependencies.cmake)"
+#endif
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -154,8 +185,6 @@ int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, floa
 {
     if (!ray_ok(org, dir, tmin, tmax))
         return 0; /* no hit */
-    struct RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
     rh.ray.org_x = org.x;
     rh.ray.org_y = org.y;
@@ -171,7 +200,7 @@ int op_accel_intersect(const op_accel *a, op_v3 org, op_v3 dir, float tmin, floa
     rh.ray.flags = 0;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(a->scene, &ctx, &rh);
+    rtc_intersect(a->scene, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
         return 0;
     hit->t = rh.ray.tfar;
@@ -193,8 +222,6 @@ int op_accel_occluded(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float
 {
     if (!ray_ok(org, dir, tmin, tmax))
         return 1; /* blocked: no light arrives along a ray that cannot be traced */
-    struct RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     struct RTCRay r;
     r.org_x = org.x;
     r.org_y = org.y;
@@ -208,6 +235,6 @@ int op_accel_occluded(const op_accel *a, op_v3 org, op_v3 dir, float tmin, float
     r.mask = 0xFFFFFFFFu;
     r.id = 0;
     r.flags = 0;
-    rtcOccluded1(a->scene, &ctx, &r);
+    rtc_occluded(a->scene, &r);
     return r.tfar < 0.0f;
 }

@@ -101,6 +101,13 @@ def diffuse_material(name, rgb):
     return mat
 
 
+def set_specular(principled, value):
+    """Sets a Principled BSDF's specular amount: 'Specular' before Blender 4.0, 'Specular IOR
+    Level' since (both 0.5 by default, 0 for no specular layer)."""
+    sock = principled.inputs.get("Specular IOR Level") or principled.inputs["Specular"]
+    sock.default_value = value
+
+
 def add_mesh(name, verts, faces, mat=None, location=(0, 0, 0)):
     me = bpy.data.meshes.new(name)
     me.from_pydata(verts, [], faces)

@@ -71,7 +71,8 @@ class Base(unittest.TestCase):
 
 class TestRegistration(Base):
     def test_registered(self):
-        self.assertIn("OPALINE", [e.bl_idname for e in bpy.types.RenderEngine.__subclasses__()])
+        self.assertIn("OPALINE", [getattr(e, "bl_idname", None)
+                                  for e in bpy.types.RenderEngine.__subclasses__()])
         self.assertTrue(hasattr(bpy.types, "MATERIAL_PT_opaline_subsurface"))
         self.assertTrue(hasattr(bpy.ops.export_scene, "opaline"))
         p = S.prefs()
@@ -273,6 +274,15 @@ class TestLights(Base):
         bg.inputs[1].default_value = 2.5
         (e,) = self.emitters("constant")
         self.assertClose(value(e, "rgb", "radiance"), [0.5, 1.0, 1.5])
+        if bpy.app.version >= (5, 0, 0):
+            # 5.0 deprecated world.use_nodes: the Background node is what renders
+            bg.inputs[0].default_value = (0.1, 0.2, 0.3, 1.0)
+            bg.inputs[1].default_value = 1.0
+            (e,) = self.emitters("constant")
+            self.assertClose(value(e, "rgb", "radiance"), [0.1, 0.2, 0.3])
+            bg.inputs[1].default_value = 0.0
+            self.assertEqual(self.emitters("constant"), [])
+            return
         self.sc.world.use_nodes = False
         self.sc.world.color = (0.1, 0.2, 0.3)
         (e,) = self.emitters("constant")

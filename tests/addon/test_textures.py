@@ -69,7 +69,7 @@ def textured_plane(img, principled=False, extension='REPEAT', interpolation='Clo
     nt.nodes.clear()
     if principled:
         b = nt.nodes.new("ShaderNodeBsdfPrincipled")
-        b.inputs["Specular"].default_value = 0.0
+        S.set_specular(b, 0.0)
         sock = b.inputs["Base Color"]
     else:
         b = nt.nodes.new("ShaderNodeBsdfDiffuse")
@@ -192,8 +192,7 @@ class TestTextureExport(unittest.TestCase):
         self.sc = S.empty_scene((RES, RES))
         S.add_camera((0.0, 0.0, 4.0))
         ob = textured_plane(make_image("r"), principled=True)
-        ob.data.materials[0].node_tree.nodes["Principled BSDF"].inputs["Specular"] \
-            .default_value = 0.5
+        S.set_specular(ob.data.materials[0].node_tree.nodes["Principled BSDF"], 0.5)
         root = self.export()
         self.assertEqual(texture_el(root).get("name"), "diffuseReflectance")
         S.check_xml(self, self.xml)

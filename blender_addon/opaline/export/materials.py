@@ -25,6 +25,7 @@ import os
 
 from . import textures as textures_mod
 from .xml_writer import Element
+from .. import compat
 from ..errors import OpalineError
 
 DEFAULT_GREY = (0.8, 0.8, 0.8)
@@ -66,7 +67,7 @@ def _reflectance(b, param, node, names, warn, label, textures):
 
 
 def _surface_node(mat):
-    if not mat.use_nodes or mat.node_tree is None:
+    if not compat.uses_nodes(mat):
         return None
     out = None
     for n in mat.node_tree.nodes:
@@ -86,10 +87,22 @@ def _surface_node(mat):
     return node
 
 
-def ior_from_specular(specular):
-    """Principled 'Specular' (F0 = 0.08 * specular at normal incidence) -> index of refraction."""
-    f0 = min(max(0.08 * specular, 0.0), 0.999)
-    s = math.sqrt(f0)
+def principled_f0(node, warn, label):
+    """Normal-incidence reflectance F0 of a Principled BSDF's dielectric layer: Blender 3.x
+    'Specular' s gives F0 = 0.08 s; Blender 4.0+ (Principled v2) gives F0 from 'IOR' scaled by
+    2 x 'Specular IOR Level' (0.5 leaves the IOR's own F0)."""
+    level = node.inputs.get("Specular IOR Level")
+    if level is not None:
+        ior = float(_input(node, ["IOR"], warn, label) or 1.5)
+        lev = float(_input(node, ["Specular IOR Level"], warn, label))
+        return ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * lev
+    spec = _input(node, ["Specular"], warn, label)
+    return 0.08 * (0.5 if spec is None else float(spec))
+
+
+def ior_from_f0(f0):
+    """The index of refraction whose normal-incidence Fresnel reflectance is f0."""
+    s = math.sqrt(min(max(f0, 0.0), 0.999))
     return (1.0 + s) / (1.0 - s)
 
 
@@ -133,8 +146,7 @@ def bsdf_for(mat, warn, textures=None):
         rough = float(_input(node, ["Roughness"], warn, label))
         trans = float(_input(node, ["Transmission", "Transmission Weight"], warn, label) or 0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
-        spec = _input(node, ["Specular", "Specular IOR Level"], warn, label)
-        spec = 0.5 if spec is None else float(spec)
+        f0 = principled_f0(node, warn, label)
         if trans >= 0.5:
             return _dielectric(ior, rough, warn, label), None
         if metallic >= 0.5:
@@ -148,14 +160,14 @@ def bsdf_for(mat, warn, textures=None):
             b.string("material", "none")
             b.rgb("specularReflectance", base)
             return _twosided(b), None
-        if spec <= 1e-4:
+        if f0 <= 8e-6:
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
             return _twosided(b), None
         b = Element("bsdf", {"type": "roughplastic"})
         b.string("distribution", "ggx")
         b.float("alpha", max(rough * rough, 1e-4))
-        b.float("intIOR", ior_from_specular(spec))
+        b.float("intIOR", ior_from_f0(f0))
         _reflectance(b, "diffuseReflectance", node, ["Base Color"], warn, label, textures)
         return _twosided(b), None
     if kind == "ShaderNodeEmission":

@@ -23,6 +23,7 @@ from . import materials as materials_mod
 from . import meshes as meshes_mod
 from . import textures as textures_mod
 from .xml_writer import Element, scene_element, serialize, transform_matrix, write_file
+from .. import compat
 from ..errors import OpalineError
 
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
@@ -90,7 +91,7 @@ def world_radiance(world, warn):
     if world is None:
         return None
     col, strength = (world.color[0], world.color[1], world.color[2]), 1.0
-    if world.use_nodes and world.node_tree is not None:
+    if compat.uses_nodes(world):
         out = None
         for n in world.node_tree.nodes:
             if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output:
