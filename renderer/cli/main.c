@@ -226,14 +226,14 @@ static int write_partial(const op_scene *scene, const op_image *img, const op_re
     for (int i = 0; i < n; i++) {
         char part[4096];
         if (!beside || rs->tiles_done == 0) {
-            op_log(OP_LOG_WARN, "%s %s: %s left as it was", what, when, outputs[i]);
+            op_log(OP_LOG_WARN, "%s %s: %s not written", what, when, outputs[i]);
         } else if (!partial_name(outputs[i], part, sizeof part)) {
             op_log(OP_LOG_ERROR, "%s: the name is too long for its partial image", outputs[i]);
             if (code == 0)
                 code = op_exit_code(OP_ERR_IO);
         } else {
-            op_log(OP_LOG_WARN, "%s %s: %s left as it was, the finished tiles go to %s", what,
-                   when, outputs[i], part);
+            op_log(OP_LOG_WARN, "%s %s: %s not written, the finished tiles go to %s", what, when,
+                   outputs[i], part);
             const char *p = part;
             code = write_images(scene, img, &p, 1, code);
         }
