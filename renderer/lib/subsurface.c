@@ -398,7 +398,8 @@ static void scatter_task(void *user, int task, int thread)
     int cap = 0, nrec = 0;
     int *rec = NULL;
     float *val = NULL;
-    for (int i = first; i < last; i++) {
+    int i;
+    for (i = first; i < last; i++) {
         if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
             break; /* the pass returns OP_ERR_CANCELLED; this chunk's sum is dropped */
         const sss_point *s = &ss->pts[i];
@@ -459,7 +460,7 @@ static void scatter_task(void *user, int task, int thread)
     }
     free(rec);
     free(val);
-    op_progress_advance(job->prog, (uint64_t)(last - first));
+    op_progress_advance(job->prog, (uint64_t)(i - first));
 }
 
 /* One translucent hit of a camera segment: the shape, the point, and the length one radian of
@@ -605,15 +606,18 @@ static op_status irradiance_pass(build_job *job, const op_sss_build_options *opt
  * per-thread kernel rows (job->rows) live for exactly the duration of this call, whatever it
  * returns; on an error or cancellation the receivers' M is incomplete and the caller drops the
  * cache. */
-static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, uint64_t nsrc,
-                              op_error *err)
+static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
 {
     op_sss_cache *c = job->cache;
     int threads = op_parallel_threads(opt->threads);
     if (!(job->rows = calloc((size_t)threads, sizeof *job->rows)))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_status st = OP_OK;
-    job->prog = op_progress_begin("subsurface", nsrc, opt->progress, opt->progress_user);
+    uint64_t npts = 0; /* scatter_task runs over all the points of the shapes it scatters */
+    for (int s = 0; s < c->n; s++)
+        if (c->shapes[s].nrecv > 0 && c->shapes[s].nsrc > 0)
+            npts += (uint64_t)c->shapes[s].n;
+    job->prog = op_progress_begin("subsurface", npts, opt->progress, opt->progress_user);
     for (int s = 0; st == OP_OK && s < c->n; s++) {
         sss_shape *ss = &c->shapes[s];
         if (ss->nrecv == 0 || ss->nsrc == 0)
@@ -778,7 +782,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
             st = irradiance_pass(&job, opt, (int)total, nsrc, err);
         t1 = now_s();
         if (st == OP_OK)
-            st = scatter_pass(&job, opt, nsrc, err);
+            st = scatter_pass(&job, opt, err);
     }
     free(job.task_shape);
     free(job.task_first);
