@@ -22,18 +22,21 @@ static void on_cancel_signal(int sig)
 }
 
 /* SIGINT, SIGTERM and SIGHUP cancel: the render stops cleanly and main exits 130. The same
- * signal a second time ends the process at once (the default action). SIGPIPE is ignored, so a
- * closed stdout is a write error of the tile stream (exit 1), not a silent death. */
+ * signal a second time ends the process at once (the default action). A signal ignored when
+ * the program starts (nohup's SIGHUP, SIGINT in a shell's background job) stays ignored, as it
+ * would without a handler. SIGPIPE is ignored, so a closed stdout is a write error of the tile
+ * stream (exit 1), not a silent death. */
 static void install_signal_handlers(void)
 {
-    struct sigaction sa;
+    static const int cancelling[] = {SIGINT, SIGTERM, SIGHUP};
+    struct sigaction sa, old;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_cancel_signal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART | SA_RESETHAND;
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    sigaction(SIGHUP, &sa, NULL);
+    for (size_t i = 0; i < sizeof cancelling / sizeof *cancelling; i++)
+        if (sigaction(cancelling[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+            sigaction(cancelling[i], &sa, NULL);
     sa.sa_handler = SIG_IGN;
     sa.sa_flags = 0;
     sigaction(SIGPIPE, &sa, NULL);
@@ -353,7 +356,8 @@ int main(int argc, char **argv)
             for (int k = 0; k < ndefines; k++)
                 free(define_buf[k]);
             if (fflush(stdout) != 0 || ferror(stdout)) {
-                op_log(OP_LOG_ERROR, "stdout: cannot write the usage: %s", strerror(errno));
+                op_log(OP_LOG_ERROR, "stdout: cannot write the usage: %s",
+                       errno ? strerror(errno) : "write error");
                 return 1;
             }
             return 0;
@@ -467,10 +471,11 @@ int main(int argc, char **argv)
     if (stream_mode) {
         unsigned char p[4];
         put_u32(p, (uint32_t)code);
+        int failed_before = s.error != 0;
         pthread_mutex_lock(&s.lock);
         record(&s, 4, p, sizeof p);
         pthread_mutex_unlock(&s.lock);
-        if (s.error && code != op_exit_code(OP_ERR_IO)) {
+        if (s.error && !failed_before) {
             op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream's end (%s)",
                    strerror(s.error));
             code = op_exit_code(OP_ERR_IO);

@@ -11,20 +11,25 @@ R=$BIN/opaline-render
 MAT=${OPALINE_PRESETS_DIR:-}/SVD_S10_Chess4x4.opm
 [ -f "$MAT" ] || { echo "skip: $MAT not built"; exit 77; }
 command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+# A shell starts background jobs with SIGINT ignored, and a program keeps a signal ignored at its
+# start ignored: the runs below get the three signals at their default.
+env --default-signal=INT,TERM,HUP true 2>/dev/null ||
+  { echo "skip: env has no --default-signal (coreutils 8.31)"; exit 77; }
+DFL=(env --default-signal=INT,TERM,HUP)
 T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_render_signals.XXXXXX")
 pid=
 trap '[ -n "$pid" ] && kill -9 "$pid" 2>/dev/null; rm -rf "$T"' EXIT
 fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -40; exit 1; }
 
-# 128 x 96 pixels = 12 tiles; in the sanitizer build on 2 threads the pre-pass takes about 1.5 s
-# (irradiance at 2372 points, then scattering with a 29 x 29 kernel), the tiles about 1 s.
+# 128 x 96 pixels = 12 tiles; in the sanitizer build on 2 threads the pre-pass takes 1 to 2 s
+# (irradiance at 2372 points, then scattering with a 29 x 29 kernel), the tiles 0.5 to 1 s.
 cat > "$T/scene.xml" <<XML
 <scene version="0.6.0">
   <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
   <sensor type="perspective">
     <float name="fov" value="40"/>
     <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="64"/></sampler>
+    <sampler type="independent"><integer name="sampleCount" value="48"/></sampler>
     <film type="hdrfilm"><integer name="width" value="128"/><integer name="height" value="96"/></film>
   </sensor>
   <emitter type="spot">
@@ -48,12 +53,26 @@ cat > "$T/scene.xml" <<XML
 </scene>
 XML
 
-# The complete image of an earlier run.
+# The complete image of an earlier run, and how long its stages take: loading (until the
+# "irradiance points" line), irradiance (until its final progress line), scattering (until the
+# "subsurface pre-pass:" line), the tiles (the "camera pass:" line).
 t0=$EPOCHREALTIME
 "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" || fail "the complete render failed"
 full=$(python3 -c "print($EPOCHREALTIME - $t0)")
 cp "$T/out.pfm" "$T/ref.pfm"
-echo "complete render: $full s"
+read -r t_irr t_scat t_tiles < <(python3 - "$T/err" <<'PY'
+import re, sys
+log = open(sys.argv[1]).read()
+m = re.search(r"irradiance ([0-9.]+) s, scattering ([0-9.]+) s", log)
+c = re.search(r"camera pass: ([0-9.]+) s", log)
+print(m.group(1), m.group(2), c.group(1))
+PY
+) || fail "no stage times in the complete render's log"
+t0=$EPOCHREALTIME
+"$R" --check "$T/scene.xml" 2>"$T/err" || fail "--check failed"
+t_load=$(python3 -c "print($EPOCHREALTIME - $t0)")
+echo "complete render: $full s (loading $t_load s, irradiance $t_irr s, scattering $t_scat s," \
+  "tiles $t_tiles s)"
 
 # Checks that every 32 x 32 tile of the partial image is either the complete render's tile
 # (bit for bit: rendering is deterministic) or black, and that N of them are finished.
@@ -92,68 +111,98 @@ print("partial: %d tiles as in the complete render, %d black (unfinished)" % (sa
 PY
 }
 
+# Each point: the log line that starts a stage ("" = the start), and how far into the stage
+# (a fraction of its time in the complete run) the signal goes. Anchoring to the log keeps the
+# points in their stages on a loaded machine.
+points=(
+  "|0.6|$t_load"
+  "irradiance points|0.2|$t_irr"
+  "irradiance points|0.6|$t_irr"
+  "irradiance: 100|0.1|$t_scat"
+  "irradiance: 100|0.4|$t_scat"
+  "irradiance: 100|0.7|$t_scat"
+  "subsurface pre-pass:|0.15|$t_tiles"
+  "subsurface pre-pass:|0.4|$t_tiles"
+  "subsurface pre-pass:|0.6|$t_tiles"
+  "subsurface pre-pass:|0.85|$t_tiles"
+  "camera pass:|0|0"
+)
 sigs=(INT TERM HUP)
-fracs=(0.08 0.15 0.22 0.3 0.38 0.46 0.54 0.62 0.7 0.78 0.88)
 in_prepass=0 in_tiles=0 interrupted=0
-for i in "${!fracs[@]}"; do
+for i in "${!points[@]}"; do
+  IFS='|' read -r marker frac span <<<"${points[$i]}"
   sig=${sigs[$((i % 3))]}
-  delay=$(python3 -c "print(max(0.25, ${fracs[$i]} * $full))")
-  "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
+  delay=$(python3 -c "print($frac * $span)")
+  partial=(); [ "$i" -eq 8 ] && partial=(--partial none) # the finished tiles go nowhere
+  "${DFL[@]}" "$R" -t 2 "${partial[@]}" -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
   pid=$!
+  if [ -n "$marker" ]; then
+    until grep -q "$marker" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
+    at="\"$marker\" + $delay s"
+  else
+    at="$delay s"
+  fi
   sleep "$delay"
   kill -s "$sig" "$pid" 2>/dev/null
   wait "$pid"
   rc=$?
   pid=
   if grep -Eq "AddressSanitizer|LeakSanitizer|runtime error|double free|corrupted" "$T/err"; then
-    fail "SIG$sig after $delay s: a sanitizer or allocator report"
+    fail "SIG$sig at $at: a sanitizer or allocator report"
   fi
   if [ "$rc" -eq 0 ] && grep -q "wrote $T/out.pfm" "$T/err"; then
-    echo "SIG$sig after $delay s: the render had already finished"
+    echo "SIG$sig at $at: the render had already finished"
     continue
   fi
-  [ "$rc" -eq 130 ] || fail "SIG$sig after $delay s: exit $rc, expected 130"
+  [ "$rc" -eq 130 ] || fail "SIG$sig at $at: exit $rc, expected 130"
   interrupted=$((interrupted + 1))
-  cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIG$sig after $delay s: the complete out.pfm was changed"
+  cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIG$sig at $at: the complete out.pfm was changed"
   leftover=$(cd "$T" && ls -A | grep -Ev '^(scene\.xml|ref\.pfm|out\.pfm|out\.partial\.pfm|err)$')
-  [ -z "$leftover" ] || fail "SIG$sig after $delay s: left behind: $leftover"
-  grep -q "interrupted (SIG$sig)" "$T/err" || fail "SIG$sig after $delay s: no 'interrupted' message"
+  [ -z "$leftover" ] || fail "SIG$sig at $at: left behind: $leftover"
+  grep -q "interrupted (SIG$sig)" "$T/err" || fail "SIG$sig at $at: no 'interrupted' message"
   done_tiles=$(sed -n 's/.*interrupted (SIG[A-Z]*) after \([0-9]*\) of 12 tiles.*/\1/p' "$T/err" | head -1)
-  if [ -n "$done_tiles" ]; then
-    [ -f "$T/out.partial.pfm" ] || fail "SIG$sig after $delay s: $done_tiles tiles done, no out.partial.pfm"
-    check_partial "$done_tiles" || fail "SIG$sig after $delay s: bad partial image"
+  if [ -n "$done_tiles" ] && [ "${#partial[@]}" -gt 0 ]; then
+    [ ! -e "$T/out.partial.pfm" ] || fail "SIG$sig at $at: --partial none wrote a partial image"
+    stage="tiles ($done_tiles of 12 finished, --partial none)"
+  elif [ -n "$done_tiles" ]; then
+    [ -f "$T/out.partial.pfm" ] || fail "SIG$sig at $at: $done_tiles tiles done, no out.partial.pfm"
+    check_partial "$done_tiles" || fail "SIG$sig at $at: bad partial image"
     in_tiles=$((in_tiles + 1))
     stage="tiles ($done_tiles of 12 finished)"
   elif grep -q "interrupted (SIG$sig) after the image was complete" "$T/err"; then
     stage="writing"
+  elif grep -q "interrupted (SIG$sig) while loading" "$T/err"; then
+    stage="scene loading"
   else
-    grep -q "before any tile was finished" "$T/err" || fail "SIG$sig after $delay s: which stage?"
-    [ ! -e "$T/out.partial.pfm" ] || fail "SIG$sig after $delay s: a partial image of no tile"
+    grep -q "before any tile was finished" "$T/err" || fail "SIG$sig at $at: which stage?"
+    [ ! -e "$T/out.partial.pfm" ] || fail "SIG$sig at $at: a partial image of no tile"
     if ! grep -q "irradiance points" "$T/err"; then
-      stage="scene loading or point laying"
+      stage="pre-pass: point laying"
+    elif ! grep -q "irradiance: 100" "$T/err"; then
+      stage="pre-pass: irradiance"
     elif ! grep -q "subsurface pre-pass:" "$T/err"; then
-      in_prepass=$((in_prepass + 1))
-      stage="pre-pass (irradiance or scattering)"
+      stage="pre-pass: scattering"
     else
       stage="first tiles"
     fi
+    case $stage in pre-pass:*) in_prepass=$((in_prepass + 1)) ;; esac
   fi
   rm -f "$T/out.partial.pfm"
-  echo "SIG$sig after $delay s: exit 130 in the $stage"
+  echo "SIG$sig at $at: exit 130 in the $stage"
 done
-[ "$interrupted" -ge 8 ] || fail "only $interrupted of ${#fracs[@]} runs were interrupted"
-[ "$in_prepass" -ge 2 ] || fail "only $in_prepass runs were interrupted in the pre-pass"
-[ "$in_tiles" -ge 2 ] || fail "only $in_tiles runs were interrupted between tiles"
+[ "$interrupted" -ge 9 ] || fail "only $interrupted of ${#points[@]} runs were interrupted"
+[ "$in_prepass" -ge 4 ] || fail "only $in_prepass runs were interrupted in the pre-pass"
+[ "$in_tiles" -ge 3 ] || fail "only $in_tiles runs were interrupted between tiles"
 
-# --partial none: nothing but the kept image.
-"$R" -t 2 --partial none -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
+# Under nohup (SIGHUP ignored when it starts) SIGHUP does not stop it.
+env --ignore-signal=HUP "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
 pid=$!
-sleep "$(python3 -c "print(0.75 * $full)")"
-kill -s INT "$pid" 2>/dev/null
+until grep -q "irradiance points" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
+kill -s HUP "$pid" 2>/dev/null
 wait "$pid"
 rc=$?
 pid=
-[ "$rc" -eq 130 ] || [ "$rc" -eq 0 ] || fail "--partial none: exit $rc"
-[ ! -e "$T/out.partial.pfm" ] || fail "--partial none wrote out.partial.pfm"
-cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "--partial none: the complete out.pfm was changed"
+[ "$rc" -eq 0 ] || fail "SIGHUP ignored at the start: exit $rc, expected 0"
+cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIGHUP ignored at the start: a different image"
+
 echo "ok: $interrupted interrupted runs ($in_prepass in the pre-pass, $in_tiles between tiles)"
