@@ -54,17 +54,22 @@ static void report(op_progress *p, double t, int final)
     char eta_s[32], el_s[32];
     format_duration(eta_s, sizeof eta_s, eta);
     format_duration(el_s, sizeof el_s, elapsed);
+    const char *eta_label = "eta ";
+    if (final) { /* ended: complete, or stopped short (cancelled or failed) */
+        eta_label = done < p->total ? "" : "eta ";
+        snprintf(eta_s, sizeof eta_s, "%s", done < p->total ? "stopped" : "00:00");
+    }
     if (p->tty) {
         char bar[31];
         int filled = (int)(frac * 30.0);
         for (int i = 0; i < 30; i++)
             bar[i] = i < filled ? '#' : '.';
         bar[30] = '\0';
-        fprintf(stderr, "\r%-20s [%s] %5.1f%%  elapsed %s  eta %s%s", p->label, bar, 100.0 * frac,
-                el_s, final ? "00:00" : eta_s, final ? "\n" : "");
+        fprintf(stderr, "\r%-20s [%s] %5.1f%%  elapsed %s  %s%s%s", p->label, bar, 100.0 * frac,
+                el_s, eta_label, eta_s, final ? "\n" : "");
     } else {
-        fprintf(stderr, "opaline: %s: %5.1f%% (elapsed %s, eta %s)\n", p->label, 100.0 * frac,
-                el_s, final ? "00:00" : eta_s);
+        fprintf(stderr, "opaline: %s: %5.1f%% (elapsed %s, %s%s)\n", p->label, 100.0 * frac, el_s,
+                eta_label, eta_s);
     }
     fflush(stderr);
 }
@@ -104,6 +109,8 @@ void op_progress_advance(op_progress *p, uint64_t n)
     pthread_mutex_unlock(&p->lock);
 }
 
+/* Ends the report begun by op_progress_begin: whoever began p ends it, exactly once, on every
+ * path (a second end is a use after free, like a second free). */
 void op_progress_end(op_progress *p)
 {
     if (!p)

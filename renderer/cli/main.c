@@ -12,12 +12,39 @@
 
 enum { MAX_OUTPUTS = 16, MAX_DEFINES = 256 };
 
-static atomic_int g_cancel; /* set by SIGINT; lock-free, so safe from the handler */
+static atomic_int g_cancel;            /* the renderer's cancel flag: a signal or a dead stream */
+static volatile sig_atomic_t g_signal; /* the cancelling signal received, 0 while none */
 
-static void on_sigint(int sig)
+static void on_cancel_signal(int sig)
 {
-    (void)sig;
-    atomic_store(&g_cancel, 1);
+    g_signal = sig;
+    atomic_store(&g_cancel, 1); /* lock-free, so safe from a handler */
+}
+
+/* SIGINT, SIGTERM and SIGHUP cancel: the render stops cleanly and main exits 130. The same
+ * signal a second time ends the process at once (the default action). A signal ignored when
+ * the program starts (nohup's SIGHUP, SIGINT in a shell's background job) stays ignored, as it
+ * would without a handler. SIGPIPE is ignored, so a closed stdout is a write error of the tile
+ * stream (exit 1), not a silent death. */
+static void install_signal_handlers(void)
+{
+    static const int cancelling[] = {SIGINT, SIGTERM, SIGHUP};
+    struct sigaction sa, old;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_cancel_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART | SA_RESETHAND;
+    for (size_t i = 0; i < sizeof cancelling / sizeof *cancelling; i++)
+        if (sigaction(cancelling[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+            sigaction(cancelling[i], &sa, NULL);
+    sa.sa_handler = SIG_IGN;
+    sa.sa_flags = 0;
+    sigaction(SIGPIPE, &sa, NULL);
+}
+
+static const char *signal_name(int sig)
+{
+    return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "?";
 }
 
 static void usage(FILE *f)
@@ -32,6 +59,8 @@ static void usage(FILE *f)
             "  --limit NAME=VALUE  raise or lower a scene limit (coordinate, image-pixels,\n"
             "                 kernel, sss-points; see docs/limits.md); repeatable\n"
             "  --stream       write the tile stream to stdout\n"
+            "  --partial MODE on an interrupt, OUT is kept and with MODE beside (default) the\n"
+            "                 finished tiles go to OUT.partial.EXT; none writes nothing\n"
             "  -q / -v        quieter / more verbose\n");
 }
 
@@ -40,6 +69,7 @@ static void usage(FILE *f)
 typedef struct stream {
     pthread_mutex_t lock;
     FILE *f;
+    int error; /* errno of the first failed write; nothing is written after it */
 } stream;
 
 static void put_u32(unsigned char *p, uint32_t v)
@@ -54,19 +84,6 @@ static void put_u64(unsigned char *p, uint64_t v)
         p[i] = (unsigned char)(v >> (8 * i));
 }
 
-/* Writes one record's header and payload; the caller holds the lock. */
-static void record(stream *s, uint32_t type, const void *payload, uint64_t n)
-{
-    unsigned char h[16];
-    memcpy(h, "OPTS", 4);
-    put_u32(h + 4, type);
-    put_u64(h + 8, n);
-    fwrite(h, 1, sizeof h, s->f);
-    if (n)
-        fwrite(payload, 1, (size_t)n, s->f);
-    fflush(s->f);
-}
-
 static int host_le(void)
 {
     uint16_t one = 1;
@@ -75,31 +92,75 @@ static int host_le(void)
     return b == 1;
 }
 
+/* Writes n bytes. The first failure is kept in s->error and sets the cancel flag: with its
+ * reader gone (a closed pipe, a full disk) the render has no one to render for. */
+static void put(stream *s, const void *p, size_t n)
+{
+    if (s->error || n == 0)
+        return;
+    errno = 0;
+    if (fwrite(p, 1, n, s->f) != n) {
+        s->error = errno ? errno : EIO;
+        atomic_store(&g_cancel, 1);
+    }
+}
+
+/* Starts a record: its header; the caller then puts exactly n payload bytes and ends it. The
+ * caller holds the lock from start to end. */
+static void record_start(stream *s, uint32_t type, uint64_t n)
+{
+    unsigned char h[16];
+    memcpy(h, "OPTS", 4);
+    put_u32(h + 4, type);
+    put_u64(h + 8, n);
+    put(s, h, sizeof h);
+}
+
+/* Ends a record: flushed, so the reader gets it now (and a write error shows now). */
+static void record_end(stream *s)
+{
+    errno = 0;
+    if (!s->error && fflush(s->f) != 0) {
+        s->error = errno ? errno : EIO;
+        atomic_store(&g_cancel, 1);
+    }
+}
+
+static void record(stream *s, uint32_t type, const void *payload, uint64_t n)
+{
+    record_start(s, type, n);
+    put(s, payload, (size_t)n);
+    record_end(s);
+}
+
 static void on_tile(void *user, const op_render_tile *t)
 {
     stream *s = user; /* the renderer serializes tile callbacks; the lock orders them with progress */
     size_t nf = (size_t)t->w * t->h * 4;
-    size_t n = 16 + nf * 4;
-    unsigned char *p = malloc(n);
-    if (!p)
-        return;
-    put_u32(p, (uint32_t)t->x);
-    put_u32(p + 4, (uint32_t)t->y);
-    put_u32(p + 8, (uint32_t)t->w);
-    put_u32(p + 12, (uint32_t)t->h);
+    unsigned char head[16];
+    put_u32(head, (uint32_t)t->x);
+    put_u32(head + 4, (uint32_t)t->y);
+    put_u32(head + 8, (uint32_t)t->w);
+    put_u32(head + 12, (uint32_t)t->h);
+    pthread_mutex_lock(&s->lock);
+    record_start(s, 2, sizeof head + 4 * (uint64_t)nf);
+    put(s, head, sizeof head);
     if (host_le()) {
-        memcpy(p + 16, t->rgba, nf * 4);
+        put(s, t->rgba, nf * 4);
     } else {
-        for (size_t i = 0; i < nf; i++) {
-            uint32_t v;
-            memcpy(&v, &t->rgba[i], 4);
-            put_u32(p + 16 + 4 * i, v);
+        unsigned char b[4 * 256];
+        for (size_t i = 0; i < nf; i += 256) {
+            size_t m = nf - i < 256 ? nf - i : 256;
+            for (size_t k = 0; k < m; k++) {
+                uint32_t v;
+                memcpy(&v, &t->rgba[i + k], 4);
+                put_u32(b + 4 * k, v);
+            }
+            put(s, b, 4 * m);
         }
     }
-    pthread_mutex_lock(&s->lock);
-    record(s, 2, p, n);
+    record_end(s);
     pthread_mutex_unlock(&s->lock);
-    free(p);
 }
 
 static void on_progress(void *user, const char *label, double fraction, double eta)
@@ -115,6 +176,74 @@ static void on_progress(void *user, const char *label, double fraction, double e
     pthread_mutex_lock(&s->lock);
     record(s, 3, p, 8);
     pthread_mutex_unlock(&s->lock);
+}
+
+/* ------------------------------------------------------------ output images */
+
+/* Writes img to each path. Returns code, or when code is 0 the exit code of a failed write. */
+static int write_images(const op_scene *scene, const op_image *img, const char *const *paths,
+                        int n, int code)
+{
+    for (int i = 0; i < n; i++) {
+        op_error werr = {0};
+        op_status ws = op_scene_write_image(scene, img, paths[i], &werr);
+        if (ws) {
+            op_log(OP_LOG_ERROR, "%s", werr.message);
+            if (code == 0)
+                code = op_exit_code(ws);
+        } else {
+            op_log(OP_LOG_INFO, "wrote %s", paths[i]);
+        }
+    }
+    return code;
+}
+
+/* path with ".partial" before its extension (out.exr -> out.partial.exr), so the format stays.
+ * Returns 0 when it does not fit in n bytes. */
+static int partial_name(const char *path, char *out, size_t n)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    const char *dot = strrchr(base, '.');
+    int len = dot && dot != base
+                  ? snprintf(out, n, "%.*s.partial%s", (int)(dot - path), path, dot)
+                  : snprintf(out, n, "%s.partial", path);
+    return len >= 0 && (size_t)len < n;
+}
+
+/* An incomplete render (interrupted, or its tile stream gone): the outputs are left as they
+ * are, never replaced by less; with beside, the finished tiles go to each output's partial name
+ * (nothing when no tile finished). Returns code as write_images does. */
+static int write_partial(const op_scene *scene, const op_image *img, const op_render_stats *rs,
+                         const char *const *outputs, int n, int beside, int code)
+{
+    char what[64], when[64];
+    if (g_signal)
+        snprintf(what, sizeof what, "interrupted (%s)", signal_name(g_signal));
+    else
+        snprintf(what, sizeof what, "stopped");
+    if (rs->tiles_done == 0)
+        snprintf(when, sizeof when, "before any tile was finished");
+    else
+        snprintf(when, sizeof when, "after %d of %d tiles", rs->tiles_done, rs->tiles);
+    if (n == 0)
+        op_log(OP_LOG_WARN, "%s %s", what, when);
+    for (int i = 0; i < n; i++) {
+        char part[4096];
+        if (!beside || rs->tiles_done == 0) {
+            op_log(OP_LOG_WARN, "%s %s: %s not written", what, when, outputs[i]);
+        } else if (!partial_name(outputs[i], part, sizeof part)) {
+            op_log(OP_LOG_ERROR, "%s: the name is too long for its partial image", outputs[i]);
+            if (code == 0)
+                code = op_exit_code(OP_ERR_IO);
+        } else {
+            op_log(OP_LOG_WARN, "%s %s: %s not written, the finished tiles go to %s", what, when,
+                   outputs[i], part);
+            const char *p = part;
+            code = write_images(scene, img, &p, 1, code);
+        }
+    }
+    return code;
 }
 
 /* ------------------------------------------------------------ main */
@@ -159,6 +288,7 @@ int main(int argc, char **argv)
 {
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
+    int partial_beside = 1;
     op_scene_define defines[MAX_DEFINES];
     char *define_buf[MAX_DEFINES];
     int ndefines = 0;
@@ -169,7 +299,8 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc && !bad; i++) {
         const char *a = argv[i];
         int need = strcmp(a, "-o") == 0 || strcmp(a, "-t") == 0 || strcmp(a, "-s") == 0 ||
-                   strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0;
+                   strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0 ||
+                   strcmp(a, "--partial") == 0;
         if (need && i + 1 >= argc) {
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             bad = 1;
@@ -220,6 +351,13 @@ int main(int argc, char **argv)
             check = 1;
         } else if (strcmp(a, "--stream") == 0) {
             stream_mode = 1;
+        } else if (strcmp(a, "--partial") == 0) {
+            const char *w = argv[++i];
+            partial_beside = strcmp(w, "beside") == 0;
+            if (!partial_beside && strcmp(w, "none") != 0) {
+                op_log(OP_LOG_ERROR, "--partial %s: need beside or none", w);
+                bad = 1;
+            }
         } else if (strcmp(a, "-q") == 0) {
             verbosity--;
         } else if (strcmp(a, "-v") == 0) {
@@ -228,6 +366,11 @@ int main(int argc, char **argv)
             usage(stdout);
             for (int k = 0; k < ndefines; k++)
                 free(define_buf[k]);
+            if (fflush(stdout) != 0 || ferror(stdout)) {
+                op_log(OP_LOG_ERROR, "stdout: cannot write the usage: %s",
+                       errno ? strerror(errno) : "write error");
+                return 1;
+            }
             return 0;
         } else if (a[0] == '-' && a[1]) {
             op_log(OP_LOG_ERROR, "unknown option %s", a);
@@ -254,6 +397,7 @@ int main(int argc, char **argv)
                      : verbosity == 0  ? OP_LOG_INFO
                                        : OP_LOG_DEBUG);
 
+    install_signal_handlers();
     op_error err = {0};
     op_scene *scene = NULL;
     op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
@@ -262,6 +406,11 @@ int main(int argc, char **argv)
     if (st) {
         op_log(OP_LOG_ERROR, "%s", err.message);
         return op_exit_code(st);
+    }
+    if (g_signal) { /* loading is not cancellable, but quick: stop before rendering */
+        op_log(OP_LOG_WARN, "interrupted (%s) while loading %s", signal_name(g_signal), scene_path);
+        op_scene_free(scene);
+        return op_exit_code(OP_ERR_CANCELLED);
     }
     op_scene_info info;
     op_scene_get_info(scene, &info);
@@ -278,15 +427,10 @@ int main(int argc, char **argv)
         outputs[noutputs++] = default_out;
     }
 
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_sigint;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-
     stream s;
     pthread_mutex_init(&s.lock, NULL);
     s.f = stdout;
+    s.error = 0;
     op_render_options opt;
     op_render_options_init(&opt);
     opt.threads = threads;
@@ -306,33 +450,47 @@ int main(int argc, char **argv)
     op_renderer *r = op_renderer_new(&opt);
     if (!r) {
         op_log(OP_LOG_ERROR, "out of memory");
+        pthread_mutex_destroy(&s.lock);
         op_scene_free(scene);
         return 1;
     }
-    st = op_renderer_render(r, scene, &err);
-    int code = op_exit_code(st);
-    const op_image *img = op_renderer_image(r);
-    if (st && st != OP_ERR_CANCELLED)
+    st = op_renderer_render(r, scene, &err); /* a stream already failed cancels it at once */
+    op_render_stats rs;
+    op_renderer_get_stats(r, &rs);
+    int code = 0;
+    if (s.error) {
+        op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream (%s): rendering stopped",
+               strerror(s.error));
+        code = op_exit_code(OP_ERR_IO);
+    } else if (st && st != OP_ERR_CANCELLED) {
         op_log(OP_LOG_ERROR, "%s", err.message);
-    if (st == OP_ERR_CANCELLED)
-        op_log(OP_LOG_WARN, "interrupted: writing the partial image");
-    if (img && (st == OP_OK || st == OP_ERR_CANCELLED)) {
-        for (int i = 0; i < noutputs; i++) {
-            op_error werr = {0};
-            op_status ws = op_scene_write_image(scene, img, outputs[i], &werr);
-            if (ws) {
-                op_log(OP_LOG_ERROR, "%s", werr.message);
-                if (code == 0)
-                    code = op_exit_code(ws);
-            } else {
-                op_log(OP_LOG_INFO, "wrote %s", outputs[i]);
-            }
+        code = op_exit_code(st);
+    }
+    if (st == OP_OK || st == OP_ERR_CANCELLED) {
+        const op_image *img = op_renderer_image(r);
+        if (rs.tiles_done == rs.tiles) {
+            code = write_images(scene, img, outputs, noutputs, code);
+            if (g_signal)
+                op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete",
+                       signal_name(g_signal));
+        } else {
+            code = write_partial(scene, img, &rs, outputs, noutputs, partial_beside, code);
         }
     }
+    if (code == 0 && (g_signal || st == OP_ERR_CANCELLED))
+        code = op_exit_code(OP_ERR_CANCELLED);
     if (stream_mode) {
         unsigned char p[4];
         put_u32(p, (uint32_t)code);
+        int failed_before = s.error != 0;
+        pthread_mutex_lock(&s.lock);
         record(&s, 4, p, sizeof p);
+        pthread_mutex_unlock(&s.lock);
+        if (s.error && !failed_before) {
+            op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream's end (%s)",
+                   strerror(s.error));
+            code = op_exit_code(OP_ERR_IO);
+        }
     }
     pthread_mutex_destroy(&s.lock);
     op_renderer_free(r);

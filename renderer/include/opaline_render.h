@@ -109,8 +109,9 @@ op_renderer *op_renderer_new(const op_render_options *opt);
 void op_renderer_free(op_renderer *r);
 
 /* Renders scene into the renderer's image (RGBA, alpha = coverage). Returns OP_ERR_CANCELLED
- * when the cancel flag stopped it: the image then holds the finished tiles (others black, alpha
- * 0). The scene must outlive the call only. */
+ * when the cancel flag stopped it (in the subsurface pre-pass or between pixel rows of a tile):
+ * the image then holds the finished tiles, op_render_stats.tiles_done of them (others black,
+ * alpha 0). The scene must outlive the call only. */
 op_status op_renderer_render(op_renderer *r, const op_scene *scene, op_error *err);
 
 /* What the last render computed for its subsurface pre-pass (all zero before the first render
@@ -123,6 +124,8 @@ typedef struct op_render_stats {
     int sss_shapes_reached;  /* translucent shapes some camera segment reaches */
     double sss_seconds;      /* the pre-pass's wall time */
     double render_seconds;   /* the camera pass's wall time (after the pre-pass) */
+    int tiles;               /* the image's tiles */
+    int tiles_done;          /* tiles finished: all of them unless the render was cancelled */
 } op_render_stats;
 
 void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);

@@ -148,6 +148,7 @@ typedef struct render_job {
     pthread_mutex_t tile_lock;
     op_progress *prog;
     atomic_int *cancel;
+    atomic_int tiles_done; /* tiles whose pixels are in img */
 } render_job;
 
 static void render_tile(void *user, int task, int thread)
@@ -194,6 +195,7 @@ static void render_tile(void *user, int task, int thread)
     for (int y = 0; y < h; y++)
         memcpy(job->img->pixels + 4 * ((size_t)(y0 + y) * film->width + x0),
                buf + 4 * (size_t)y * w, 4 * (size_t)w * sizeof(float));
+    atomic_fetch_add(&job->tiles_done, 1);
     if (job->opt->tile) {
         op_render_tile t = {x0, y0, w, h, buf};
         pthread_mutex_lock(&job->tile_lock);
@@ -223,6 +225,10 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     job.ctx.scene = s;
     job.spp = opt->spp > 0 ? opt->spp : s->sampler.spp;
     job.tile = opt->tile_size > 0 ? opt->tile_size : 32;
+    atomic_init(&job.tiles_done, 0);
+    job.tiles_x = (s->film.width + job.tile - 1) / job.tile;
+    int tiles_y = (s->film.height + job.tile - 1) / job.tile;
+    r->stats.tiles = job.tiles_x * tiles_y;
     op_sss_cache *sss = NULL;
     int it = s->integrator.type;
     if (s->nsss > 0 && (it == OP_INT_PATH || it == OP_INT_DIRECT)) {
@@ -241,8 +247,6 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
         job.ctx.sss = sss;
     }
     int threads = op_parallel_threads(opt->threads);
-    job.tiles_x = (s->film.width + job.tile - 1) / job.tile;
-    int tiles_y = (s->film.height + job.tile - 1) / job.tile;
     job.scratch = calloc((size_t)threads, sizeof *job.scratch);
     if (!job.scratch) {
         op_sss_cache_free(sss);
@@ -261,6 +265,7 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
         clock_gettime(CLOCK_MONOTONIC, &t0);
         st = op_parallel_for(threads, job.tiles_x * tiles_y, render_tile, &job, opt->cancel, err);
         op_progress_end(job.prog);
+        r->stats.tiles_done = atomic_load(&job.tiles_done);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         r->stats.render_seconds =
             (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);

@@ -353,7 +353,8 @@ typedef struct build_job {
     const op_scene *scene;
     op_sss_cache *cache;
     uint64_t seed;
-    op_progress *prog;
+    atomic_int *cancel;
+    op_progress *prog; /* the running stage's report, owned by its *_pass call; else NULL */
     int chunk;  /* sources per scatter chunk */
     /* task -> (shape, first point) */
     int *task_shape, *task_first;
@@ -451,7 +452,10 @@ static void scatter_task(void *user, int task, int thread)
     int cap = 0, nrec = 0;
     int *rec = NULL;
     float *val = NULL;
-    for (int i = first; i < last; i++) {
+    int i;
+    for (i = first; i < last; i++) {
+        if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
+            break; /* the pass returns OP_ERR_CANCELLED; this chunk's sum is dropped */
         const sss_point *s = &ss->pts[i];
         if (v3_is_black(s->e)) /* also every point that is not a source */
             continue;
@@ -510,7 +514,7 @@ static void scatter_task(void *user, int task, int thread)
     }
     free(rec);
     free(val);
-    op_progress_advance(job->prog, (uint64_t)(last - first));
+    op_progress_advance(job->prog, (uint64_t)(i - first));
 }
 
 /* One translucent hit of a camera segment: the shape, the point, and the length one radian of
@@ -640,6 +644,84 @@ static op_status camera_pass(const op_scene *scene, op_sss_cache *c, const op_ss
     return st;
 }
 
+/* The irradiance stage: E at the sources, ntasks tasks of POINTS_PER_TASK points. Its progress
+ * report is job->prog for exactly the duration of this call. */
+static op_status irradiance_pass(build_job *job, const op_sss_build_options *opt, int ntasks,
+                                 uint64_t nsrc, op_error *err)
+{
+    job->prog = op_progress_begin("irradiance", nsrc, opt->progress, opt->progress_user);
+    op_status st = op_parallel_for(opt->threads, ntasks, irradiance_task, job, opt->cancel, err);
+    op_progress_end(job->prog);
+    job->prog = NULL;
+    return st;
+}
+
+/* The scattering stage: M at the receivers of every shape. Its progress report (job->prog) and
+ * per-thread kernel rows (job->rows) live for exactly the duration of this call, whatever it
+ * returns; on an error or cancellation the receivers' M is incomplete and the caller drops the
+ * cache. */
+static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
+{
+    op_sss_cache *c = job->cache;
+    int threads = op_parallel_threads(opt->threads);
+    if (!(job->rows = calloc((size_t)threads, sizeof *job->rows)))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    op_status st = OP_OK;
+    uint64_t npts = 0; /* scatter_task runs over all the points of the shapes it scatters */
+    for (int s = 0; s < c->n; s++)
+        if (c->shapes[s].nrecv > 0 && c->shapes[s].nsrc > 0)
+            npts += (uint64_t)c->shapes[s].n;
+    job->prog = op_progress_begin("subsurface", npts, opt->progress, opt->progress_user);
+    for (int s = 0; st == OP_OK && s < c->n; s++) {
+        sss_shape *ss = &c->shapes[s];
+        if (ss->nrecv == 0 || ss->nsrc == 0)
+            continue;
+        int K = ss->kernel;
+        for (int i = 0; i < threads && st == OP_OK; i++) {
+            free(job->rows[i]);
+            if (!(job->rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
+                st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        }
+        /* the chunks are fixed ranges of all the points, whatever the camera needs, so a
+         * receiver's sum runs in the same order as in the full computation */
+        ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+        if (ss->nchunks > MAX_CHUNKS)
+            ss->nchunks = MAX_CHUNKS;
+        job->chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
+        ss->nchunks = (ss->n + job->chunk - 1) / job->chunk;
+        if (st == OP_OK &&
+            !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->nrecv, sizeof(float))))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
+        job->scatter_shape = s;
+        if (st == OP_OK)
+            st = op_parallel_for(opt->threads, ss->nchunks, scatter_task, job, opt->cancel, err);
+        if (st == OP_OK && atomic_load(&job->nomem))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
+        if (st == OP_OK) {
+            float k = ss->a_i / ss->a_pix;
+            for (int j = 0; j < ss->n; j++) {
+                int rj = ss->rmap[j];
+                if (rj < 0)
+                    continue;
+                double m[3] = {0, 0, 0};
+                for (int ch = 0; ch < ss->nchunks; ch++)
+                    for (int q = 0; q < 3; q++)
+                        m[q] += ss->acc[((size_t)ch * ss->nrecv + (size_t)rj) * 3 + q];
+                ss->pts[j].m = v3((float)m[0] * k, (float)m[1] * k, (float)m[2] * k);
+            }
+        }
+        free(ss->acc);
+        ss->acc = NULL;
+    }
+    op_progress_end(job->prog);
+    job->prog = NULL;
+    for (int i = 0; i < threads; i++)
+        free(job->rows[i]);
+    free(job->rows);
+    job->rows = NULL;
+    return st;
+}
+
 static double now_s(void)
 {
     struct timespec ts;
@@ -677,6 +759,10 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
                 (1.0f + cm->tan_x * cm->tan_x + cm->tan_y * cm->tan_y);
     long long total = 0;
     for (int s = 0; s < scene->nshapes && st == OP_OK; s++) {
+        if (opt->cancel && atomic_load(opt->cancel)) {
+            st = op_error_set(err, OP_ERR_CANCELLED, "interrupted");
+            break;
+        }
         const op_shape_rec *sh = &scene->shapes[s];
         if (sh->sss < 0)
             continue;
@@ -729,6 +815,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     job.scene = scene;
     job.cache = c;
     job.seed = opt->seed;
+    job.cancel = opt->cancel;
     double tp = now_s();
     t1 = tp;
     if (st == OP_OK && total > 0) {
@@ -745,65 +832,11 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
                 job.task_first[t++] = k;
             }
         }
-        if (st == OP_OK) {
-            job.prog = op_progress_begin("irradiance", nsrc, opt->progress, opt->progress_user);
-            st = op_parallel_for(opt->threads, (int)total, irradiance_task, &job, opt->cancel, err);
-            op_progress_end(job.prog);
-        }
-        t1 = now_s();
-        int threads = op_parallel_threads(opt->threads);
-        if (st == OP_OK && !(job.rows = calloc((size_t)threads, sizeof *job.rows)))
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         if (st == OP_OK)
-            job.prog = op_progress_begin("subsurface", (uint64_t)nsrc, opt->progress,
-                                         opt->progress_user);
-        for (int s = 0; st == OP_OK && s < c->n; s++) {
-            sss_shape *ss = &c->shapes[s];
-            if (ss->nrecv == 0 || ss->nsrc == 0)
-                continue;
-            int K = ss->kernel;
-            for (int i = 0; i < threads && st == OP_OK; i++) {
-                free(job.rows[i]);
-                if (!(job.rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
-                    st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-            }
-            /* the chunks are fixed ranges of all the points, whatever the camera needs, so a
-             * receiver's sum runs in the same order as in the full computation */
-            ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
-            if (ss->nchunks > MAX_CHUNKS)
-                ss->nchunks = MAX_CHUNKS;
-            job.chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
-            ss->nchunks = (ss->n + job.chunk - 1) / job.chunk;
-            if (st == OP_OK &&
-                !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->nrecv, sizeof(float))))
-                st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
-            job.scatter_shape = s;
-            if (st == OP_OK)
-                st = op_parallel_for(opt->threads, ss->nchunks, scatter_task, &job, opt->cancel,
-                                     err);
-            if (st == OP_OK && atomic_load(&job.nomem))
-                st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
-            if (st == OP_OK) {
-                float k = ss->a_i / ss->a_pix;
-                for (int j = 0; j < ss->n; j++) {
-                    int rj = ss->rmap[j];
-                    if (rj < 0)
-                        continue;
-                    double m[3] = {0, 0, 0};
-                    for (int ch = 0; ch < ss->nchunks; ch++)
-                        for (int q = 0; q < 3; q++)
-                            m[q] += ss->acc[((size_t)ch * ss->nrecv + (size_t)rj) * 3 + q];
-                    ss->pts[j].m = v3((float)m[0] * k, (float)m[1] * k, (float)m[2] * k);
-                }
-            }
-            free(ss->acc);
-            ss->acc = NULL;
-        }
-        op_progress_end(job.prog);
-        if (job.rows)
-            for (int i = 0; i < threads; i++)
-                free(job.rows[i]);
-        free(job.rows);
+            st = irradiance_pass(&job, opt, (int)total, nsrc, err);
+        t1 = now_s();
+        if (st == OP_OK)
+            st = scatter_pass(&job, opt, err);
     }
     free(job.task_shape);
     free(job.task_first);

@@ -1,0 +1,210 @@
+#!/usr/bin/env bash
+# opaline-render stopped by SIGINT, SIGTERM or SIGHUP at many points of a render of a
+# translucent material: scene loading, the subsurface pre-pass (irradiance points, irradiance,
+# scattering), the tiles, the writing. Each run must exit 130 with no sanitizer report and no
+# temporary file left, keep the complete image an earlier run wrote (never replace it with
+# less), and put the finished tiles, exactly as the complete render has them, in OUT.partial.pfm.
+set -uo pipefail
+BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
+R=$BIN/opaline-render
+[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
+MAT=${OPALINE_PRESETS_DIR:-}/SVD_S10_Chess4x4.opm
+[ -f "$MAT" ] || { echo "skip: $MAT not built"; exit 77; }
+command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+# A shell starts background jobs with SIGINT ignored, and a program keeps a signal ignored at its
+# start ignored: the runs below get the three signals at their default.
+env --default-signal=INT,TERM,HUP true 2>/dev/null ||
+  { echo "skip: env has no --default-signal (coreutils 8.31)"; exit 77; }
+DFL=(env --default-signal=INT,TERM,HUP)
+T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_render_signals.XXXXXX")
+pid=
+trap '[ -n "$pid" ] && kill -9 "$pid" 2>/dev/null; rm -rf "$T"' EXIT
+fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -40; exit 1; }
+
+# 128 x 96 pixels = 12 tiles; in the sanitizer build on 2 threads the pre-pass takes 1 to 2 s
+# (irradiance at 2372 points, then scattering with a 29 x 29 kernel), the tiles 0.6 to 1.5 s.
+cat > "$T/scene.xml" <<XML
+<scene version="0.6.0">
+  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="96"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="128"/><integer name="height" value="96"/></film>
+  </sensor>
+  <emitter type="spot">
+    <transform name="toWorld"><lookat origin="0, 0, 6" target="0, 0, 0"/></transform>
+    <float name="cutoffAngle" value="40"/>
+    <spectrum name="intensity" value="60"/>
+  </emitter>
+  <shape type="sphere">
+    <point name="center" x="0" y="0" z="0.5"/>
+    <float name="radius" value="0.5"/>
+    <subsurface type="svd">
+      <string name="material" value="$MAT"/>
+      <float name="scale" value="80"/>
+      <integer name="irrSamples" value="128"/>
+    </subsurface>
+  </shape>
+  <shape type="rectangle">
+    <transform name="toWorld"><scale value="3"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+  </shape>
+</scene>
+XML
+
+# The complete image of an earlier run, and how long its stages take: loading (until the
+# "irradiance points" line), irradiance (until its final progress line), scattering (until the
+# "subsurface pre-pass:" line), the tiles (the "camera pass:" line).
+t0=$EPOCHREALTIME
+"$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" || fail "the complete render failed"
+full=$(python3 -c "print($EPOCHREALTIME - $t0)")
+cp "$T/out.pfm" "$T/ref.pfm"
+read -r t_irr t_scat t_tiles < <(python3 - "$T/err" <<'PY'
+import re, sys
+log = open(sys.argv[1]).read()
+m = re.search(r"irradiance ([0-9.]+) s, scattering ([0-9.]+) s", log)
+c = re.search(r"camera pass: ([0-9.]+) s", log)
+print(m.group(1), m.group(2), c.group(1))
+PY
+) || fail "no stage times in the complete render's log"
+t0=$EPOCHREALTIME
+"$R" --check "$T/scene.xml" 2>"$T/err" || fail "--check failed"
+t_load=$(python3 -c "print($EPOCHREALTIME - $t0)")
+echo "complete render: $full s (loading $t_load s, irradiance $t_irr s, scattering $t_scat s," \
+  "tiles $t_tiles s)"
+
+# Checks that every 32 x 32 tile of the partial image is either the complete render's tile
+# (bit for bit: rendering is deterministic) or black, and that N of them are finished.
+check_partial() {
+  python3 - "$T/ref.pfm" "$T/out.partial.pfm" "$1" <<'PY'
+import struct, sys
+def pfm(path):
+    data = open(path, "rb").read()
+    tag, dims, scale, rest = data.split(b"\n", 3)
+    assert tag == b"PF", (path, tag)
+    w, h = map(int, dims.split())
+    return w, h, struct.unpack("<%df" % (w * h * 3), rest[:w * h * 12])
+w, h, ref = pfm(sys.argv[1])
+pw, ph, part = pfm(sys.argv[2])
+done = int(sys.argv[3])
+assert (pw, ph) == (w, h), "partial image is %dx%d, expected %dx%d" % (pw, ph, w, h)
+same = black = lit_black = 0
+for ty in range(0, h, 32):
+    for tx in range(0, w, 32):
+        idx = [3 * (y * w + x) + c for y in range(ty, min(ty + 32, h))
+               for x in range(tx, min(tx + 32, w)) for c in range(3)]
+        a = [part[i] for i in idx]
+        b = [ref[i] for i in idx]
+        if a == b:
+            same += 1
+        elif all(v == 0.0 for v in a):
+            black += 1
+        else:
+            sys.exit("tile at %d,%d is neither finished nor black" % (tx, ty))
+        if all(v == 0.0 for v in a) and any(v != 0.0 for v in b):
+            lit_black += 1
+unfinished = (w // 32) * (h // 32) - done
+assert lit_black <= unfinished and lit_black >= 1, (lit_black, unfinished)
+assert same >= done, (same, done)
+print("partial: %d tiles as in the complete render, %d black (unfinished)" % (same, lit_black))
+PY
+}
+
+# Each point: the log line that starts a stage ("" = the start), and how far into the stage
+# (a fraction of its time in the complete run) the signal goes. Anchoring to the log keeps the
+# points in their stages on a loaded machine.
+points=(
+  "|0.6|$t_load"
+  "irradiance points|0.2|$t_irr"
+  "irradiance points|0.6|$t_irr"
+  "irradiance: 100|0.1|$t_scat"
+  "irradiance: 100|0.4|$t_scat"
+  "irradiance: 100|0.7|$t_scat"
+  "subsurface pre-pass:|0.15|$t_tiles"
+  "subsurface pre-pass:|0.3|$t_tiles"
+  "subsurface pre-pass:|0.45|$t_tiles"
+  "subsurface pre-pass:|0.6|$t_tiles"
+  "camera pass:|0|0"
+)
+sigs=(INT TERM HUP)
+in_prepass=0 in_tiles=0 interrupted=0
+for i in "${!points[@]}"; do
+  IFS='|' read -r marker frac span <<<"${points[$i]}"
+  sig=${sigs[$((i % 3))]}
+  delay=$(python3 -c "print($frac * $span)")
+  partial=(); [ "$i" -eq 8 ] && partial=(--partial none) # the finished tiles go nowhere
+  : >"$T/err" # not the last run's log: the markers are looked for in it
+  "${DFL[@]}" "$R" -t 2 "${partial[@]}" -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
+  pid=$!
+  if [ -n "$marker" ]; then
+    until grep -q "$marker" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
+    at="\"$marker\" + $delay s"
+  else
+    at="$delay s"
+  fi
+  sleep "$delay"
+  kill -s "$sig" "$pid" 2>/dev/null
+  wait "$pid"
+  rc=$?
+  pid=
+  if grep -Eq "AddressSanitizer|LeakSanitizer|runtime error|double free|corrupted" "$T/err"; then
+    fail "SIG$sig at $at: a sanitizer or allocator report"
+  fi
+  if [ "$rc" -eq 0 ] && grep -q "wrote $T/out.pfm" "$T/err"; then
+    echo "SIG$sig at $at: the render had already finished"
+    continue
+  fi
+  [ "$rc" -eq 130 ] || fail "SIG$sig at $at: exit $rc, expected 130"
+  interrupted=$((interrupted + 1))
+  cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIG$sig at $at: the complete out.pfm was changed"
+  leftover=$(cd "$T" && ls -A | grep -Ev '^(scene\.xml|ref\.pfm|out\.pfm|out\.partial\.pfm|err)$')
+  [ -z "$leftover" ] || fail "SIG$sig at $at: left behind: $leftover"
+  grep -q "interrupted (SIG$sig)" "$T/err" || fail "SIG$sig at $at: no 'interrupted' message"
+  done_tiles=$(sed -n 's/.*interrupted (SIG[A-Z]*) after \([0-9]*\) of 12 tiles.*/\1/p' "$T/err" | head -1)
+  if [ -n "$done_tiles" ] && [ "${#partial[@]}" -gt 0 ]; then
+    [ ! -e "$T/out.partial.pfm" ] || fail "SIG$sig at $at: --partial none wrote a partial image"
+    stage="tiles ($done_tiles of 12 finished, --partial none)"
+  elif [ -n "$done_tiles" ]; then
+    [ -f "$T/out.partial.pfm" ] || fail "SIG$sig at $at: $done_tiles tiles done, no out.partial.pfm"
+    check_partial "$done_tiles" || fail "SIG$sig at $at: bad partial image"
+    in_tiles=$((in_tiles + 1))
+    stage="tiles ($done_tiles of 12 finished)"
+  elif grep -q "interrupted (SIG$sig) after the image was complete" "$T/err"; then
+    stage="writing"
+  elif grep -q "interrupted (SIG$sig) while loading" "$T/err"; then
+    stage="scene loading"
+  else
+    grep -q "before any tile was finished" "$T/err" || fail "SIG$sig at $at: which stage?"
+    [ ! -e "$T/out.partial.pfm" ] || fail "SIG$sig at $at: a partial image of no tile"
+    if ! grep -q "irradiance points" "$T/err"; then
+      stage="pre-pass: point laying"
+    elif ! grep -q "irradiance: 100" "$T/err"; then
+      stage="pre-pass: irradiance"
+    elif ! grep -q "subsurface pre-pass:" "$T/err"; then
+      stage="pre-pass: scattering"
+    else
+      stage="first tiles"
+    fi
+    case $stage in pre-pass:*) in_prepass=$((in_prepass + 1)) ;; esac
+  fi
+  rm -f "$T/out.partial.pfm"
+  echo "SIG$sig at $at: exit 130 in the $stage"
+done
+[ "$interrupted" -ge 8 ] || fail "only $interrupted of ${#points[@]} runs were interrupted"
+[ "$in_prepass" -ge 3 ] || fail "only $in_prepass runs were interrupted in the pre-pass"
+[ "$in_tiles" -ge 2 ] || fail "only $in_tiles runs were interrupted between tiles"
+
+# Under nohup (SIGHUP ignored when it starts) SIGHUP does not stop it.
+: >"$T/err"
+env --ignore-signal=HUP "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
+pid=$!
+until grep -q "irradiance points" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
+kill -s HUP "$pid" 2>/dev/null
+wait "$pid"
+rc=$?
+pid=
+[ "$rc" -eq 0 ] || fail "SIGHUP ignored at the start: exit $rc, expected 0"
+cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIGHUP ignored at the start: a different image"
+
+echo "ok: $interrupted interrupted runs ($in_prepass in the pre-pass, $in_tiles between tiles)"
