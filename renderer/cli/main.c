@@ -12,34 +12,17 @@
 
 enum { MAX_OUTPUTS = 16, MAX_DEFINES = 256 };
 
-static atomic_int g_cancel;            /* the renderer's cancel flag: a signal or a dead stream */
-static volatile sig_atomic_t g_signal; /* the cancelling signal received, 0 while none */
+static atomic_int g_cancel;   /* the renderer's cancel flag: a signal or a dead stream */
+static atomic_int g_signal;   /* the cancelling signal received, 0 while none */
 
-static void on_cancel_signal(int sig)
+/* The first SIGINT, SIGTERM or SIGHUP (op_interrupt_install: from a thread of its own) cancels:
+ * the render stops cleanly and main exits 130; a second one ends the process at once, removing
+ * any temporary output. */
+static void on_interrupt(void *user, int sig)
 {
-    g_signal = sig;
-    atomic_store(&g_cancel, 1); /* lock-free, so safe from a handler */
-}
-
-/* SIGINT, SIGTERM and SIGHUP cancel: the render stops cleanly and main exits 130. The same
- * signal a second time ends the process at once (the default action). A signal ignored when
- * the program starts (nohup's SIGHUP, SIGINT in a shell's background job) stays ignored, as it
- * would without a handler. SIGPIPE is ignored, so a closed stdout is a write error of the tile
- * stream (exit 1), not a silent death. */
-static void install_signal_handlers(void)
-{
-    static const int cancelling[] = {SIGINT, SIGTERM, SIGHUP};
-    struct sigaction sa, old;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_cancel_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESTART | SA_RESETHAND;
-    for (size_t i = 0; i < sizeof cancelling / sizeof *cancelling; i++)
-        if (sigaction(cancelling[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
-            sigaction(cancelling[i], &sa, NULL);
-    sa.sa_handler = SIG_IGN;
-    sa.sa_flags = 0;
-    sigaction(SIGPIPE, &sa, NULL);
+    (void)user;
+    atomic_store(&g_signal, sig);
+    atomic_store(&g_cancel, 1);
 }
 
 static const char *signal_name(int sig)
@@ -218,8 +201,8 @@ static int write_partial(const op_scene *scene, const op_image *img, const op_re
                          const char *const *outputs, int n, int beside, int code)
 {
     char what[64], when[64];
-    if (g_signal)
-        snprintf(what, sizeof what, "interrupted (%s)", signal_name(g_signal));
+    if (atomic_load(&g_signal))
+        snprintf(what, sizeof what, "interrupted (%s)", signal_name(atomic_load(&g_signal)));
     else
         snprintf(what, sizeof what, "stopped");
     if (rs->tiles_done == 0)
@@ -397,8 +380,11 @@ int main(int argc, char **argv)
                      : verbosity == 0  ? OP_LOG_INFO
                                        : OP_LOG_DEBUG);
 
-    install_signal_handlers();
     op_error err = {0};
+    if (op_interrupt_install(on_interrupt, NULL, &err) != OP_OK) {
+        op_log(OP_LOG_ERROR, "%s", err.message);
+        return op_exit_code(err.status);
+    }
     op_scene *scene = NULL;
     op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
     for (int k = 0; k < ndefines; k++)
@@ -407,8 +393,9 @@ int main(int argc, char **argv)
         op_log(OP_LOG_ERROR, "%s", err.message);
         return op_exit_code(st);
     }
-    if (g_signal) { /* loading is not cancellable, but quick: stop before rendering */
-        op_log(OP_LOG_WARN, "interrupted (%s) while loading %s", signal_name(g_signal), scene_path);
+    if (atomic_load(&g_signal)) { /* loading is not cancellable, but quick: stop before rendering */
+        op_log(OP_LOG_WARN, "interrupted (%s) while loading %s",
+               signal_name(atomic_load(&g_signal)), scene_path);
         op_scene_free(scene);
         return op_exit_code(OP_ERR_CANCELLED);
     }
@@ -470,14 +457,14 @@ int main(int argc, char **argv)
         const op_image *img = op_renderer_image(r);
         if (rs.tiles_done == rs.tiles) {
             code = write_images(scene, img, outputs, noutputs, code);
-            if (g_signal)
+            if (atomic_load(&g_signal))
                 op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete",
-                       signal_name(g_signal));
+                       signal_name(atomic_load(&g_signal)));
         } else {
             code = write_partial(scene, img, &rs, outputs, noutputs, partial_beside, code);
         }
     }
-    if (code == 0 && (g_signal || st == OP_ERR_CANCELLED))
+    if (code == 0 && (atomic_load(&g_signal) || st == OP_ERR_CANCELLED))
         code = op_exit_code(OP_ERR_CANCELLED);
     if (stream_mode) {
         unsigned char p[4];
