@@ -111,6 +111,47 @@ op_status op_output_commit(op_output *out, op_error *err);
 /* Removes the temporary file and frees out. Accepts NULL. */
 void op_output_abort(op_output *out);
 
+/* ---------------------------------------------------------------- input files */
+
+/* Every reader of an input file opens it through these, so that every program refuses the
+ * same things with the same words: a missing file is OP_ERR_INPUT "PATH: no such file"; a
+ * directory, FIFO, socket or device is OP_ERR_INPUT "PATH: is a directory, not a file" (and
+ * the like), at once, without ever blocking on a FIFO; an unreadable one OP_ERR_INPUT
+ * "PATH: permission denied". */
+
+/* Opens a regular file for reading (blocking, close-on-exec); *size (if not NULL) is its size
+ * in bytes when opened. */
+op_status op_file_open(const char *path, int *fd, uint64_t *size, op_error *err);
+/* op_file_open as a stdio stream, positioned at the start. */
+op_status op_file_open_stream(const char *path, FILE **f, uint64_t *size, op_error *err);
+/* Reads the whole file into a malloc'ed buffer (*data, with a NUL byte after the *size bytes
+ * read); a file over max_bytes is OP_ERR_INPUT naming the limit. */
+op_status op_file_read(const char *path, size_t max_bytes, char **data, size_t *size,
+                       op_error *err);
+
+/* A read-only view of a whole input file: mapped, or read into memory when it cannot be. */
+typedef struct op_file_view {
+    const void *data; /* size bytes; NULL when size is 0 */
+    size_t size;
+    int slot;         /* internal: the fault-table slot, or -1 when data was read into memory */
+} op_file_view;
+
+/* Maps the file read-only. While it is mapped, a fault on it (the file truncated or replaced
+ * in place by another program) ends the process with exit code 2 and the message
+ * "PATH: the file was truncated or changed while in use", once op_file_guard_faults has run. */
+op_status op_file_map(const char *path, op_file_view *map, op_error *err);
+/* Unmaps (or frees) and zeroes map. Accepts a zeroed map. */
+void op_file_unmap(op_file_view *map);
+/* Installs the SIGBUS handler behind op_file_map's promise; other faults keep their default
+ * action. Programs call it once, first thing in main(); calling it again does nothing. */
+void op_file_guard_faults(void);
+
+/* Copies src into dst (cap bytes, always NUL-terminated when cap > 0) with every control
+ * character, C1 control and invalid UTF-8 byte written as a \xNN escape (tab, newline and
+ * carriage return as \t, \n, \r), so that text from a file cannot drive the terminal.
+ * Returns the length written. op_log applies it to every line. */
+size_t op_text_escape(char *dst, size_t cap, const char *src);
+
 /* ---------------------------------------------------------------- images */
 
 /* Pixels are linear-light floats, row-major from the top row, `channels` interleaved per pixel

@@ -19,8 +19,9 @@ struct op_material {
     op_material_info info;
     const op_method_ops *ops;
     void *state;            /* owned by the method */
-    const unsigned char *base; /* the mapped file */
-    uint64_t size;
+    op_file_view file;      /* the whole file */
+    const unsigned char *base; /* file.data */
+    uint64_t size;             /* file.size */
     char path[1024];
     uint32_t nsections;
     const unsigned char *table;

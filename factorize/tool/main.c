@@ -26,6 +26,7 @@ static void usage(FILE *f)
 
 int main(int argc, char **argv)
 {
+    op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
     if (argc < 2) {
         usage(stderr);
         return 2;
