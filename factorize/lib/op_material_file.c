@@ -179,6 +179,39 @@ op_status op_material_float_section(const op_material *m, const char *tag, uint6
     return OP_OK;
 }
 
+op_status op_material_check_albedo(const op_material *m, const char *tag, const float *v,
+                                   uint64_t count, op_error *err)
+{
+    uint64_t rows = (uint64_t)op_material_rows(m), w = (uint64_t)m->info.width;
+    uint64_t first_high = count;
+    for (uint64_t i = 0; i < count; i++) {
+        if (v[i] <= OP_MATERIAL_MAX_ALBEDO)
+            continue;
+        if (first_high == count)
+            first_high = i;
+        if (v[i] > OP_MATERIAL_ABSURD_ALBEDO) {
+            first_high = i;
+            break;
+        }
+    }
+    if (first_high == count)
+        return OP_OK;
+    uint64_t i = first_high, r = i % rows;
+    char channel[32] = "", where[192];
+    if (count > rows) /* channels x rows */
+        snprintf(channel, sizeof channel, "channel %llu, ", (unsigned long long)(i / rows));
+    snprintf(where, sizeof where, "section '%s' value %llu (%srow %llu: incident pixel x %llu, "
+             "y %llu) is %g", tag, (unsigned long long)i, channel, (unsigned long long)r,
+             (unsigned long long)(r % w), (unsigned long long)(r / w), (double)v[i]);
+    if (v[i] > OP_MATERIAL_ABSURD_ALBEDO)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: %s, but an albedo cannot exceed 1 (a "
+                            "factored material is refused above %g): physically impossible "
+                            "data", m->path, where, OP_MATERIAL_ABSURD_ALBEDO);
+    op_log(OP_LOG_WARN, "%s: %s, but an albedo cannot exceed 1: the material will render too "
+           "bright there (a poor approximation, or data that was not physical)", m->path, where);
+    return OP_OK;
+}
+
 op_status op_material_channel_floats(const op_material *m, const char *prefix, int c,
                                      uint64_t count, int nonneg, const float **out,
                                      op_error *err)
@@ -212,7 +245,11 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
         snprintf(tag, sizeof tag, "MAX");
     else
         op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
-    return op_material_float_section(m, tag, (uint64_t)rows, 1, max, err);
+    const float *mx = NULL;
+    st = op_material_float_section(m, tag, (uint64_t)rows, 1, &mx, err);
+    if (st == OP_OK && (st = op_material_check_albedo(m, tag, mx, (uint64_t)rows, err)) == OP_OK)
+        *max = mx;
+    return st;
 }
 
 void op_column_abs_max(const float *v, int n, int T, double *out)
@@ -511,10 +548,12 @@ static op_status open_file(const char *path, int with_method, op_material **out,
     if (st == OP_OK && (st = m->ops->prepare(m, err)) != OP_OK)
         m->ops = NULL; /* prepare cleans up after itself on failure */
     /* Factorizers store the row sums of their reconstruction, so the albedo map is a copy. */
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
-        st = op_material_float_section(m, "ALBEDO",
-                                       (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels,
-                                       1, &m->albedo, err);
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL)) {
+        uint64_t n = (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels;
+        st = op_material_float_section(m, "ALBEDO", n, 1, &m->albedo, err);
+        if (st == OP_OK)
+            st = op_material_check_albedo(m, "ALBEDO", m->albedo, n, err);
+    }
     if (st != OP_OK) {
         op_material_close(m);
         return st;

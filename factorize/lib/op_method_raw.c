@@ -3,16 +3,13 @@
  *
  * Every value must be finite and >= 0, and every row (the light leaving through the whole
  * kernel for one incident pixel: that pixel's albedo) must sum to at most
- * OP_RAW_MAX_ALBEDO; docs/formats.md explains the tolerance. */
+ * OP_MATERIAL_MAX_ALBEDO; docs/formats.md explains the tolerance. */
 #include "op_material_internal.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* A measured row may sum a little above 1 through noise; far above is impossible data. */
-#define OP_RAW_MAX_ALBEDO 1.5
 
 typedef struct raw_state {
     const float *rd[3];
@@ -48,7 +45,7 @@ static op_status check_channel(const op_material *m, int c, const float **out, o
         }
         double sum = ((part[0] + part[1]) + (part[2] + part[3])) +
                      ((part[4] + part[5]) + (part[6] + part[7]));
-        if (ok && sum <= OP_RAW_MAX_ALBEDO)
+        if (ok && sum <= OP_MATERIAL_MAX_ALBEDO)
             continue;
         int bad = 0, top = 0;
         while (row[bad] >= 0.0f && row[bad] <= FLT_MAX && bad + 1 < cols)
@@ -68,7 +65,7 @@ static op_status check_channel(const op_material *m, int c, const float **out, o
                             "albedo of a pixel cannot exceed 1 (at most %g is accepted as "
                             "measurement noise): physically impossible data", m->path, tag,
                             (long long)r, (long long)(r % w), (long long)(r / w), sum,
-                            (double)row[top], top, OP_RAW_MAX_ALBEDO);
+                            (double)row[top], top, OP_MATERIAL_MAX_ALBEDO);
     }
     *out = rd;
     return OP_OK;

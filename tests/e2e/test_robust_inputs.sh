@@ -154,6 +154,39 @@ expect 2 "row 0 (incident pixel x 0, y 0) sums to 2" "at most 1.5" -- "$FACTOR" 
 scene material "$T/bright.opm"
 expect 2 "bright.opm: section 'RD.Y' row 0" -- "$RENDER" --check "$T/scene-material.xml"
 
+# Factored materials: stored albedos, per-row maxima and NMF row scales above 1e6 are
+# refused, above 1.5 warned about (patch.py FILE TAG INDEX VALUE sets one float32 and fixes
+# the checksums).
+cat > "$T/patch.py" <<'PY'
+import struct, sys, zlib
+path, want, index, value = sys.argv[1], sys.argv[2].encode(), int(sys.argv[3]), float(sys.argv[4])
+b = bytearray(open(path, "rb").read())
+count, = struct.unpack_from("<I", b, 12); table, = struct.unpack_from("<Q", b, 24)
+for i in range(count):
+    e = table + 32 * i
+    if bytes(b[e:e + 8]).rstrip(b"\0") == want:
+        off, size = struct.unpack_from("<QQ", b, e + 8)
+        struct.pack_into("<f", b, off + 4 * index, value)
+        struct.pack_into("<I", b, e + 24, zlib.crc32(b[off:off + size]))
+struct.pack_into("<I", b, 32, zlib.crc32(b[table:table + 32 * count]))
+struct.pack_into("<I", b, 36, zlib.crc32(b[:36]))
+open(path, "wb").write(b)
+PY
+"$FACTOR" factor "$T/good.opm" --method svd -T 1 -o "$T/svd.opm" >/dev/null 2>&1 || fail "factor svd"
+"$FACTOR" factor "$T/good.opm" --method nmf -T 1 --iters 3 -o "$T/nmf.opm" >/dev/null 2>&1 || fail "factor nmf"
+cp "$T/svd.opm" "$T/svd-max.opm"
+python3 "$T/patch.py" "$T/svd-max.opm" MAX.G 7 1e30
+expect 2 "section 'MAX.G' value 7 (row 7: incident pixel x 1, y 1) is 1e+30" -- "$FACTOR" info "$T/svd-max.opm"
+cp "$T/svd.opm" "$T/svd-albedo.opm"
+python3 "$T/patch.py" "$T/svd-albedo.opm" ALBEDO 40 3e6
+expect 2 "section 'ALBEDO' value 40 (channel 1, row 4: incident pixel x 4, y 0) is 3e+06" -- "$FACTOR" info "$T/svd-albedo.opm"
+cp "$T/svd.opm" "$T/svd-bright.opm"
+python3 "$T/patch.py" "$T/svd-bright.opm" ALBEDO 3 2.5
+expect 0 "warning: $T/svd-bright.opm: section 'ALBEDO' value 3 (channel 0, row 3: incident pixel x 3, y 0) is 2.5, but an albedo cannot exceed 1" \
+  -- "$FACTOR" info "$T/svd-bright.opm"
+python3 "$T/patch.py" "$T/nmf.opm" SCALE.B 2 1e20
+expect 2 "section 'SCALE.B' value 2 (row 2: incident pixel x 2, y 0) is 1e+20" -- "$FACTOR" info "$T/nmf.opm"
+
 # Escape sequences from a file: shown escaped by info and in error messages, never raw.
 opm "$T/esc.opm" "${META}name=red\x1b[31mX\x9b2J\ngenerator=bell\x07\n" RD.Y=good
 expect 0 -- "$FACTOR" info "$T/esc.opm"
