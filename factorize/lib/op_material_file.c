@@ -434,15 +434,11 @@ static op_status check_entry(const op_material *m, uint32_t i, const unsigned ch
                              uint64_t table, op_error *err)
 {
     const char *path = m->path;
-    char shown[8 * 4 + 1]; /* the tag as text, bytes outside printable ASCII as \xNN */
-    size_t k = 0, len = strnlen((const char *)e, 8);
-    for (size_t j = 0; j < len; j++) {
-        if (e[j] > ' ' && e[j] <= '~')
-            shown[k++] = (char)e[j];
-        else
-            k += (size_t)snprintf(shown + k, sizeof shown - k, "\\x%02x", e[j]);
-    }
-    shown[k] = '\0';
+    char tag[9], shown[8 * 4 + 1]; /* the tag, and as text with control bytes escaped */
+    size_t len = strnlen((const char *)e, 8);
+    memcpy(tag, e, len);
+    tag[len] = '\0';
+    op_text_escape(shown, sizeof shown, tag);
     if (len == 0)
         return op_error_set(err, OP_ERR_FORMAT, "%s: section %u has an empty tag", path, i);
     for (size_t j = 0; j < 8; j++)

@@ -9,7 +9,6 @@
 #include "npy.h"
 #include "sidecar.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -94,7 +94,8 @@ op_status op_npy_parse_header(const unsigned char *buf, size_t n, const char *pa
                             path, major);
     }
     if (hlen == 0 || hlen > OP_NPY_MAX_HEADER - 12)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: .npy header of %zu bytes", path, hlen);
+        return op_error_set(err, OP_ERR_FORMAT, "%s: .npy header of %zu bytes (1 to %d accepted)",
+                            path, hlen, OP_NPY_MAX_HEADER - 12);
     if (n - start < hlen)
         return op_error_set(err, OP_ERR_FORMAT, "%s: truncated .npy header", path);
     char *hdr = malloc(hlen + 1);
