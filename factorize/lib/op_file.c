@@ -206,7 +206,13 @@ static void on_sigbus(int sig, siginfo_t *info, void *context)
     uintptr_t a = (uintptr_t)info->si_addr;
     for (int i = 0; info->si_code > 0 && i < MAX_SLOTS; i++) {
         const map_slot *s = &slots[i];
-        if (atomic_load(&s->state) == SLOT_LIVE && a - atomic_load(&s->start) < atomic_load(&s->length)) {
+        if (atomic_load(&s->state) == SLOT_LIVE &&
+            a - atomic_load(&s->start) < atomic_load(&s->length)) {
+            /* One message however many threads fault: the others wait for the exit. */
+            static atomic_int reported;
+            if (atomic_exchange(&reported, 1))
+                for (;;)
+                    pause();
             ssize_t w = write(STDERR_FILENO, s->message, s->message_len);
             (void)w;
             _exit(2);
