@@ -3,7 +3,7 @@
  *
  * Reads, writes and evaluates factored heterogeneous subsurface-scattering materials
  * (".opm" files), and holds the support that every opaline program shares: error reporting,
- * logging, progress reporting, crash-safe output files and image files.
+ * logging, progress reporting, input and crash-safe output files, and image files.
  *
  * Conventions
  *  - Every fallible function returns an op_status and, when it fails, fills the caller's
@@ -62,8 +62,14 @@ typedef enum op_log_level { OP_LOG_ERROR, OP_LOG_WARN, OP_LOG_INFO, OP_LOG_DEBUG
 /* Sets the most verbose level printed (default OP_LOG_INFO). Call before starting threads. */
 void op_log_set_level(op_log_level level);
 op_log_level op_log_get_level(void);
-/* Writes one line "opaline: <level>: <message>" to stderr; safe from any thread. */
+/* Writes one line "opaline: <level>: <message>" to stderr, the message passed through
+ * op_text_escape; safe from any thread. */
 void op_log(op_log_level level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Copies src into dst (cap bytes, always NUL-terminated when cap > 0) with every control
+ * character, C1 control and invalid UTF-8 byte written as a \xNN escape (tab, newline and
+ * carriage return as \t, \n, \r), never cutting an escape or a character, so that text from
+ * a file cannot drive the terminal. Returns the length written. */
+size_t op_text_escape(char *dst, size_t cap, const char *src);
 
 /* ---------------------------------------------------------------- progress */
 
@@ -145,12 +151,6 @@ void op_file_unmap(op_file_view *map);
 /* Installs the SIGBUS handler behind op_file_map's promise; other faults keep their default
  * action. Programs call it once, first thing in main(); calling it again does nothing. */
 void op_file_guard_faults(void);
-
-/* Copies src into dst (cap bytes, always NUL-terminated when cap > 0) with every control
- * character, C1 control and invalid UTF-8 byte written as a \xNN escape (tab, newline and
- * carriage return as \t, \n, \r), so that text from a file cannot drive the terminal.
- * Returns the length written. op_log applies it to every line. */
-size_t op_text_escape(char *dst, size_t cap, const char *src);
 
 /* ---------------------------------------------------------------- images */
 
