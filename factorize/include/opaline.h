@@ -3,7 +3,7 @@
  *
  * Reads, writes and evaluates factored heterogeneous subsurface-scattering materials
  * (".opm" files), and holds the support that every opaline program shares: error reporting,
- * logging, progress reporting, crash-safe output files and image files.
+ * logging, progress reporting, input and crash-safe output files, and image files.
  *
  * Conventions
  *  - Every fallible function returns an op_status and, when it fails, fills the caller's
@@ -62,8 +62,14 @@ typedef enum op_log_level { OP_LOG_ERROR, OP_LOG_WARN, OP_LOG_INFO, OP_LOG_DEBUG
 /* Sets the most verbose level printed (default OP_LOG_INFO). Call before starting threads. */
 void op_log_set_level(op_log_level level);
 op_log_level op_log_get_level(void);
-/* Writes one line "opaline: <level>: <message>" to stderr; safe from any thread. */
+/* Writes one line "opaline: <level>: <message>" to stderr, the message passed through
+ * op_text_escape; safe from any thread. */
 void op_log(op_log_level level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Copies src into dst (cap bytes, always NUL-terminated when cap > 0) with every control
+ * character, C1 control and invalid UTF-8 byte written as a \xNN escape (tab, newline and
+ * carriage return as \t, \n, \r), never cutting an escape or a character, so that text from
+ * a file cannot drive the terminal. Returns the length written. */
+size_t op_text_escape(char *dst, size_t cap, const char *src);
 
 /* ---------------------------------------------------------------- progress */
 
@@ -138,6 +144,41 @@ typedef void (*op_interrupt_fn)(void *user, int signo);
  * does the above. A signal ignored when the process started (nohup) stays ignored. Call once,
  * from main, before starting threads. */
 op_status op_interrupt_install(op_interrupt_fn fn, void *user, op_error *err);
+
+/* ---------------------------------------------------------------- input files */
+
+/* Every reader of an input file opens it through these, so that every program refuses the
+ * same things with the same words: a missing file is OP_ERR_INPUT "PATH: no such file"; a
+ * directory, FIFO, socket or device is OP_ERR_INPUT "PATH: is a directory, not a file" (and
+ * the like), at once, without ever blocking on a FIFO; an unreadable one OP_ERR_INPUT
+ * "PATH: permission denied". */
+
+/* Opens a regular file for reading (blocking, close-on-exec); *size (if not NULL) is its size
+ * in bytes when opened. */
+op_status op_file_open(const char *path, int *fd, uint64_t *size, op_error *err);
+/* op_file_open as a stdio stream, positioned at the start. */
+op_status op_file_open_stream(const char *path, FILE **f, uint64_t *size, op_error *err);
+/* Reads the whole file into a malloc'ed buffer (*data, with a NUL byte after the *size bytes
+ * read); a file over max_bytes is OP_ERR_INPUT naming the limit. */
+op_status op_file_read(const char *path, size_t max_bytes, char **data, size_t *size,
+                       op_error *err);
+
+/* A read-only view of a whole input file: mapped, or read into memory when it cannot be. */
+typedef struct op_file_view {
+    const void *data; /* size bytes; NULL when size is 0 */
+    size_t size;
+    int slot;         /* internal: the fault-table slot, or -1 when data was read into memory */
+} op_file_view;
+
+/* Maps the file read-only. While it is mapped, a fault on it (the file truncated or replaced
+ * in place by another program) ends the process with exit code 2 and the message
+ * "PATH: the file was truncated or changed while in use", once op_file_guard_faults has run. */
+op_status op_file_map(const char *path, op_file_view *map, op_error *err);
+/* Unmaps (or frees) and zeroes map. Accepts a zeroed map. */
+void op_file_unmap(op_file_view *map);
+/* Installs the SIGBUS handler behind op_file_map's promise; other faults keep their default
+ * action. Programs call it once, first thing in main(); calling it again does nothing. */
+void op_file_guard_faults(void);
 
 /* ---------------------------------------------------------------- images */
 

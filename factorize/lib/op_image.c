@@ -4,12 +4,10 @@
 #include "opaline.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <png.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <openexr.h>
@@ -140,16 +138,16 @@ static op_status check_pixels(const char *path, const char *kind, uint64_t w, ui
                         (unsigned long long)max_pixels);
 }
 
-/* Reads a PNG through libpng's simplified API (which never prints), as 8-bit sRGB, decoded to
- * linear light when decode is set (else byte / 255); alpha stays as stored. Grey+alpha becomes
- * RGBA. */
-static op_status read_png(const char *path, int decode, uint64_t max_pixels, op_image *img,
-                          op_error *err)
+/* Reads a PNG from f (path names it in messages) through libpng's simplified API (which never
+ * prints), as 8-bit sRGB, decoded to linear light when decode is set (else byte / 255); alpha
+ * stays as stored. Grey+alpha becomes RGBA. */
+static op_status read_png(const char *path, FILE *f, int decode, uint64_t max_pixels,
+                          op_image *img, op_error *err)
 {
     png_image pi;
     memset(&pi, 0, sizeof pi);
     pi.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&pi, path)) {
+    if (!png_image_begin_read_from_stdio(&pi, f)) {
         op_error_set(err, OP_ERR_FORMAT, "%s: not a readable PNG: %s", path, pi.message);
         png_image_free(&pi);
         return OP_ERR_FORMAT;
@@ -653,32 +651,35 @@ static op_status read_any(const char *path, int decode, uint64_t max_pixels, op_
 {
     memset(img, 0, sizeof *img);
     *encoded = 0;
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return op_error_set(err, OP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    struct stat sb;
+    int fd;
+    uint64_t size;
+    op_status st = op_file_open(path, &fd, &size, err);
+    if (st != OP_OK)
+        return st;
     unsigned char magic[8] = {0};
-    ssize_t got;
-    if (fstat(fd, &sb) != 0 || (got = pread(fd, magic, sizeof magic, 0)) < 0) {
+    ssize_t got = pread(fd, magic, sizeof magic, 0);
+    if (got < 0) {
         int e = errno;
         close(fd);
         return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
     }
-    if (!S_ISREG(sb.st_mode)) {
-        close(fd);
-        return op_error_set(err, OP_ERR_IO, "%s: not a regular file", path);
-    }
     static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    op_status st;
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
-        st = read_exr(path, fd, (int64_t)sb.st_size, max_pixels, img, err);
+        st = read_exr(path, fd, (int64_t)size, max_pixels, img, err);
     } else if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
-        st = read_png(path, decode, max_pixels, img, err);
+        FILE *f = fdopen(fd, "rb"); /* at offset 0: pread does not move it */
+        if (!f) {
+            close(fd);
+            return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+        }
+        st = read_png(path, f, decode, max_pixels, img, err);
         *encoded = 1;
+        fclose(f);
+        return st;
     } else if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
                (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r')) {
-        st = read_pfm(path, fd, (int64_t)sb.st_size, max_pixels, img, err);
+        st = read_pfm(path, fd, (int64_t)size, max_pixels, img, err);
     } else {
         st = op_error_set(err, OP_ERR_FORMAT, "%s: not an OpenEXR, PNG or PFM image", path);
     }

@@ -9,13 +9,9 @@
 #include "op_material_internal.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -183,6 +179,39 @@ op_status op_material_float_section(const op_material *m, const char *tag, uint6
     return OP_OK;
 }
 
+op_status op_material_check_albedo(const op_material *m, const char *tag, const float *v,
+                                   uint64_t count, op_error *err)
+{
+    uint64_t rows = (uint64_t)op_material_rows(m), w = (uint64_t)m->info.width;
+    uint64_t first_high = count;
+    for (uint64_t i = 0; i < count; i++) {
+        if (v[i] <= OP_MATERIAL_MAX_ALBEDO)
+            continue;
+        if (first_high == count)
+            first_high = i;
+        if (v[i] > OP_MATERIAL_ABSURD_ALBEDO) {
+            first_high = i;
+            break;
+        }
+    }
+    if (first_high == count)
+        return OP_OK;
+    uint64_t i = first_high, r = i % rows;
+    char channel[32] = "", where[192];
+    if (count > rows) /* channels x rows */
+        snprintf(channel, sizeof channel, "channel %llu, ", (unsigned long long)(i / rows));
+    snprintf(where, sizeof where, "section '%s' value %llu (%srow %llu: incident pixel x %llu, "
+             "y %llu) is %g", tag, (unsigned long long)i, channel, (unsigned long long)r,
+             (unsigned long long)(r % w), (unsigned long long)(r / w), (double)v[i]);
+    if (v[i] > OP_MATERIAL_ABSURD_ALBEDO)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: %s, but an albedo cannot exceed 1 (a "
+                            "factored material is refused above %g): physically impossible "
+                            "data", m->path, where, OP_MATERIAL_ABSURD_ALBEDO);
+    op_log(OP_LOG_WARN, "%s: %s, but an albedo cannot exceed 1: the material will render too "
+           "bright there (a poor approximation, or data that was not physical)", m->path, where);
+    return OP_OK;
+}
+
 op_status op_material_channel_floats(const op_material *m, const char *prefix, int c,
                                      uint64_t count, int nonneg, const float **out,
                                      op_error *err)
@@ -216,7 +245,11 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
         snprintf(tag, sizeof tag, "MAX");
     else
         op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
-    return op_material_float_section(m, tag, (uint64_t)rows, 1, max, err);
+    const float *mx = NULL;
+    st = op_material_float_section(m, tag, (uint64_t)rows, 1, &mx, err);
+    if (st == OP_OK && (st = op_material_check_albedo(m, tag, mx, (uint64_t)rows, err)) == OP_OK)
+        *max = mx;
+    return st;
 }
 
 void op_column_abs_max(const float *v, int n, int T, double *out)
@@ -271,6 +304,7 @@ static op_status parse_double(const char *path, const char *key, const char *val
     return OP_OK;
 }
 
+/* Parses META: one "key=value" per line, lines ended by LF or CRLF. */
 static op_status parse_meta(const char *path, const char *text, uint64_t n, op_material_info *info,
                             op_error *err)
 {
@@ -289,6 +323,8 @@ static op_status parse_meta(const char *path, const char *text, uint64_t n, op_m
             return op_error_set(err, OP_ERR_FORMAT, "%s: META line %d is too long", path, lineno);
         memcpy(line, text + pos, end - pos);
         line[end - pos] = '\0';
+        if (end > pos && text[end - 1] == '\r') /* CRLF line ends, from an editor */
+            line[end - pos - 1] = '\0';
         pos = end + 1;
         if (!line[0])
             continue;
@@ -391,6 +427,47 @@ static int checksum_ok(uint32_t stored, uint32_t computed)
 #endif
 }
 
+/* Checks entry i of the section table (at e; the table starts at byte `table`): its tag (1 to
+ * 8 printable ASCII characters, NUL-padded, not used by an earlier entry) and its bounds
+ * (aligned, between the header and the table). */
+static op_status check_entry(const op_material *m, uint32_t i, const unsigned char *e,
+                             uint64_t table, op_error *err)
+{
+    const char *path = m->path;
+    char tag[9], shown[8 * 4 + 1]; /* the tag, and as text with control bytes escaped */
+    size_t len = strnlen((const char *)e, 8);
+    memcpy(tag, e, len);
+    tag[len] = '\0';
+    op_text_escape(shown, sizeof shown, tag);
+    if (len == 0)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section %u has an empty tag", path, i);
+    for (size_t j = 0; j < 8; j++)
+        if (j < len ? e[j] <= ' ' || e[j] > '~' : e[j] != 0)
+            return op_error_set(err, OP_ERR_FORMAT, "%s: section %u tag '%s': byte %zu is %s (a "
+                                "tag is 1 to 8 printable ASCII characters padded with zero bytes)",
+                                path, i, shown, j, j < len ? "not a printable ASCII character"
+                                                           : "not a zero byte");
+    for (uint32_t j = 0; j < i; j++)
+        if (!memcmp(e, m->table + (size_t)j * OPM_ENTRY_SIZE, 8))
+            return op_error_set(err, OP_ERR_FORMAT, "%s: sections %u and %u have the same tag "
+                                "'%s'", path, j, i, shown);
+    uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
+    if (off % OPM_ALIGN)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' starts at byte %llu, not a "
+                            "multiple of %u", path, shown, (unsigned long long)off, OPM_ALIGN);
+    if (off < OPM_HEADER_SIZE || off > table)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' starts at byte %llu, outside "
+                            "the data between the header (%u bytes) and the section table (byte "
+                            "%llu)", path, shown, (unsigned long long)off, OPM_HEADER_SIZE,
+                            (unsigned long long)table);
+    if (size > table - off)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' (%llu bytes from byte %llu) runs "
+                            "into the section table at byte %llu", path, shown,
+                            (unsigned long long)size, (unsigned long long)off,
+                            (unsigned long long)table);
+    return OP_OK;
+}
+
 static op_status check_container(op_material *m, op_error *err)
 {
     const unsigned char *b = m->base;
@@ -411,30 +488,27 @@ static op_status check_container(op_material *m, op_error *err)
         return op_error_set(err, OP_ERR_FORMAT,
                             "%s: file is %llu bytes but its header says %llu (truncated?)", path,
                             (unsigned long long)m->size, (unsigned long long)declared);
-    if (count == 0 || count > OPM_MAX_SECTIONS || table < OPM_HEADER_SIZE ||
-        table > m->size || (m->size - table) / OPM_ENTRY_SIZE < count)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section table out of bounds", path);
+    if (count == 0 || count > OPM_MAX_SECTIONS)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: the header counts %u sections (need 1 to %u)",
+                            path, count, OPM_MAX_SECTIONS);
+    if (table < OPM_HEADER_SIZE || table > m->size || (m->size - table) / OPM_ENTRY_SIZE < count)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: the section table (%u entries at byte %llu) "
+                            "does not lie between the header and the end of the %llu-byte file",
+                            path, count, (unsigned long long)table, (unsigned long long)m->size);
     if (!checksum_ok(get_u32(b + 32), op_crc32(0, b + table, (size_t)count * OPM_ENTRY_SIZE)))
         return op_error_set(err, OP_ERR_FORMAT, "%s: section table checksum mismatch", path);
     m->table = b + table;
     m->nsections = count;
     for (uint32_t i = 0; i < count; i++) {
         const unsigned char *e = m->table + (size_t)i * OPM_ENTRY_SIZE;
-        char tag[9];
-        memcpy(tag, e, 8);
-        tag[8] = '\0';
+        op_status st = check_entry(m, i, e, table, err);
+        if (st != OP_OK)
+            return st;
         uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
-        if (!valid_tag(tag) || off % OPM_ALIGN || off < OPM_HEADER_SIZE || off > table ||
-            size > table - off)
-            return op_error_set(err, OP_ERR_FORMAT, "%s: section %u ('%.8s') out of bounds", path,
-                                i, tag);
-        for (uint32_t j = 0; j < i; j++)
-            if (!memcmp(e, m->table + (size_t)j * OPM_ENTRY_SIZE, 8))
-                return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' appears twice", path,
-                                    tag);
         if (!checksum_ok(get_u32(e + 24), op_crc32(0, b + off, size)))
             return op_error_set(err, OP_ERR_FORMAT,
-                                "%s: section '%s' checksum mismatch (corrupt file)", path, tag);
+                                "%s: section '%.8s' checksum mismatch (corrupt file)", path,
+                                (const char *)e);
     }
     return OP_OK;
 }
@@ -446,31 +520,14 @@ static op_status open_file(const char *path, int with_method, op_material **out,
     if (!m)
         return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
     snprintf(m->path, sizeof m->path, "%s", path);
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    struct stat stbuf;
-    if (fd < 0 || fstat(fd, &stbuf) != 0) {
-        int e = errno;
-        if (fd >= 0)
-            close(fd);
+    op_status st = op_file_map(path, &m->file, err);
+    if (st != OP_OK) {
         free(m);
-        return op_error_set(err, e == ENOENT ? OP_ERR_INPUT : OP_ERR_IO, "%s: cannot open: %s",
-                            path, strerror(e));
+        return st;
     }
-    if (!S_ISREG(stbuf.st_mode) || stbuf.st_size < (off_t)OPM_HEADER_SIZE) {
-        close(fd);
-        free(m);
-        return op_error_set(err, OP_ERR_FORMAT, "%s: not an opaline material file", path);
-    }
-    m->size = (uint64_t)stbuf.st_size;
-    void *map = mmap(NULL, (size_t)m->size, PROT_READ, MAP_PRIVATE, fd, 0);
-    close(fd);
-    if (map == MAP_FAILED) {
-        int e = errno;
-        free(m);
-        return op_error_set(err, OP_ERR_IO, "%s: cannot map: %s", path, strerror(e));
-    }
-    m->base = map;
-    op_status st = check_container(m, err);
+    m->base = m->file.data;
+    m->size = m->file.size;
+    st = check_container(m, err);
     uint64_t meta_n = 0;
     const char *meta = st == OP_OK ? op_material_section(m, "META", &meta_n) : NULL;
     if (st == OP_OK && !meta)
@@ -487,10 +544,12 @@ static op_status open_file(const char *path, int with_method, op_material **out,
     if (st == OP_OK && (st = m->ops->prepare(m, err)) != OP_OK)
         m->ops = NULL; /* prepare cleans up after itself on failure */
     /* Factorizers store the row sums of their reconstruction, so the albedo map is a copy. */
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL))
-        st = op_material_float_section(m, "ALBEDO",
-                                       (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels,
-                                       1, &m->albedo, err);
+    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL)) {
+        uint64_t n = (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels;
+        st = op_material_float_section(m, "ALBEDO", n, 1, &m->albedo, err);
+        if (st == OP_OK)
+            st = op_material_check_albedo(m, "ALBEDO", m->albedo, n, err);
+    }
     if (st != OP_OK) {
         op_material_close(m);
         return st;
@@ -515,8 +574,7 @@ void op_material_close(op_material *m)
         return;
     if (m->ops && m->ops->destroy)
         m->ops->destroy(m);
-    if (m->base)
-        munmap((void *)m->base, (size_t)m->size);
+    op_file_unmap(&m->file);
     free(m);
 }
 

@@ -19,13 +19,23 @@ struct op_material {
     op_material_info info;
     const op_method_ops *ops;
     void *state;            /* owned by the method */
-    const unsigned char *base; /* the mapped file */
-    uint64_t size;
+    op_file_view file;      /* the whole file */
+    const unsigned char *base; /* file.data */
+    uint64_t size;             /* file.size */
     char path[1024];
     uint32_t nsections;
     const unsigned char *table;
     const float *albedo;    /* the "ALBEDO" section (channels x rows), or NULL */
 };
+
+/* The largest albedo (the sum of a row of Rd: the fraction of the light entering one incident
+ * pixel that leaves the sample) a raw material may hold: physically at most 1, and noisy
+ * measurements may exceed that a little, so up to 1.5 is accepted (docs/formats.md). A
+ * factored material approximates its data and may overshoot: its stored albedos, per-row
+ * maxima and NMF row scales get a warning above OP_MATERIAL_MAX_ALBEDO and are refused above
+ * OP_MATERIAL_ABSURD_ALBEDO, which no approximation of physical data comes near. */
+#define OP_MATERIAL_MAX_ALBEDO 1.5
+#define OP_MATERIAL_ABSURD_ALBEDO 1e6
 
 /* Helpers for method modules. */
 int64_t op_material_rows(const op_material *m);
@@ -39,12 +49,19 @@ op_status op_material_sized_section(const op_material *m, const char *tag, uint6
  * when nonneg is set, >= 0. */
 op_status op_material_float_section(const op_material *m, const char *tag, uint64_t count,
                                     int nonneg, const float **out, op_error *err);
+/* Checks a factored material's section of per-row albedos or Rd values (rows or channels x
+ * rows float32, already checked by op_material_float_section) against
+ * OP_MATERIAL_ABSURD_ALBEDO (refused) and OP_MATERIAL_MAX_ALBEDO (one warning), naming the
+ * first row at fault. */
+op_status op_material_check_albedo(const op_material *m, const char *tag, const float *v,
+                                   uint64_t count, op_error *err);
 /* op_material_float_section for channel c's section prefix + "R"/"G"/"B" (or "Y"). */
 op_status op_material_channel_floats(const op_material *m, const char *prefix, int c,
                                      uint64_t count, int nonneg, const float **out,
                                      op_error *err);
 /* Finds the per-row shift and maximum sections of a shifted material (paper section 4.1):
- * "SHIFT.c" (rows u32, each < cols) and "MAX.c" (rows float32, finite, >= 0) of channel c, or
+ * "SHIFT.c" (rows u32, each < cols) and "MAX.c" (rows float32, finite, >= 0, checked by
+ * op_material_check_albedo) of channel c, or
  * the channel-less "SHIFT" and "MAX" when c < 0. *shift and *max are set only when valid. */
 op_status op_material_shift_sections(const op_material *m, int c, const uint32_t **shift,
                                      const float **max, op_error *err);

@@ -5,7 +5,7 @@
  * With T = info.terms, n = K*K columns, per channel c (tag suffix R, G, B or Y), every value
  * finite and >= 0:
  *   "PROF.c"   n float32: the radial profile p_j (sums to 1)
- *   "SCALE.c"  rows float32: each row's albedo s_i
+ *   "SCALE.c"  rows float32: each row's albedo s_i (at most OP_MATERIAL_MAX_ALBEDO)
  *   "W.c"      rows x T float32        "H.c"   n x T float32
  *   "ALBEDO"   optional, channels x rows float32 (row sums of the reconstruction)
  * Rd(row, col) = SCALE[row] * PROF[col] * (W[row] . H[col]); never negative by construction.
@@ -59,6 +59,11 @@ static op_status nmf_prepare(op_material *m, op_error *err)
         st = op_material_channel_floats(m, "PROF.", c, n, 1, &s->prof[c], err);
         if (st == OP_OK)
             st = op_material_channel_floats(m, "SCALE.", c, rows, 1, &s->scale[c], err);
+        if (st == OP_OK) {
+            char tag[16];
+            op_channel_tag(tag, sizeof tag, "SCALE.", in, c);
+            st = op_material_check_albedo(m, tag, s->scale[c], rows, err);
+        }
         if (st == OP_OK)
             st = op_material_channel_floats(m, "W.", c, rows * T, 1, &s->w[c], err);
         if (st == OP_OK)

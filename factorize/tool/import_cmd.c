@@ -6,360 +6,32 @@
  * negative values (measurement noise) are clamped to 0 with a warning. */
 #include "commands.h"
 #include "dataset.h"
+#include "npy.h"
+#include "sidecar.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* ------------------------------------------------------------ .npy header */
+/* ------------------------------------------------------------ reading the inputs */
 
-typedef struct npy_header {
-    int itemsize;        /* 4 or 8 */
-    int big_endian;
-    int ndim;
-    long long shape[8];
-    long data_offset;
-} npy_header;
-
-/* Finds 'key': in the header dict and returns the text after the colon, or NULL. */
-static const char *dict_value(const char *hdr, const char *key)
+/* Reads and parses the sidecar; a message for a file that cannot be read says what it is for. */
+static op_status read_sidecar(const char *path, op_sidecar *sc, op_error *err)
 {
-    char pat[32];
-    for (int q = 0; q < 2; q++) {
-        snprintf(pat, sizeof pat, q ? "\"%s\"" : "'%s'", key);
-        const char *p = strstr(hdr, pat);
-        if (p) {
-            p += strlen(pat);
-            while (*p == ' ')
-                p++;
-            if (*p != ':')
-                return NULL;
-            p++;
-            while (*p == ' ')
-                p++;
-            return p;
+    char *text;
+    size_t n;
+    op_status st = op_file_read(path, OP_SIDECAR_MAX_BYTES, &text, &n, err);
+    if (st != OP_OK) {
+        if (err) {
+            char why[sizeof err->message];
+            memcpy(why, err->message, sizeof why);
+            op_error_set(err, st, "%s (the JSON sidecar, which must give the physical size: "
+                         "{\"size_cm\": [X, Y]})", why);
         }
+        return st;
     }
-    return NULL;
-}
-
-static op_status npy_read_header(FILE *f, const char *path, npy_header *h, op_error *err)
-{
-    unsigned char pre[12];
-    memset(h, 0, sizeof *h);
-    if (fread(pre, 1, 10, f) != 10 || memcmp(pre, "\x93NUMPY", 6) != 0)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: not a NumPy .npy file (bad magic)", path);
-    unsigned major = pre[6];
-    unsigned long hlen;
-    long start;
-    if (major == 1) {
-        hlen = pre[8] | (unsigned long)pre[9] << 8;
-        start = 10;
-    } else if (major == 2 || major == 3) {
-        if (fread(pre + 10, 1, 2, f) != 2)
-            return op_error_set(err, OP_ERR_FORMAT, "%s: truncated .npy header", path);
-        hlen = pre[8] | (unsigned long)pre[9] << 8 | (unsigned long)pre[10] << 16 |
-               (unsigned long)pre[11] << 24;
-        start = 12;
-    } else {
-        return op_error_set(err, OP_ERR_FORMAT, "%s: .npy format version %u is not supported",
-                            path, major);
-    }
-    if (hlen == 0 || hlen > 65536)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: .npy header of %lu bytes", path, hlen);
-    char *hdr = malloc(hlen + 1);
-    if (!hdr)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
-    if (fread(hdr, 1, hlen, f) != hlen) {
-        free(hdr);
-        return op_error_set(err, OP_ERR_FORMAT, "%s: truncated .npy header", path);
-    }
-    hdr[hlen] = '\0';
-    h->data_offset = start + (long)hlen;
-    op_status st = OP_OK;
-    const char *descr = dict_value(hdr, "descr"), *fo = dict_value(hdr, "fortran_order"),
-               *shape = dict_value(hdr, "shape");
-    if (!descr || !fo || !shape) {
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: .npy header lacks descr, fortran_order or "
-                                              "shape: %s", path, hdr);
-        goto done;
-    }
-    char q = descr[0];
-    char d[8] = {0};
-    if ((q == '\'' || q == '"') && strchr(descr + 1, q) && strchr(descr + 1, q) - descr - 1 < 7)
-        memcpy(d, descr + 1, (size_t)(strchr(descr + 1, q) - descr - 1));
-    if (!strcmp(d, "<f4") || !strcmp(d, "=f4") || !strcmp(d, ">f4"))
-        h->itemsize = 4;
-    else if (!strcmp(d, "<f8") || !strcmp(d, "=f8") || !strcmp(d, ">f8"))
-        h->itemsize = 8;
-    else {
-        st = op_error_set(err, OP_ERR_INPUT, "%s: dtype '%s' is not supported (need float32 or "
-                                             "float64)", path, d);
-        goto done;
-    }
-    h->big_endian = d[0] == '>';
-    if (strncmp(fo, "False", 5) != 0) {
-        st = op_error_set(err, OP_ERR_INPUT, "%s: Fortran-ordered array: save it in C order "
-                                             "(numpy.ascontiguousarray)", path);
-        goto done;
-    }
-    if (*shape != '(') {
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad shape in .npy header", path);
-        goto done;
-    }
-    const char *p = shape + 1;
-    for (;;) {
-        while (*p == ' ' || *p == ',')
-            p++;
-        if (*p == ')')
-            break;
-        char *end;
-        errno = 0;
-        long long v = strtoll(p, &end, 10);
-        if (end == p || errno || v < 0 || h->ndim >= 8) {
-            st = op_error_set(err, OP_ERR_FORMAT, "%s: bad shape in .npy header", path);
-            goto done;
-        }
-        h->shape[h->ndim++] = v;
-        p = end;
-        while (*p == ' ')
-            p++;
-        if (*p != ',' && *p != ')') {
-            st = op_error_set(err, OP_ERR_FORMAT, "%s: bad shape in .npy header", path);
-            goto done;
-        }
-    }
-done:
-    free(hdr);
-    return st;
-}
-
-/* ------------------------------------------------------------ JSON sidecar */
-
-/* A small strict JSON reader: enough to pick the top-level keys of the sidecar. */
-typedef struct json {
-    const char *p, *base, *path;
-    op_error *err;
-} json;
-
-static void json_ws(json *j)
-{
-    while (*j->p == ' ' || *j->p == '\t' || *j->p == '\n' || *j->p == '\r')
-        j->p++;
-}
-
-static op_status json_fail(json *j, const char *what)
-{
-    return op_error_set(j->err, OP_ERR_INPUT, "%s: bad JSON at byte %ld: %s", j->path,
-                        (long)(j->p - j->base), what);
-}
-
-/* Reads a string into buf (n bytes, truncated); non-ASCII escapes become '?'. */
-static op_status json_string(json *j, char *buf, size_t n)
-{
-    if (*j->p != '"')
-        return json_fail(j, "expected a string");
-    j->p++;
-    size_t k = 0;
-    while (*j->p && *j->p != '"') {
-        char c = *j->p++;
-        if ((unsigned char)c < 0x20)
-            return json_fail(j, "control character in a string");
-        if (c == '\\') {
-            char e = *j->p++;
-            switch (e) {
-            case '"': case '\\': case '/': c = e; break;
-            case 'b': case 'f': case 'n': case 'r': case 't': c = ' '; break;
-            case 'u':
-                for (int i = 0; i < 4; i++)
-                    if (!strchr("0123456789abcdefABCDEF", *j->p++) || !j->p[-1])
-                        return json_fail(j, "bad \\u escape");
-                c = '?';
-                break;
-            default: return json_fail(j, "bad escape");
-            }
-        }
-        if (buf && k + 1 < n)
-            buf[k++] = c;
-    }
-    if (*j->p != '"')
-        return json_fail(j, "unterminated string");
-    j->p++;
-    if (buf && n)
-        buf[k] = '\0';
-    return OP_OK;
-}
-
-static op_status json_number(json *j, double *out)
-{
-    char *end;
-    if (!strchr("-0123456789", *j->p))
-        return json_fail(j, "expected a number");
-    double v = strtod(j->p, &end);
-    if (end == j->p)
-        return json_fail(j, "expected a number");
-    j->p = end;
-    if (out)
-        *out = v;
-    return OP_OK;
-}
-
-static op_status json_skip(json *j, int depth)
-{
-    json_ws(j);
-    if (depth > 32)
-        return json_fail(j, "nested too deeply");
-    if (*j->p == '"')
-        return json_string(j, NULL, 0);
-    if (*j->p == '{' || *j->p == '[') {
-        char close = *j->p == '{' ? '}' : ']';
-        int obj = close == '}';
-        j->p++;
-        json_ws(j);
-        if (*j->p == close) {
-            j->p++;
-            return OP_OK;
-        }
-        for (;;) {
-            json_ws(j);
-            if (obj) {
-                if (json_string(j, NULL, 0) != OP_OK)
-                    return j->err ? j->err->status : OP_ERR_INPUT;
-                json_ws(j);
-                if (*j->p++ != ':')
-                    return json_fail(j, "expected ':'");
-            }
-            op_status st = json_skip(j, depth + 1);
-            if (st != OP_OK)
-                return st;
-            json_ws(j);
-            if (*j->p == ',') {
-                j->p++;
-                continue;
-            }
-            if (*j->p++ == close)
-                return OP_OK;
-            return json_fail(j, "expected ',' or a closing bracket");
-        }
-    }
-    static const char *words[] = {"true", "false", "null"};
-    for (int i = 0; i < 3; i++)
-        if (!strncmp(j->p, words[i], strlen(words[i]))) {
-            j->p += strlen(words[i]);
-            return OP_OK;
-        }
-    return json_number(j, NULL);
-}
-
-typedef struct sidecar {
-    double size_x_cm, size_y_cm;
-    int have_size;
-    char name[128], source[96];
-} sidecar;
-
-static op_status read_sidecar(const char *path, sidecar *sc, op_error *err)
-{
-    memset(sc, 0, sizeof *sc);
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return op_error_set(err, OP_ERR_INPUT, "%s: cannot open the JSON sidecar (%s); it must "
-                                               "give the physical size: {\"size_cm\": [X, Y]}",
-                            path, strerror(errno));
-    char *text = malloc(65537);
-    size_t n = text ? fread(text, 1, 65536, f) : 0;
-    int more = text && fgetc(f) != EOF;
-    fclose(f);
-    if (!text)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
-    if (more) {
-        free(text);
-        return op_error_set(err, OP_ERR_INPUT, "%s: sidecar larger than 64 KiB", path);
-    }
-    text[n] = '\0';
-    if (strlen(text) != n) {
-        free(text);
-        return op_error_set(err, OP_ERR_INPUT, "%s: NUL byte in the sidecar", path);
-    }
-    json j = {text, text, path, err};
-    op_status st = OP_OK;
-    json_ws(&j);
-    if (*j.p++ != '{') {
-        st = json_fail(&j, "the sidecar must be a JSON object");
-        goto out;
-    }
-    json_ws(&j);
-    if (*j.p == '}')
-        j.p++;
-    else
-        for (;;) {
-            char key[64];
-            json_ws(&j);
-            if ((st = json_string(&j, key, sizeof key)) != OP_OK)
-                goto out;
-            json_ws(&j);
-            if (*j.p++ != ':') {
-                st = json_fail(&j, "expected ':'");
-                goto out;
-            }
-            json_ws(&j);
-            if (!strcmp(key, "size_cm")) {
-                if (*j.p++ != '[') {
-                    st = json_fail(&j, "size_cm must be [X, Y]");
-                    goto out;
-                }
-                json_ws(&j);
-                if ((st = json_number(&j, &sc->size_x_cm)) != OP_OK)
-                    goto out;
-                json_ws(&j);
-                if (*j.p++ != ',') {
-                    st = json_fail(&j, "size_cm must be [X, Y]");
-                    goto out;
-                }
-                json_ws(&j);
-                if ((st = json_number(&j, &sc->size_y_cm)) != OP_OK)
-                    goto out;
-                json_ws(&j);
-                if (*j.p++ != ']') {
-                    st = json_fail(&j, "size_cm must be [X, Y]");
-                    goto out;
-                }
-                sc->have_size = 1;
-            } else if (!strcmp(key, "name")) {
-                if ((st = json_string(&j, sc->name, sizeof sc->name)) != OP_OK)
-                    goto out;
-            } else if (!strcmp(key, "source")) {
-                if ((st = json_string(&j, sc->source, sizeof sc->source)) != OP_OK)
-                    goto out;
-            } else {
-                op_log(OP_LOG_WARN, "%s: ignoring unknown key '%s'", path, key);
-                if ((st = json_skip(&j, 0)) != OP_OK)
-                    goto out;
-            }
-            json_ws(&j);
-            if (*j.p == ',') {
-                j.p++;
-                continue;
-            }
-            if (*j.p++ == '}')
-                break;
-            st = json_fail(&j, "expected ',' or '}'");
-            goto out;
-        }
-    json_ws(&j);
-    if (*j.p) {
-        st = json_fail(&j, "text after the object");
-        goto out;
-    }
-    if (!sc->have_size)
-        st = op_error_set(err, OP_ERR_INPUT, "%s: no \"size_cm\": [X, Y] (the physical size in "
-                                             "cm)", path);
-    else if (!(sc->size_x_cm > 0) || !(sc->size_y_cm > 0) || !isfinite(sc->size_x_cm) ||
-             !isfinite(sc->size_y_cm))
-        st = op_error_set(err, OP_ERR_INPUT, "%s: size_cm %g x %g must be positive", path,
-                          sc->size_x_cm, sc->size_y_cm);
-out:
+    st = op_sidecar_parse(text, n, path, sc, err);
     free(text);
     return st;
 }
@@ -384,11 +56,21 @@ static double load_value(const unsigned char *b, int itemsize, int big_endian)
 /* Reads path into d (allocated here) after checking its header; d's sizes come from the shape. */
 static op_status read_npy(const char *path, op_dataset *d, op_error *err)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return op_error_set(err, OP_ERR_INPUT, "%s: cannot open (%s)", path, strerror(errno));
-    npy_header h;
-    op_status st = npy_read_header(f, path, &h, err);
+    FILE *f;
+    uint64_t size;
+    op_status st = op_file_open_stream(path, &f, &size, err);
+    if (st != OP_OK)
+        return st;
+    op_npy_header h;
+    unsigned char *head = malloc(OP_NPY_MAX_HEADER);
+    if (!head) {
+        fclose(f);
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    size_t got = fread(head, 1, OP_NPY_MAX_HEADER, f);
+    st = ferror(f) ? op_error_set(err, OP_ERR_IO, "%s: read failed", path)
+                   : op_npy_parse_header(head, got, path, &h, err);
+    free(head);
     if (st == OP_OK && (h.ndim != 5 || h.shape[0] != 3 || h.shape[3] != h.shape[4])) {
         char s[128] = "";
         for (int i = 0; i < h.ndim; i++)
@@ -408,12 +90,7 @@ static op_status read_npy(const char *path, op_dataset *d, op_error *err)
     }
     int H = (int)h.shape[1], W = (int)h.shape[2], K = (int)h.shape[3];
     uint64_t per_channel = (uint64_t)H * (uint64_t)W * (uint64_t)K * (uint64_t)K;
-    if (fseek(f, 0, SEEK_END) != 0 || ftell(f) < 0) {
-        fclose(f);
-        return op_error_set(err, OP_ERR_IO, "%s: cannot seek", path);
-    }
-    uint64_t expect = (uint64_t)h.data_offset + 3 * per_channel * (uint64_t)h.itemsize;
-    uint64_t size = (uint64_t)ftell(f);
+    uint64_t expect = h.data_offset + 3 * per_channel * (uint64_t)h.itemsize;
     if (size != expect) {
         fclose(f);
         return op_error_set(err, OP_ERR_INPUT, "%s: %llu bytes, but a (3, %d, %d, %d, %d) "
@@ -421,7 +98,10 @@ static op_status read_npy(const char *path, op_dataset *d, op_error *err)
                             (unsigned long long)size, H, W, K, K, 8 * h.itemsize,
                             (unsigned long long)expect);
     }
-    fseek(f, h.data_offset, SEEK_SET);
+    if (fseeko(f, (off_t)h.data_offset, SEEK_SET) != 0) {
+        fclose(f);
+        return op_error_set(err, OP_ERR_IO, "%s: cannot seek", path);
+    }
     st = op_dataset_alloc(d, W, H, K, 0, err);
     if (st != OP_OK) {
         fclose(f);
@@ -437,7 +117,9 @@ static op_status read_npy(const char *path, op_dataset *d, op_error *err)
         for (uint64_t i = 0; i < per_channel && st == OP_OK;) {
             size_t n = per_channel - i < CHUNK ? (size_t)(per_channel - i) : CHUNK;
             if (fread(buf, (size_t)h.itemsize, n, f) != n) {
-                st = op_error_set(err, OP_ERR_IO, "%s: read failed", path);
+                st = ferror(f) ? op_error_set(err, OP_ERR_IO, "%s: read failed", path)
+                               : op_error_set(err, OP_ERR_INPUT, "%s: the file was truncated "
+                                              "or changed while in use", path);
                 break;
             }
             for (size_t k = 0; k < n; k++, i++) {
@@ -527,7 +209,7 @@ int op_cmd_import(int argc, char **argv)
         side = side_buf;
     }
     op_error err = {0};
-    sidecar sc;
+    op_sidecar sc;
     op_dataset d;
     op_status st = read_sidecar(side, &sc, &err);
     if (st == OP_OK)

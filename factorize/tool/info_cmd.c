@@ -18,8 +18,15 @@ int op_cmd_info(int argc, char **argv)
         return op_exit_code(st);
     }
     const op_material_info *i = op_material_get_info(m);
-    printf("file:        %s\n", argv[1]);
-    printf("name:        %s\n", i->name);
+    /* Names and free text come from the file: escaped, so they cannot drive the terminal. */
+    char file[4096], name[4 * sizeof i->name], generator[4 * sizeof i->generator],
+        version[4 * sizeof i->tool_version];
+    op_text_escape(file, sizeof file, argv[1]);
+    op_text_escape(name, sizeof name, i->name);
+    op_text_escape(generator, sizeof generator, i->generator);
+    op_text_escape(version, sizeof version, i->tool_version);
+    printf("file:        %s\n", file);
+    printf("name:        %s\n", name);
     printf("method:      %s\n", op_method_name(i->method));
     printf("pixels:      %d x %d, kernel %d x %d, %d channel(s)\n", i->width, i->height,
            i->kernel, i->kernel, i->channels);
@@ -30,8 +37,8 @@ int op_cmd_info(int argc, char **argv)
                i->clusters, i->shifted, i->log_a, i->log_b);
     printf("size:        %llu bytes\n", (unsigned long long)op_material_file_size(m));
     printf("dataset crc: %08x\n", (unsigned)i->dataset_crc);
-    printf("generator:   %s\n", i->generator);
-    printf("written by:  opaline %s\n", i->tool_version);
+    printf("generator:   %s\n", generator);
+    printf("written by:  opaline %s\n", version);
     op_material_close(m);
     return 0;
 }

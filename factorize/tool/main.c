@@ -37,6 +37,7 @@ static int check_stdout(int code)
 
 int main(int argc, char **argv)
 {
+    op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
     /* SIGINT, SIGTERM, SIGHUP: remove the temporary files, exit 130; SIGPIPE: an EPIPE error. */
     op_error err = {0};
     if (op_interrupt_install(NULL, NULL, &err) != OP_OK) {

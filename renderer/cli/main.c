@@ -269,6 +269,7 @@ static void default_output(const char *scene_path, const op_scene_info *info, ch
 
 int main(int argc, char **argv)
 {
+    op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
     int partial_beside = 1;

@@ -2,49 +2,9 @@
 #include "mesh_internal.h"
 
 #include <ctype.h>
-#include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-op_status op_map_file(const char *path, op_mapped_file *f, op_error *err)
-{
-    f->data = NULL;
-    f->size = 0;
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return op_error_set(err, OP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    struct stat sb;
-    if (fstat(fd, &sb) != 0 || !S_ISREG(sb.st_mode)) {
-        int e = S_ISDIR(sb.st_mode) ? EISDIR : errno;
-        close(fd);
-        return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
-    }
-    if (sb.st_size > 0) {
-        void *p = mmap(NULL, (size_t)sb.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
-        if (p == MAP_FAILED) {
-            int e = errno;
-            close(fd);
-            return op_error_set(err, OP_ERR_IO, "%s: cannot map: %s", path, strerror(e));
-        }
-        f->data = p;
-        f->size = (size_t)sb.st_size;
-    }
-    close(fd);
-    return OP_OK;
-}
-
-void op_unmap_file(op_mapped_file *f)
-{
-    if (f->data)
-        munmap((void *)f->data, f->size);
-    f->data = NULL;
-    f->size = 0;
-}
 
 void op_mesh_free(op_mesh *m)
 {

@@ -369,8 +369,8 @@ static op_status build(obj_state *s, op_mesh *out)
 op_status op_mesh_load_obj(const char *path, op_mesh *out, op_error *err)
 {
     memset(out, 0, sizeof *out);
-    op_mapped_file f;
-    op_status st = op_map_file(path, &f, err);
+    op_file_view f;
+    op_status st = op_file_map(path, &f, err);
     if (st != OP_OK)
         return st;
     obj_state s;
@@ -382,7 +382,7 @@ op_status op_mesh_load_obj(const char *path, op_mesh *out, op_error *err)
     for (int k = 0; k < 3; k++)
         s.max_ref[k] = -1;
     st = parse_lines(&s, f.data, f.size);
-    op_unmap_file(&f);
+    op_file_unmap(&f);
     if (st == OP_OK)
         st = build(&s, out);
     free(s.pos.p);

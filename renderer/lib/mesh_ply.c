@@ -440,21 +440,21 @@ static op_status skip_element(ply_state *s, const element *e)
 op_status op_mesh_load_ply(const char *path, op_mesh *out, op_error *err)
 {
     memset(out, 0, sizeof *out);
-    op_mapped_file f;
-    op_status st = op_map_file(path, &f, err);
+    op_file_view f;
+    op_status st = op_file_map(path, &f, err);
     if (st != OP_OK)
         return st;
     element *elems = malloc(MAX_ELEMENTS * sizeof *elems);
     if (!elems) {
-        op_unmap_file(&f);
+        op_file_unmap(&f);
         return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
     }
     ply_state s;
     memset(&s, 0, sizeof s);
     s.path = path;
     s.err = err;
-    s.p = f.data ? f.data : "";
-    s.end = f.data ? f.data + f.size : s.p;
+    s.p = f.data ? (const char *)f.data : "";
+    s.end = s.p + f.size;
     int nelems = 0;
     tri_vec tris = {NULL, 0, 0};
     st = read_header(&s, elems, &nelems);
@@ -489,7 +489,7 @@ op_status op_mesh_load_ply(const char *path, op_mesh *out, op_error *err)
     if (st == OP_OK && tris.n == 0)
         st = op_error_set(err, OP_ERR_FORMAT, "%s: the file has no faces", path);
     free(elems);
-    op_unmap_file(&f);
+    op_file_unmap(&f);
     if (st != OP_OK) {
         free(tris.p);
         op_mesh_free(out);

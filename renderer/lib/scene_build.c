@@ -135,11 +135,9 @@ op_status op_resolve_material(const char *name, const char *scene_dir, char *out
 {
     size_t len = strlen(name);
     int is_path = strchr(name, '/') != NULL || (len > 4 && strcasecmp(name + len - 4, ".opm") == 0);
-    if (is_path) {
+    if (is_path) { /* opening it says what is wrong with it, if anything */
         join(out, n, scene_dir, name);
-        if (file_exists(out))
-            return OP_OK;
-        return op_error_set(err, OP_ERR_INPUT, "material file %s not found", out);
+        return OP_OK;
     }
     char searched[2048] = "";
     join(out, n, scene_dir, name);

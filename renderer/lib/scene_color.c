@@ -201,10 +201,10 @@ op_status op_color_parse_spectrum(const char *text, double rgb[3], op_error *err
 
 op_status op_color_read_spectrum_file(const char *path, double rgb[3], op_error *err)
 {
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return op_error_set(err, OP_ERR_INPUT, "cannot open spectrum file %s: %s", path,
-                            strerror(errno));
+    FILE *f;
+    op_status opened = op_file_open_stream(path, &f, NULL, err);
+    if (opened != OP_OK)
+        return opened;
     double *l = malloc(MAX_SAMPLES * sizeof(double)), *v = malloc(MAX_SAMPLES * sizeof(double));
     if (!l || !v) {
         free(l);

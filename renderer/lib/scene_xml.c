@@ -19,7 +19,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include <libxml/parser.h>
 #include <libxml/tree.h>
@@ -935,38 +934,16 @@ static void on_xml_error(void *data, xmlErrorPtr e)
         cap->message[--n] = '\0';
 }
 
+/* Reads a scene or included file whole (op_file_read: regular files only, MAX_SCENE_BYTES at
+ * most); a failure to read an include names the <include> element. */
 static op_status read_whole(xml_ctx *c, const char *path, xmlNode *from, char **buf, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    struct stat sb;
-    int e = errno;
-    if (f && (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode))) {
-        e = S_ISDIR(sb.st_mode) ? EISDIR : errno;
-        fclose(f);
-        f = NULL;
-    }
-    if (!f) {
-        if (from)
-            return elem_error(c, from, "cannot read included file '%s': %s", path, strerror(e));
-        return op_error_set(c->err, OP_ERR_INPUT, "%s: cannot read the scene: %s", path, strerror(e));
-    }
-    if ((size_t)sb.st_size > MAX_SCENE_BYTES) {
-        fclose(f);
-        return op_error_set(c->err, OP_ERR_INPUT, "%s: scene file is larger than 1 GiB", path);
-    }
-    *buf = malloc((size_t)sb.st_size + 1);
-    if (!*buf) {
-        fclose(f);
-        return nomem(c);
-    }
-    *len = fread(*buf, 1, (size_t)sb.st_size, f);
-    int bad = ferror(f);
-    fclose(f);
-    if (bad) {
-        free(*buf);
-        return op_error_set(c->err, OP_ERR_INPUT, "%s: read error", path);
-    }
-    return OP_OK;
+    op_status st = op_file_read(path, MAX_SCENE_BYTES, buf, len, c->err);
+    if (st != OP_OK && from && c->err)
+        elem_error(c, from, "cannot read included file: %s", c->err->message);
+    if (st != OP_OK && c->err)
+        c->err->status = st;
+    return st;
 }
 
 /* Checks <scene version="X.Y.Z">: 0.5 and 0.6 are read silently, other 0.x and 1.x with a

@@ -103,7 +103,7 @@ static void expect_format_error(const sec *s, int n, op_error *err)
     free(b.p);
 }
 
-/* A 3 x 2 pixel, K = 3, one-channel raw material with Rd = index / 100. */
+/* A 3 x 2 pixel, K = 3, one-channel raw material with Rd = index / 1000 (rows sum to < 1). */
 static const char raw_meta[] = "method=raw\nwidth=3\nheight=2\nkernel=3\nchannels=1\n"
                                "size_x_cm=1.5\nsize_y_cm=1\nname=tiny\n";
 static float raw_values[6 * 9];
@@ -111,7 +111,7 @@ static float raw_values[6 * 9];
 static blob tiny_raw(const char *meta)
 {
     for (int i = 0; i < 6 * 9; i++)
-        raw_values[i] = (float)i / 100.0f;
+        raw_values[i] = (float)i / 1000.0f;
     sec s[2] = {{"META", meta, strlen(meta)}, {"RD.Y", raw_values, sizeof raw_values}};
     return build(s, 2);
 }
@@ -134,7 +134,7 @@ static void writer_round_trip(void **state)
     float rd[3][12 * 9];
     for (int c = 0; c < 3; c++)
         for (int i = 0; i < 12 * 9; i++)
-            rd[c][i] = (float)(c + 1) * 0.001f * (float)i;
+            rd[c][i] = (float)(c + 1) * 0.0001f * (float)i; /* rows sum to < 1 */
     const char *path = op_test_tmp_path("rt.opm");
     op_error err = {0};
     op_material_writer *w;

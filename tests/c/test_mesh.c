@@ -160,10 +160,11 @@ static void obj_errors(void **state)
     expect_bad("x.obj", "v 0 0 0\n\0\n", 10, ":2: not a text file");
     expect_bad_text("x.obj", "", "no faces");
     expect_bad_text("x.obj", "# only vertices\nv 0 0 0\n", "no faces");
-    /* A missing file is the operating system's refusal. */
+    /* A missing file is bad input, named as such. */
     op_mesh m;
     op_error err = {0};
-    assert_int_equal(op_mesh_load_obj(op_test_tmp_path("absent.obj"), &m, &err), OP_ERR_IO);
+    assert_int_equal(op_mesh_load_obj(op_test_tmp_path("absent.obj"), &m, &err), OP_ERR_INPUT);
+    assert_non_null(strstr(err.message, "absent.obj: no such file"));
     assert_int_equal(op_mesh_load(op_test_tmp_path("mesh.stl"), &m, &err), OP_ERR_INPUT);
 }
 

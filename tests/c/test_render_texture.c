@@ -360,7 +360,7 @@ static void test_errors(void **state)
     } cases[] = {
         {"<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
          "<string name=\"filename\" value=\"nope.png\"/></texture></bsdf>",
-         {"scene.xml:10", "nope.png", "cannot open"}},
+         {"scene.xml:10", "nope.png", "no such file"}},
         {"<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
          "<string name=\"filename\" value=\"bad.png\"/></texture></bsdf>",
          {"scene.xml:10", "bad.png", "not an OpenEXR, PNG or PFM"}},
