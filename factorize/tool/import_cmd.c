@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ------------------------------------------------------------ reading the inputs */
 
@@ -211,7 +212,13 @@ int op_cmd_import(int argc, char **argv)
     op_error err = {0};
     op_sidecar sc;
     op_dataset d;
-    op_status st = read_sidecar(side, &sc, &err);
+    /* the input named first is checked first, before the (cheap) sidecar and the (long) read */
+    int fd;
+    op_status st = op_file_open(in, &fd, NULL, &err);
+    if (st == OP_OK) {
+        close(fd);
+        st = read_sidecar(side, &sc, &err);
+    }
     if (st == OP_OK)
         st = read_npy(in, &d, &err);
     if (st == OP_OK) {

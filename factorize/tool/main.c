@@ -45,6 +45,7 @@ int main(int argc, char **argv)
         return op_exit_code(err.status);
     }
     if (argc < 2) {
+        op_log(OP_LOG_ERROR, "no command given");
         usage(stderr);
         return 2;
     }
