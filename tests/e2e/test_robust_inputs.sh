@@ -82,10 +82,11 @@ for name in adir afifo /dev/zero absent; do
   expect 2 "$p: ${what[$name]}" -- "$FACTOR" factor "$p" --method svd -T 1 -o "$T/f.opm"
 done
 printf '{"size_cm": [1, 1]}' > "$T/ok.json"
+: > "$T/present.npy" # a regular file: the .npy is opened first, so the sidecar's fault shows
 for name in adir afifo /dev/zero absent; do
   p=$(path_of "$name")
   expect 2 "$p: ${what[$name]}" -- "$FACTOR" import "$p" --sidecar "$T/ok.json" -o "$T/i.opm"
-  expect 2 "$p: ${what[$name]}" -- "$FACTOR" import "$T/absent.npy" --sidecar "$p" -o "$T/i.opm"
+  expect 2 "$p: ${what[$name]}" -- "$FACTOR" import "$T/present.npy" --sidecar "$p" -o "$T/i.opm"
 done
 [ -e "$T/f.opm" ] || [ -e "$T/i.opm" ] && fail "a refused input left an output"
 
