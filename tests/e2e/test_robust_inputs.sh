@@ -6,6 +6,7 @@
 # raw Rd values and escape sequences in names get clear messages, and escapes never reach the
 # terminal. Needs the built commands and python3.
 set -uo pipefail
+. "$(dirname "$0")/e2e_support.sh"
 BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 for exe in opaline-factor opaline-render; do
   [ -x "$BIN/$exe" ] || { echo "skip: $BIN/$exe not built"; exit 77; }
@@ -204,27 +205,8 @@ done
 # renderer has it mapped ends the render with exit 2 and a message naming the file (SIGBUS
 # before). /proc/PID/maps says when it is mapped; retried once if the render won the race.
 "$FACTOR" dataset chess4x4 --pixels 48 --kernel 15 -o "$T/big.opm" 2>/dev/null || fail "dataset"
-cat > "$T/trunc.xml" <<'XML'
-<scene version="0.6.0">
-  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="64"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="96"/><integer name="height" value="72"/></film>
-  </sensor>
-  <emitter type="spot">
-    <transform name="toWorld"><lookat origin="0, 0, 6" target="0, 0, 0"/></transform>
-    <float name="cutoffAngle" value="40"/>
-    <spectrum name="intensity" value="60"/>
-  </emitter>
-  <shape type="sphere">
-    <point name="center" x="0" y="0" z="0.5"/>
-    <float name="radius" value="0.5"/>
-    <subsurface type="raw"><string name="material" value="mapped.opm"/><float name="scale" value="5"/></subsurface>
-  </shape>
-</scene>
-XML
+sphere_scene "$T/trunc.xml" 96 72 64 \
+  '<subsurface type="raw"><string name="material" value="mapped.opm"/><float name="scale" value="5"/></subsurface>'
 truncated_render() {
   cp "$T/big.opm" "$T/mapped.opm"
   "$RENDER" -q -t 2 -o "$T/trunc.pfm" "$T/trunc.xml" 2>"$T/err" &

@@ -5,6 +5,7 @@
 # temporary file left, keep the complete image an earlier run wrote (never replace it with
 # less), and put the finished tiles, exactly as the complete render has them, in OUT.partial.pfm.
 set -uo pipefail
+. "$(dirname "$0")/e2e_support.sh"
 BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 R=$BIN/opaline-render
 [ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
@@ -23,35 +24,8 @@ fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | he
 
 # 128 x 96 pixels = 12 tiles; in the sanitizer build on 2 threads the pre-pass takes 1 to 2 s
 # (irradiance at 2372 points, then scattering with a 29 x 29 kernel), the tiles 0.6 to 1.5 s.
-cat > "$T/scene.xml" <<XML
-<scene version="0.6.0">
-  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="96"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="128"/><integer name="height" value="96"/></film>
-  </sensor>
-  <emitter type="spot">
-    <transform name="toWorld"><lookat origin="0, 0, 6" target="0, 0, 0"/></transform>
-    <float name="cutoffAngle" value="40"/>
-    <spectrum name="intensity" value="60"/>
-  </emitter>
-  <shape type="sphere">
-    <point name="center" x="0" y="0" z="0.5"/>
-    <float name="radius" value="0.5"/>
-    <subsurface type="svd">
-      <string name="material" value="$MAT"/>
-      <float name="scale" value="80"/>
-      <integer name="irrSamples" value="128"/>
-    </subsurface>
-  </shape>
-  <shape type="rectangle">
-    <transform name="toWorld"><scale value="3"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-  </shape>
-</scene>
-XML
+sphere_scene "$T/scene.xml" 128 96 96 \
+  "<subsurface type=\"svd\"><string name=\"material\" value=\"$MAT\"/><float name=\"scale\" value=\"80\"/><integer name=\"irrSamples\" value=\"128\"/></subsurface>"
 
 # The complete image of an earlier run, and how long its stages take: loading (until the
 # "irradiance points" line), irradiance (until its final progress line), scattering (until the

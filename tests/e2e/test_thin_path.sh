@@ -3,6 +3,7 @@
 # scene that uses the factored material on a sphere over a floor under a spot light, and check
 # the image (object and floor lit, nothing NaN). Needs only the built commands and python3.
 set -euo pipefail
+. "$(dirname "$0")/e2e_support.sh"
 BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 for exe in opaline-factor opaline-render; do
   [ -x "$BIN/$exe" ] || { echo "skip: $BIN/$exe not built"; exit 77; }
@@ -14,35 +15,8 @@ trap 'rm -rf "$T"' EXIT
 "$BIN/opaline-factor" dataset chess4x4 --pixels 24x24 --kernel 9 -o "$T/d.opm"
 "$BIN/opaline-factor" factor "$T/d.opm" --method svd -T 4 -o "$T/m.opm"
 
-cat > "$T/scene.xml" <<'XML'
-<scene version="0.6.0">
-  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="4"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
-  </sensor>
-  <emitter type="spot">
-    <transform name="toWorld"><lookat origin="0, 0, 6" target="0, 0, 0"/></transform>
-    <float name="cutoffAngle" value="40"/>
-    <spectrum name="intensity" value="60"/>
-  </emitter>
-  <shape type="sphere">
-    <point name="center" x="0" y="0" z="0.5"/>
-    <float name="radius" value="0.5"/>
-    <subsurface type="svd">
-      <string name="material" value="m.opm"/>
-      <float name="scale" value="5"/>
-      <integer name="irrSamples" value="2"/>
-    </subsurface>
-  </shape>
-  <shape type="rectangle">
-    <transform name="toWorld"><scale value="3"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-  </shape>
-</scene>
-XML
+sphere_scene "$T/scene.xml" 64 48 4 \
+  '<subsurface type="svd"><string name="material" value="m.opm"/><float name="scale" value="5"/><integer name="irrSamples" value="2"/></subsurface>'
 
 "$BIN/opaline-render" --check "$T/scene.xml"
 "$BIN/opaline-render" -q -t 2 -o "$T/out.pfm" "$T/scene.xml"
