@@ -23,6 +23,19 @@ void op_report_stage(op_factor_report *r, const char *name, double seconds)
 
 uint64_t op_peak_memory_bytes(void)
 {
+    /* VmHWM is this process image's own peak: getrusage's ru_maxrss would carry the peak of the
+     * process that exec'ed opaline over (a Python driver's, a shell's). */
+    FILE *f = fopen("/proc/self/status", "r");
+    if (f) {
+        char line[256];
+        unsigned long long kib;
+        while (fgets(line, sizeof line, f))
+            if (sscanf(line, "VmHWM: %llu kB", &kib) == 1) {
+                fclose(f);
+                return (uint64_t)kib * 1024u;
+            }
+        fclose(f);
+    }
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) != 0)
         return 0;

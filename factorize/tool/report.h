@@ -27,7 +27,7 @@ typedef struct op_factor_report {
     char stage_name[OP_REPORT_MAX_STAGES][16];
     double stage_seconds[OP_REPORT_MAX_STAGES];
     double total_seconds;
-    uint64_t peak_memory_bytes; /* peak resident set size of the process */
+    uint64_t peak_memory_bytes; /* peak resident set size of this process image (VmHWM) */
     double eval_ns;        /* mean time of one op_material_eval on the written material, 64
                               offsets per incident pixel (a renderer's access pattern) */
     double eval_random_ns; /* the same with every argument random (cache misses dominate) */
