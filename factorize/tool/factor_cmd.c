@@ -452,13 +452,23 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
 
 /* The tucker method: the factors of tucker.c as sections. */
 static op_status factor_tucker(const factor_args *a, const dataset *ds, int terms,
-                               section_list *out, op_error *err)
+                               section_list *out, op_factor_report *rep, op_error *err)
 {
     op_tucker_result t;
     op_status st = op_tucker_factor(ds->rd, ds->info.channels, ds->rows, ds->cols, terms,
                                     a->degree, a->shift, &a->svd, &t, err);
     if (st != OP_OK)
         return st;
+    rep->has_fit = 1;
+    rep->fit_condition = t.fit.cond_max;
+    rep->fit_coef_max = t.fit.coef_max;
+    rep->fit_storage_error = t.fit.data_sq > 0 ? sqrt(t.fit.storage_sq / t.fit.data_sq) : 0.0;
+    if (rep->fit_storage_error > 1e-4)
+        op_log(OP_LOG_WARN, "tucker: storing the colour fit as float32 changes it by %.2g "
+               "(relative), more than 1e-4", rep->fit_storage_error);
+    if (!(rep->fit_condition < 1e10))
+        op_log(OP_LOG_WARN, "tucker: a colour fit is ill-conditioned (condition %.3g)",
+               rep->fit_condition);
     /* Every factor goes to out (or is freed): t holds nothing afterwards. */
     uint64_t rows = (uint64_t)ds->rows, np = (uint64_t)a->degree + 1;
     st = sections_add_if(out, st, "U", t.u, rows * (uint64_t)terms * sizeof(float), err);
@@ -493,7 +503,7 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
     opt.svd = a->svd;
     int wide = clusters > 65536 ? 4 : 2;
     op_progress *prog = op_progress_begin(
-        "kcta", (uint64_t)ds->info.channels * (uint64_t)(2 + opt.max_iters), NULL, NULL);
+        "kcta", (uint64_t)ds->info.channels * (uint64_t)(1 + opt.max_iters), NULL, NULL);
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
@@ -862,7 +872,7 @@ int op_cmd_factor(int argc, char **argv)
     if (a.method == OP_METHOD_SVD)
         st = factor_svd(&a, &ds, terms, &secs, &prep, &err);
     else if (a.method == OP_METHOD_TUCKER)
-        st = factor_tucker(&a, &ds, terms, &secs, &err);
+        st = factor_tucker(&a, &ds, terms, &secs, &rep, &err);
     else if (a.method == OP_METHOD_KCTA)
         st = factor_kcta(&a, &ds, terms, clusters, &secs, &prep, &err);
     else if (a.method == OP_METHOD_NMF)

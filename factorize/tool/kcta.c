@@ -694,6 +694,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         goto done;
     op_progress_advance(progress, 1);
     double prev = INFINITY;
+    int reported = 0; /* iterations whose progress unit was advanced */
     for (int it = 0; it < opt->max_iters; it++) {
         if (it > 0) {
             memcpy(sb, md->basis, nb * sizeof *sb);
@@ -715,6 +716,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, core norm %.6g, %d empty "
                "cluster(s) split", it + 1, e, core, splits);
         op_progress_advance(progress, 1);
+        reported++;
         if (e > prev) {
             memcpy(md->basis, sb, nb * sizeof *sb);
             memcpy(md->coef, sc, nc * sizeof *sc);
@@ -730,6 +732,8 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
             break;
         prev = e;
     }
+    /* the iterations that convergence made unnecessary are done too */
+    op_progress_advance(progress, (uint64_t)(opt->max_iters - reported));
     /* Coefficients must be finite for the file; a basis is orthonormal by construction. */
     for (size_t q = 0; q < nc; q++)
         if (!isfinite(md->coef[q])) {

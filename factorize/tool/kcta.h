@@ -59,7 +59,8 @@ typedef struct op_kcta_model {
 
 /* Factors the row-major rows x cols matrix a (finite values). Fails with OP_ERR_INPUT for
  * parameters out of range (naming them), OP_ERR_NOMEM, or OP_ERR_NUMERIC. On failure model
- * holds nothing to free. */
+ * holds nothing to free. On success it has advanced progress by 1 + opt->max_iters units (the
+ * initialization, then one per iteration, those that convergence skipped included). */
 op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_options *opt,
                          op_kcta_model *model, op_progress *progress, op_error *err);
 void op_kcta_free(op_kcta_model *model);

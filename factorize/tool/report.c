@@ -106,6 +106,10 @@ void op_report_print(const op_factor_report *r, FILE *f)
     for (int i = 0; i < r->nstages; i++)
         fprintf(f, " %s %.3f s,", r->stage_name[i], r->stage_seconds[i]);
     fprintf(f, " total %.3f s\n", r->total_seconds);
+    if (r->has_fit)
+        fprintf(f, "colour fit:        condition <= %.3g, coefficients <= %.3g, float32 storage "
+                   "error %.2g (relative)\n", r->fit_condition, r->fit_coef_max,
+                r->fit_storage_error);
     fprintf(f, "peak memory:       %.1f MiB\n", (double)r->peak_memory_bytes / 1048576.0);
     fprintf(f, "evaluation:        %.1f ns per Rd value (%.1f ns at random rows), albedo map "
                "%.4f s\n", r->eval_ns, r->eval_random_ns, r->albedo_map_seconds);
@@ -188,6 +192,11 @@ op_status op_report_write_json(const op_factor_report *r, const char *path, op_o
     json_field_number(f, "eval_ns", r->eval_ns);
     json_field_number(f, "eval_random_ns", r->eval_random_ns);
     json_field_number(f, "albedo_map_seconds", r->albedo_map_seconds);
+    if (r->has_fit) {
+        json_field_number(f, "fit_condition", r->fit_condition);
+        json_field_number(f, "fit_coef_max", r->fit_coef_max);
+        json_field_number(f, "fit_storage_error", r->fit_storage_error);
+    }
     json_field_string(f, "tool_version", op_version());
     fputs("\n}\n", f);
     const char *unused;

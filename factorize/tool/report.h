@@ -32,6 +32,11 @@ typedef struct op_factor_report {
                               offsets per incident pixel (a renderer's access pattern) */
     double eval_random_ns; /* the same with every argument random (cache misses dominate) */
     double albedo_map_seconds;  /* time of op_material_albedo_map on it */
+    /* The colour regression's conditioning (tucker only, has_fit 0 otherwise): the largest
+     * condition number of a kept fit, the largest coefficient, and the relative RMS change that
+     * storing the coefficients as float32 makes (||stored - double fit|| / ||data||). */
+    int has_fit;
+    double fit_condition, fit_coef_max, fit_storage_error;
 } op_factor_report;
 
 /* Seconds on a monotonic clock. */

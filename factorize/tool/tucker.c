@@ -3,6 +3,7 @@
 
 #include "preprocess.h"
 
+#include <float.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
@@ -30,53 +31,122 @@ double op_chebyshev_eval(const double *coef, int degree, double t)
     return t * b1 - b2 + coef[0];
 }
 
-op_status op_polyfit_chebyshev(const double *x, const double *y, int n, int nrhs, int degree,
-                               double center, double scale, double *coef, op_error *err)
+/* The float32 rounding of coefficients c[0..d] and Clenshaw's float recurrence over them can
+ * move a value by at most about this much for |t| <= 1 (|T_p(t)| <= 1). */
+static double storage_error_bound(const double *c, int d)
 {
-    int np = degree + 1, ldb = n > np ? n : np;
+    double rounding = 0, sum = 0;
+    for (int p = 0; p <= d; p++) {
+        rounding += fabs(c[p] - (double)(float)c[p]);
+        sum += fabs(c[p]);
+    }
+    return rounding + 2.0 * (d + 1) * (double)FLT_EPSILON * sum;
+}
+
+op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
+                               double *coef, op_polyfit_stats *stats, op_error *err)
+{
+    int np = degree + 1, kmax = np < n ? np : n;
     double *a = malloc((size_t)n * (size_t)np * sizeof *a);
-    double *b = calloc((size_t)ldb * (size_t)nrhs, sizeof *b);
-    lapack_int *jpvt = calloc((size_t)np, sizeof *jpvt);
-    if (!a || !b || !jpvt) {
-        free(a);
-        free(b);
-        free(jpvt);
-        return op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
+    double *b = malloc((size_t)n * (size_t)nrhs * sizeof *b);
+    double *tau = malloc((size_t)np * sizeof *tau);
+    double *tail = malloc(((size_t)n + 1) * sizeof *tail);
+    double *c = malloc((size_t)np * sizeof *c);
+    op_status st = OP_OK;
+    if (!a || !b || !tau || !tail || !c) {
+        st = op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
+        goto done;
     }
     /* Column p of the design matrix is T_p(t_i) (column-major). */
     for (int i = 0; i < n; i++) {
-        double t = (x[i] - center) * scale, tm1 = 1.0, tp = t;
+        double tm1 = 1.0, tp = t[i];
         a[i] = 1.0;
         if (np > 1)
-            a[(size_t)n + i] = t;
+            a[(size_t)n + i] = tp;
         for (int p = 2; p < np; p++) {
-            double next = 2.0 * t * tp - tm1;
+            double next = 2.0 * t[i] * tp - tm1;
             a[(size_t)p * n + i] = next;
             tm1 = tp;
             tp = next;
         }
     }
-    for (int r = 0; r < nrhs; r++)
-        memcpy(b + (size_t)r * ldb, y + (size_t)r * n, (size_t)n * sizeof *b);
-    lapack_int rank = 0;
-    lapack_int info = LAPACKE_dgelsy(LAPACK_COL_MAJOR, n, np, nrhs, a, n, b, ldb, jpvt, 1e-10,
-                                     &rank);
-    op_status st = OP_OK;
+    memcpy(b, y, (size_t)n * (size_t)nrhs * sizeof *b);
+    /* A = QR without pivoting: the least-squares fit of degree d < np is the back-substitution
+     * of R's leading (d + 1) x (d + 1) block against the first d + 1 entries of Q^T y, so one
+     * factorization gives every degree up to P. */
+    lapack_int info = LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, np, a, n, tau);
+    if (info == 0)
+        info = LAPACKE_dormqr(LAPACK_COL_MAJOR, 'L', 'T', n, nrhs, kmax, a, n, tau, b, n);
     if (info != 0) {
         st = op_error_set(err, OP_ERR_NUMERIC, "polynomial fit of degree %d to %d points failed "
                           "(LAPACK info %d)", degree, n, (int)info);
-    } else {
-        for (int r = 0; r < nrhs; r++)
-            for (int p = 0; p < np; p++) {
-                coef[(size_t)r * np + p] = b[(size_t)r * ldb + p];
-                if (!isfinite(coef[(size_t)r * np + p]))
-                    st = op_error_set(err, OP_ERR_NUMERIC, "polynomial fit: coefficient %d is "
-                                      "not finite", p);
-            }
+        goto done;
     }
+    /* Degrees whose new column is (numerically) in the span of the lower ones add nothing: the
+     * points have fewer distinct values than coefficients. */
+    double rmax = 0;
+    for (int k = 0; k < kmax; k++)
+        rmax = fmax(rmax, fabs(a[(size_t)k * n + k]));
+    int dmax = 0;
+    while (dmax + 1 < kmax && fabs(a[(size_t)(dmax + 1) * n + dmax + 1]) > 1e-12 * rmax)
+        dmax++;
+    for (int r = 0; r < nrhs; r++) {
+        const double *g = b + (size_t)r * n;
+        tail[n] = 0;
+        for (int k = n - 1; k >= 0; k--)
+            tail[k] = tail[k + 1] + g[k] * g[k];
+        /* Of the fits of degree 0..dmax whose float32 storage moves them by at most
+         * OP_POLYFIT_STORAGE_TOL of the data's RMS, the one expected closest to the data: its
+         * residual plus that rounding. The candidates only grow with P, so the error never
+         * does; the storage bound keeps the coefficients of the order of the data. */
+        double best = INFINITY;
+        int best_d = 0;
+        double *out = coef + (size_t)r * np;
+        for (int d = 0; d <= dmax; d++) {
+            for (int k = d; k >= 0; k--) {
+                double s = g[k];
+                for (int j = k + 1; j <= d; j++)
+                    s -= a[(size_t)j * n + k] * c[j];
+                c[k] = s / a[(size_t)k * n + k];
+            }
+            double e = storage_error_bound(c, d);
+            double est = tail[d + 1] + (double)n * e * e;
+            int ok = d == 0 || (double)n * e * e <= OP_POLYFIT_STORAGE_TOL *
+                                                        OP_POLYFIT_STORAGE_TOL * tail[0];
+            for (int k = 0; k <= d; k++)
+                ok &= isfinite(c[k]);
+            if (ok && est < best) {
+                best = est;
+                best_d = d;
+                for (int k = 0; k < np; k++)
+                    out[k] = k <= d ? c[k] : 0.0;
+            }
+        }
+        if (!isfinite(best)) {
+            st = op_error_set(err, OP_ERR_NUMERIC, "polynomial fit: no finite coefficients");
+            goto done;
+        }
+        if (stats) {
+            double cmax = 0;
+            for (int k = 0; k <= best_d; k++)
+                cmax = fmax(cmax, fabs(out[k]));
+            double rcond = 0;
+            if (LAPACKE_dtrcon(LAPACK_COL_MAJOR, '1', 'U', 'N', best_d + 1, a, n, &rcond) != 0)
+                rcond = 0;
+            stats->coef_max = fmax(stats->coef_max, cmax);
+            stats->cond_max = fmax(stats->cond_max, rcond > 0 ? 1.0 / rcond : INFINITY);
+            stats->degree_min = stats->fits ? (best_d < stats->degree_min ? best_d
+                                                                          : stats->degree_min)
+                                            : best_d;
+            stats->fits++;
+        }
+    }
+done:
     free(a);
     free(b);
-    free(jpvt);
+    free(tau);
+    free(tail);
+    free(c);
     return st;
 }
 
@@ -91,29 +161,54 @@ static void channel_mean(const float *const *ch, int nch, uint64_t count, float 
     }
 }
 
-/* Fits the colour polynomials of every row; res holds the mean's factors. */
+/* The stored (float32) series at t in the evaluator's float arithmetic (op_method_tucker.c). */
+static float chebyshev_eval_float(const float *beta, int degree, float t)
+{
+    float b1 = 0.0f, b2 = 0.0f;
+    for (int p = degree; p >= 1; p--) {
+        float b0 = 2.0f * t * b1 - b2 + beta[p];
+        b2 = b1;
+        b1 = b0;
+    }
+    return t * b1 - b2 + beta[0];
+}
+
+/* Fits the colour polynomials of every row; res holds the mean's factors. Also measures what
+ * storing the coefficients as float32 costs (res->fit). */
 static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res, op_error *err)
 {
     int n = res->cols, T = res->terms, np = res->degree + 1;
-    double *x = malloc((size_t)n * sizeof *x);
+    double *t = malloc((size_t)n * sizeof *t);
+    float *tf = malloc((size_t)n * sizeof *tf);
     double *y = malloc((size_t)n * (size_t)nch * sizeof *y);
     double *coef = malloc((size_t)np * (size_t)nch * sizeof *coef);
     op_status st = OP_OK;
-    if (!x || !y || !coef)
+    if (!t || !tf || !y || !coef)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    memset(&res->fit, 0, sizeof res->fit);
     op_progress *prog = op_progress_begin("tucker colour fit", (uint64_t)res->rows, NULL, NULL);
     for (int64_t r = 0; r < res->rows && st == OP_OK; r++) {
         const float *u = res->u + r * T;
-        double lo = INFINITY, hi = -INFINITY;
+        float lo = INFINITY, hi = -INFINITY;
         for (int j = 0; j < n; j++) {
             /* The same float arithmetic as the evaluation in op_method_tucker.c. */
             const float *v = res->v + (size_t)j * T;
             float dot = 0.0f;
-            for (int t = 0; t < T; t++)
-                dot += u[t] * v[t];
-            x[j] = dot;
-            lo = fmin(lo, x[j]);
-            hi = fmax(hi, x[j]);
+            for (int k = 0; k < T; k++)
+                dot += u[k] * v[k];
+            tf[j] = dot;
+            lo = fminf(lo, dot);
+            hi = fmaxf(hi, dot);
+        }
+        double mid = 0.5 * ((double)lo + (double)hi);
+        float center = (float)mid;
+        float scale = (double)hi - lo > 1e-30 * fmax(1.0, fabs(mid)) ? (float)(2.0 / ((double)hi - lo))
+                                                                     : 0.0f;
+        res->range[2 * r] = center;
+        res->range[2 * r + 1] = scale;
+        for (int j = 0; j < n; j++) {
+            tf[j] = (tf[j] - center) * scale; /* as the evaluator computes it */
+            t[j] = tf[j];
         }
         int s = res->shift ? (int)res->shift[r] : 0;
         float mx = res->max ? res->max[r] : 1.0f;
@@ -122,24 +217,31 @@ static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res
                 int col = j + s < n ? j + s : j + s - n;
                 y[(size_t)c * n + j] = mx > 0.0f ? op_prep_clean(ch[c][r * n + col]) / mx : 0.0;
             }
-        double center = 0.5 * (lo + hi);
-        double scale = hi - lo > 1e-30 * fmax(1.0, fabs(center)) ? 2.0 / (hi - lo) : 0.0;
-        res->range[2 * r] = (float)center;
-        res->range[2 * r + 1] = (float)scale;
-        st = op_polyfit_chebyshev(x, y, n, nch, res->degree, (float)center, (float)scale, coef,
-                                  err);
+        st = op_polyfit_chebyshev(t, y, n, nch, res->degree, coef, &res->fit, err);
         if (st != OP_OK) {
             op_error_prefix(err, "row %lld: ", (long long)r);
             break;
         }
-        for (int c = 0; c < nch; c++)
+        for (int c = 0; c < nch; c++) {
+            float *beta = res->beta + ((size_t)c * res->rows + r) * np;
+            const double *cd = coef + (size_t)c * np;
             for (int p = 0; p < np; p++)
-                res->beta[((size_t)c * res->rows + r) * np + p] = (float)coef[(size_t)c * np + p];
+                beta[p] = (float)cd[p];
+            for (int j = 0; j < n; j++) {
+                double d = (double)chebyshev_eval_float(beta, res->degree, tf[j]) -
+                           op_chebyshev_eval(cd, res->degree, t[j]);
+                res->fit.storage_sq += d * d;
+                res->fit.data_sq += y[(size_t)c * n + j] * y[(size_t)c * n + j];
+            }
+        }
         if ((r & 255) == 255)
             op_progress_advance(prog, 256);
     }
+    if (st == OP_OK)
+        op_progress_advance(prog, (uint64_t)(res->rows & 255));
     op_progress_end(prog);
-    free(x);
+    free(t);
+    free(tf);
     free(y);
     free(coef);
     return st;

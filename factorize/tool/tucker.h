@@ -5,14 +5,27 @@
  * construction, each term the best rank-1 fit of the residual of the previous ones; for a 2-D
  * matrix that is the rank-T truncated SVD, computed by op_rsvd. Then for every row and channel
  * a polynomial of degree P maps the factored mean to that channel's (equally preprocessed)
- * values. Polynomials are fitted by least squares in a Chebyshev basis on the row's range of
- * factored means mapped to [-1, 1], by complete orthogonal factorization (LAPACK gelsy), never
- * by normal equations on raw powers, so that P up to 10 and beyond stays accurate. */
+ * values. Polynomials are series of Chebyshev polynomials in t, the row's range of factored
+ * means mapped to [-1, 1]; they are fitted by one Householder QR of the design (never normal
+ * equations on raw powers), which gives the least-squares fit of every degree up to P at once,
+ * and each row and channel keeps the degree whose float32-stored coefficients are expected
+ * closest to its data. A higher P therefore never makes the fit worse, and the coefficients stay
+ * small enough for float32 storage (their cost is measured: op_polyfit_stats). */
 #ifndef OP_FACTOR_TUCKER_H
 #define OP_FACTOR_TUCKER_H
 
 #include "opaline.h"
 #include "rsvd.h"
+
+/* What the colour fits were like, accumulated over rows and channels. */
+typedef struct op_polyfit_stats {
+    double cond_max;   /* largest 1-norm condition number of a chosen fit's triangular factor */
+    double coef_max;   /* largest |coefficient| */
+    int degree_min;    /* the lowest degree any fit kept */
+    uint64_t fits;
+    double storage_sq; /* sum over entries of (float32-stored fit - double fit)^2 */
+    double data_sq;    /* sum over entries of the fitted data^2 */
+} op_polyfit_stats;
 
 /* The factors, laid out as the file's sections (docs/formats.md). */
 typedef struct op_tucker_result {
@@ -24,6 +37,7 @@ typedef struct op_tucker_result {
     float *v;          /* cols x terms: h_j(d) */
     float *range;      /* rows x 2: (center, scale), t = (mean^ - center) * scale in [-1, 1] */
     float *beta;       /* channels x rows x (degree + 1) Chebyshev coefficients */
+    op_polyfit_stats fit;
 } op_tucker_result;
 
 /* Factors the channels (each rows x cols row-major float32; NULL-free array of `channels`).
@@ -33,11 +47,18 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
                            op_tucker_result *res, op_error *err);
 void op_tucker_free(op_tucker_result *res);
 
+/* A kept fit's float32 rounding moves it by at most this fraction of the data's RMS. */
+#define OP_POLYFIT_STORAGE_TOL 1e-4
+
 /* Least-squares fit of y (n values, nrhs right-hand sides each of stride n) by a Chebyshev
- * series of `degree` in t = (x - center) * scale: coef (nrhs x (degree + 1)). Rank-deficient
- * data (fewer distinct x than coefficients) gets the minimum-norm solution. */
-op_status op_polyfit_chebyshev(const double *x, const double *y, int n, int nrhs, int degree,
-                               double center, double scale, double *coef, op_error *err);
+ * series of degree at most `degree` in t (n values, normally in [-1, 1]): coef (nrhs x
+ * (degree + 1), zero above the degree kept). For each right-hand side the degree kept is the
+ * one whose coefficients, stored as float32, are expected closest to y, among those whose
+ * storage costs at most OP_POLYFIT_STORAGE_TOL of y's RMS; degrees that the points cannot
+ * determine (fewer distinct t than coefficients) are never kept. stats (if not NULL)
+ * accumulates the conditioning figures. */
+op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
+                               double *coef, op_polyfit_stats *stats, op_error *err);
 /* The Chebyshev series sum_p coef[p] T_p(t) (Clenshaw's recurrence). */
 double op_chebyshev_eval(const double *coef, int degree, double t);
 
