@@ -92,12 +92,15 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
         dmax++;
     for (int r = 0; r < nrhs; r++) {
         const double *g = b + (size_t)r * n;
+        double ymax = 0;
+        for (int i = 0; i < n; i++)
+            ymax = fmax(ymax, fabs(y[(size_t)r * n + i]));
         tail[n] = 0;
         for (int k = n - 1; k >= 0; k--)
             tail[k] = tail[k + 1] + g[k] * g[k];
-        /* Of the fits of degree 0..dmax whose float32 storage moves them by at most
-         * OP_POLYFIT_STORAGE_TOL of the data's RMS, the one expected closest to the data: its
-         * residual plus that rounding. The candidates only grow with P, so the error never
+        /* Of the fits of degree 0..dmax whose float32 storage moves no value by more than
+         * OP_POLYFIT_STORAGE_TOL of the data's largest, the one expected closest to the data:
+         * its residual plus that rounding. The candidates only grow with P, so the error never
          * does; the storage bound keeps the coefficients of the order of the data. */
         double best = INFINITY;
         int best_d = 0;
@@ -111,8 +114,7 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
             }
             double e = storage_error_bound(c, d);
             double est = tail[d + 1] + (double)n * e * e;
-            int ok = d == 0 || (double)n * e * e <= OP_POLYFIT_STORAGE_TOL *
-                                                        OP_POLYFIT_STORAGE_TOL * tail[0];
+            int ok = d == 0 || e <= OP_POLYFIT_STORAGE_TOL * ymax;
             for (int k = 0; k <= d; k++)
                 ok &= isfinite(c[k]);
             if (ok && est < best) {
@@ -202,8 +204,8 @@ static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res
         }
         double mid = 0.5 * ((double)lo + (double)hi);
         float center = (float)mid;
-        float scale = (double)hi - lo > 1e-30 * fmax(1.0, fabs(mid)) ? (float)(2.0 / ((double)hi - lo))
-                                                                     : 0.0f;
+        double span = (double)hi - lo;
+        float scale = span > 1e-30 * fmax(1.0, fabs(mid)) ? (float)(2.0 / span) : 0.0f;
         res->range[2 * r] = center;
         res->range[2 * r + 1] = scale;
         for (int j = 0; j < n; j++) {

@@ -47,16 +47,16 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
                            op_tucker_result *res, op_error *err);
 void op_tucker_free(op_tucker_result *res);
 
-/* A kept fit's float32 rounding moves it by at most this fraction of the data's RMS. */
+/* A kept fit's float32 rounding moves it by at most this fraction of the data's largest value. */
 #define OP_POLYFIT_STORAGE_TOL 1e-4
 
 /* Least-squares fit of y (n values, nrhs right-hand sides each of stride n) by a Chebyshev
  * series of degree at most `degree` in t (n values, normally in [-1, 1]): coef (nrhs x
  * (degree + 1), zero above the degree kept). For each right-hand side the degree kept is the
  * one whose coefficients, stored as float32, are expected closest to y, among those whose
- * storage costs at most OP_POLYFIT_STORAGE_TOL of y's RMS; degrees that the points cannot
- * determine (fewer distinct t than coefficients) are never kept. stats (if not NULL)
- * accumulates the conditioning figures. */
+ * storage moves no value by more than OP_POLYFIT_STORAGE_TOL of y's largest; degrees that the
+ * points cannot determine (fewer distinct t than coefficients) are never kept. stats (if not
+ * NULL) accumulates the conditioning figures. */
 op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
                                double *coef, op_polyfit_stats *stats, op_error *err);
 /* The Chebyshev series sum_p coef[p] T_p(t) (Clenshaw's recurrence). */

@@ -223,7 +223,8 @@ static void error_never_grows_with_degree(void **state)
                                           &opt, &r, &err),
                          err);
             double storage = sqrt(r.fit.storage_sq / r.fit.data_sq);
-            print_message("  %s P=%2d: storage error %.3g, largest coefficient %.3g, condition %.3g\n",
+            print_message("  %s P=%2d: storage error %.3g, largest coefficient %.3g, "
+                          "condition %.3g\n",
                           k ? "random" : "chessboard", degrees[i], storage, r.fit.coef_max,
                           r.fit.cond_max);
             assert_true(storage < 1e-4);
