@@ -400,6 +400,44 @@ static op_status factor_raw(const dataset *ds, section_list *out, op_error *err)
     return OP_OK;
 }
 
+/* Refuses --log-a/--log-b that make ln(R'/A + B) lose channel c's data: the transformed matrix
+ * mat (rows x cols, float) must be finite, map back to the preprocessed values within 1e-3
+ * (relative, over up to 4096 sampled rows), and stay within [1e-15, 60] in magnitude, so that
+ * the float SVD neither underflows nor the reconstruction A e^x overflows its checks. */
+static op_status check_log_transform(const factor_args *a, const dataset *ds, int c,
+                                     const float *mat, const uint32_t *shift, const float *max,
+                                     op_error *err)
+{
+    int64_t rows = ds->rows, step = rows > 4096 ? rows / 4096 : 1;
+    int n = ds->cols;
+    double err2 = 0, ref2 = 0, xmax = 0;
+    int finite = 1;
+    for (int64_t r = 0; r < rows; r += step) {
+        int s = shift ? (int)shift[r] : 0;
+        double mx = max ? max[r] : 1.0;
+        for (int j = 0; j < n; j++) {
+            int col = j + s < n ? j + s : j + s - n;
+            double v = mx > 0 ? op_prep_clean(ds->rd[c][r * n + col]) / mx : 0.0;
+            double x = mat[r * n + j];
+            finite &= isfinite(x);
+            double back = a->log_a * expm1(x) + a->log_a * (1.0 - a->log_b);
+            err2 += (back - v) * (back - v);
+            ref2 += v * v;
+            xmax = fmax(xmax, fabs(x));
+        }
+    }
+    const char *why = !finite                         ? "some values are infinite"
+                      : ref2 > 0 && xmax < 1e-15       ? "its values underflow single precision"
+                      : xmax > 60                      ? "its values are too large"
+                      : ref2 > 0 && err2 > 1e-6 * ref2 ? "it does not map back within 1e-3"
+                                                       : NULL;
+    if (why)
+        return op_error_set(err, OP_ERR_INPUT, "--log-a %g --log-b %g: the transform ln(R/A + B) "
+                            "loses channel %d's data (%s); choose A near the data's scale (the "
+                            "default is 100) and B = 1", a->log_a, a->log_b, c, why);
+    return OP_OK;
+}
+
 /* The svd method, channel by channel: preprocess, log transform, truncated SVD. */
 static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
                             section_list *out, double *prep_seconds, op_error *err)
@@ -418,6 +456,10 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
         float *max = NULL;
         double t0 = op_now();
         st = prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
+        if (st == OP_OK && (st = check_log_transform(a, ds, c, mat, shift, max, err)) != OP_OK) {
+            free(shift);
+            free(max);
+        }
         if (st != OP_OK)
             break;
         op_progress_advance(prog, 1);

@@ -287,6 +287,37 @@ static void bad_arguments(void **state)
     free(d.v);
 }
 
+/* Extreme --log-a/--log-b: a transform that loses the data (values underflowing, infinite, or
+ * past what the reconstruction can hold) is refused naming both options; a poor but faithful one
+ * is accepted and its error reported (before: --log-a 1e30 gave relative error 1.0, exit 0). */
+static void log_transform_extremes(void **state)
+{
+    ds_spec d = ds_chess(12, 12, 5, 0.3);
+    char *in = ds_write(&d);
+    char errtext[8192], out[1024];
+    snprintf(out, sizeof out, "%s", op_test_tmp_path("logx.opm"));
+    const char *refused[][2] = {{"1e30", "1"}, {"1e-30", "1"}, {"100", "1e30"}};
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; i++) {
+        const char *args[] = {"--method", "svd", "-T", "3", "--log-a", refused[i][0], "--log-b",
+                              refused[i][1], NULL};
+        assert_int_equal(run_factor(in, out, errtext, sizeof errtext, args), 2);
+        assert_non_null(strstr(errtext, "loses channel"));
+        assert_non_null(strstr(errtext, "--log-a"));
+    }
+    /* B = 1e-30 is faithful here: no value is 0, so ln(R/A + B) stays finite */
+    const char *accepted[][2] = {{"1e-3", "1"}, {"1e6", "1"}, {"1", "1e-6"}, {"100", "1e-30"}};
+    for (size_t i = 0; i < sizeof accepted / sizeof accepted[0]; i++) {
+        const char *args[] = {"--method", "svd", "-T", "3", "--log-a", accepted[i][0], "--log-b",
+                              accepted[i][1], NULL};
+        assert_int_equal(run_factor(in, out, errtext, sizeof errtext, args), 0);
+        double rel = ds_compare(&d, out, NULL);
+        print_message("  A=%s B=%s: relative RMSE %.4g\n", accepted[i][0], accepted[i][1], rel);
+        assert_true(rel < 0.5);
+    }
+    free(in);
+    free(d.v);
+}
+
 static void zero_and_constant_rows(void **state)
 {
     ds_spec d = ds_chess(8, 8, 5, 0);
@@ -516,6 +547,7 @@ int main(void)
         cmocka_unit_test(svd_end_to_end),
         cmocka_unit_test(same_result_for_any_thread_count),
         cmocka_unit_test(bad_arguments),
+        cmocka_unit_test(log_transform_extremes),
         cmocka_unit_test(zero_and_constant_rows),
         cmocka_unit_test(negative_noise),
         cmocka_unit_test(huge_dynamic_range),
