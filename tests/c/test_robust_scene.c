@@ -78,7 +78,24 @@ static op_status load(const char *name, const char *xml, const op_scene_limits *
     return st;
 }
 
-/* Loading must fail with OP_ERR_INPUT, the message naming name:line and holding words. */
+/* Whether msg holds words, or one of its alternatives separated by '|'. */
+static int holds_words(const char *msg, const char *words)
+{
+    char alt[256];
+    for (const char *p = words;;) {
+        const char *bar = strchr(p, '|');
+        size_t n = bar ? (size_t)(bar - p) : strlen(p);
+        snprintf(alt, sizeof alt, "%.*s", (int)n, p);
+        if (strstr(msg, alt))
+            return 1;
+        if (!bar)
+            return 0;
+        p = bar + 1;
+    }
+}
+
+/* Loading must fail with OP_ERR_INPUT, the message naming name:line and holding words (or one
+ * of its '|'-separated alternatives). */
 static void expect_refused(const char *name, const char *xml, const op_scene_limits *lim,
                            int line, const char *words)
 {
@@ -89,7 +106,8 @@ static void expect_refused(const char *name, const char *xml, const op_scene_lim
     if (st != OP_ERR_INPUT)
         fail_msg("%s: expected an input error about '%s', got %s: %s", name, words,
                  op_status_name(st), err.message);
-    if ((line > 0 && strncmp(err.message, where, strlen(where)) != 0) || !strstr(err.message, words))
+    if ((line > 0 && strncmp(err.message, where, strlen(where)) != 0) ||
+        !holds_words(err.message, words))
         fail_msg("%s: message '%s' does not start with '%s' or lacks '%s'", name, err.message,
                  where, words);
 }
@@ -181,7 +199,8 @@ static void entities_refused_quickly(void **state)
     snprintf(xml + k, cap - k, "\"/>\n</scene>\n");
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    expect_refused("ent.xml", xml, NULL, 4, "entity references");
+    /* libxml2 2.13 and later refuse the file itself ("entity amplification factor") */
+    expect_refused("ent.xml", xml, NULL, 4, "entity references|entity amplification");
     clock_gettime(CLOCK_MONOTONIC, &t1);
     double s = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
     if (s > 2.0)

@@ -24,7 +24,10 @@ expect() {
   "$R" -q "$@" >"$T/out" 2>"$T/err" || rc=$?
   t1=$(date +%s%N)
   [ "$rc" = "$code" ] || { cat "$T/err"; fail "opaline-render $*: exit $rc, expected $code"; }
-  grep -qF -- "$words" "$T/err" || { cat "$T/err"; fail "opaline-render $*: no '$words'"; }
+  # words may list alternatives separated by ' || ' (a newer libxml2 refuses some files itself)
+  local w found=0
+  while IFS= read -r w; do grep -qF -- "$w" "$T/err" && found=1; done <<<"${words// || /$'\n'}"
+  [ "$found" = 1 ] || { cat "$T/err"; fail "opaline-render $*: no '$words'"; }
   local ms=$(( (t1 - t0) / 1000000 ))
   [ "$ms" -lt 2000 ] || fail "opaline-render $*: took $ms ms"
   echo "ok: exit $rc in $ms ms: $(head -c 200 "$T/err")"
@@ -91,7 +94,8 @@ refs = "&a;" * 20000
 open(sys.argv[1], "w").write('<?xml version="1.0"?>\n<!DOCTYPE scene [<!ENTITY a "%s">]>\n'
     '<scene version="0.6.0">\n<shape type="sphere" id="%s"/>\n</scene>\n' % ("x" * 500, refs))
 PY
-expect 2 "entity.xml:4: <shape type=\"sphere\" id=\"&...;\">: attribute id: entity references (&name;) are not supported" -- "$T/entity.xml" --check
+# (libxml2 2.13 and later refuse the file itself: "Maximum entity amplification factor exceeded")
+expect 2 "entity.xml:4: <shape type=\"sphere\" id=\"&...;\">: attribute id: entity references (&name;) are not supported || entity.xml:4: malformed XML: Maximum entity amplification" -- "$T/entity.xml" --check
 
 # a 16384 x 16384 PNG of a few KB (1-bit grey, all zero): refused from its header
 python3 - "$T/bomb.png" "$T/small.png" <<'PY'
