@@ -204,8 +204,11 @@ static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res
         }
         double mid = 0.5 * ((double)lo + (double)hi);
         float center = (float)mid;
+        /* a range at float rounding level is no range: the row is constant in t (t = 0) */
         double span = (double)hi - lo;
-        float scale = span > 1e-30 * fmax(1.0, fabs(mid)) ? (float)(2.0 / span) : 0.0f;
+        float scale = span > 64.0 * FLT_EPSILON * fmax(fabs(lo), fabs(hi)) && span > 1e-30
+                          ? (float)(2.0 / span)
+                          : 0.0f;
         res->range[2 * r] = center;
         res->range[2 * r + 1] = scale;
         for (int j = 0; j < n; j++) {
