@@ -131,8 +131,8 @@ def human_size(n):
     return "%.1f GB" % n
 
 
-def candidate_folders(extra_folders=(), renderer_path=None):
-    """The preset folders in search order, whether they exist or not."""
+def search_folders(extra_folders=(), renderer_path=None):
+    """The preset folders in search order (existing folders only, no duplicates)."""
     cands = [p for p in os.environ.get("OPALINE_PRESETS_PATH", "").split(":") if p]
     cands += [p for p in extra_folders if p]
     if renderer_path:
@@ -143,13 +143,9 @@ def candidate_folders(extra_folders=(), renderer_path=None):
         cands.append(os.path.join(root, "build", "presets"))
     if os.environ.get("OPALINE_PRESETS_DIR"):
         cands.append(os.environ["OPALINE_PRESETS_DIR"])
-    return [os.path.abspath(os.path.expanduser(c)) for c in cands]
-
-
-def search_folders(extra_folders=(), renderer_path=None):
-    """The preset folders in search order (existing folders only, no duplicates)."""
     out = []
-    for c in candidate_folders(extra_folders, renderer_path):
+    for c in cands:
+        c = os.path.abspath(os.path.expanduser(c))
         if os.path.isdir(c) and c not in out:
             out.append(c)
     return out
@@ -230,9 +226,10 @@ def missing_message(name, context=None):
     extra = [f.path for f in prefs.preset_folders] if prefs else []
     renderer = preferences.find_renderer(context, required=False)
     folders = search_folders(extra, renderer)
-    where = ("searched " + ", ".join(folders)) if folders else "no preset folder exists"
+    where = ("preset folders searched: " + ", ".join(folders)) if folders else \
+        "no preset folder exists"
     if renderer is None:
-        return ("opaline preset '%s' not found because %s (presets %s)" % (
+        return ("opaline preset '%s' not found because %s; %s" % (
             name, preferences.renderer_missing_message(context).replace("\n", ": ", 1), where))
     return "unknown opaline preset '%s' (%s; see Preferences > Add-ons > opaline)" % (
         name, where)
