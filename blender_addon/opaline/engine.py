@@ -278,9 +278,13 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
 
 
 def compatible_panels():
-    """Standard property panels that make sense with opaline (lights, world, camera, output)."""
-    want = {"DATA_PT_light", "DATA_PT_EEVEE_light", "DATA_PT_spot", "DATA_PT_area",
-            "CYCLES_LIGHT_PT_light", "CYCLES_LIGHT_PT_spot", "CYCLES_WORLD_PT_surface",
+    """Standard property panels that make sense with opaline (lights, world, camera, output).
+    The names are the same in Blender 3.4 (EEVEE: BLENDER_EEVEE), 4.2 to 4.5 (EEVEE Next:
+    BLENDER_EEVEE_NEXT, whose panels kept the EEVEE_ / DATA_PT_EEVEE_ names) and 5.x
+    (BLENDER_EEVEE again); none is only in one of them (3.4's DATA_PT_area is gone since 4.0,
+    and its shape and size are in the light panels) and CYCLES_LIGHT_PT_spot never existed."""
+    want = {"DATA_PT_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
+            "CYCLES_LIGHT_PT_light", "CYCLES_WORLD_PT_surface",
             "CYCLES_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface",
             "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
             "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management",

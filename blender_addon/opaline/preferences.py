@@ -1,16 +1,15 @@
 """Add-on preferences (renderer path, extra preset folders) and finding opaline-render."""
 
 import os
-import shutil
 
 import bpy
 from bpy.props import CollectionProperty, IntProperty, StringProperty
 
+from . import locations
 from .errors import OpalineError
 
 ADDON_ID = __package__  # "opaline", or "bl_ext.<repo>.opaline" when installed as an extension
-RENDERER_NAME = "opaline-render"
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+RENDERER_NAME = locations.RENDERER_NAME
 
 
 class OPALINE_PG_folder(bpy.types.PropertyGroup):
@@ -63,18 +62,22 @@ class OPALINE_AP_preferences(bpy.types.AddonPreferences):
 
     renderer_path: StringProperty(
         name="opaline-render", subtype='FILE_PATH',
-        description="Path of the opaline-render program. Empty: the one built from this "
-                    "repository (build/bin), then the one on PATH")
+        description="Path of the opaline-render program. Empty: $OPALINE_BIN_DIR, the one "
+                    "built beside the add-on's source (build/bin), the one installed with the "
+                    "add-on (PREFIX/bin), PATH, then ~/.local/bin, /usr/local/bin, "
+                    "/opt/opaline/bin, /usr/bin")
     preset_folders: CollectionProperty(type=OPALINE_PG_folder)
 
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "renderer_path")
         found = find_renderer(context, required=False)
-        row = layout.row()
-        row.label(text="Using: %s" % (found or "not found (build the repository or set the "
-                                                "path above)"),
-                  icon='CHECKMARK' if found else 'ERROR')
+        if found:
+            layout.label(text="Using: %s" % found, icon='CHECKMARK')
+        else:
+            col = layout.column(align=True)
+            for i, line in enumerate(renderer_missing_message(context).split("\n")):
+                col.label(text=line, icon='ERROR' if i == 0 else 'BLANK1')
         box = layout.box()
         box.label(text="Extra preset folders (searched after OPALINE_PRESETS_PATH)")
         for i, f in enumerate(self.preset_folders):
@@ -106,33 +109,44 @@ def _executable(path):
     return bool(path) and os.path.isfile(path) and os.access(path, os.X_OK)
 
 
+def renderer_candidates():
+    """(where, path) of each opaline-render looked for when the preference is empty, in order
+    (locations.renderer_dirs)."""
+    return [(w, os.path.join(d, RENDERER_NAME)) for w, d in locations.renderer_dirs()]
+
+
+def renderer_missing_message(context=None):
+    """Why no renderer is used and what to do, in a few lines (the preferences panel and the
+    errors of F12 show it)."""
+    prefs = get(context)
+    if prefs is not None and prefs.renderer_path:
+        return ("opaline-render not found at '%s'\nfix or clear its path above (Preferences > "
+                "Add-ons > opaline)" % bpy.path.abspath(prefs.renderer_path))
+    dirs = []
+    for _, c in renderer_candidates():
+        d = os.path.dirname(c)
+        if d not in dirs:
+            dirs.append(d)
+    return ("opaline-render not found (searched %s)\ninstall it (cmake --install build --prefix "
+            "~/.local), put it on PATH, or set its path in Preferences > Add-ons > opaline"
+            % ", ".join(dirs))
+
+
 def find_renderer(context=None, required=True):
-    """The opaline-render to run: the preference if set, else $OPALINE_BIN_DIR/opaline-render,
-    else the repository's build/bin/opaline-render, else PATH. Raises OpalineError (or returns
-    None when not `required`) when there is none."""
+    """The opaline-render to run: the preference if set, else the first executable of
+    renderer_candidates(). Raises OpalineError saying where it looked (or returns None when
+    not `required`) when there is none."""
     prefs = get(context)
     if prefs is not None and prefs.renderer_path:
         p = bpy.path.abspath(prefs.renderer_path)
         if _executable(p):
             return os.path.abspath(p)
-        if required:
-            raise OpalineError("opaline-render not found at '%s' (set in Preferences > Add-ons "
-                               "> opaline)" % p)
-        return None
-    cands = []
-    if os.environ.get("OPALINE_BIN_DIR"):
-        cands.append(os.path.join(os.environ["OPALINE_BIN_DIR"], RENDERER_NAME))
-    cands.append(os.path.join(REPO_ROOT, "build", "bin", RENDERER_NAME))
-    for c in cands:
-        if _executable(c):
-            return os.path.abspath(c)
-    w = shutil.which(RENDERER_NAME)
-    if w:
-        return w
+    else:
+        for _, c in renderer_candidates():
+            if _executable(c):
+                return os.path.abspath(c)
     if required:
-        raise OpalineError("opaline-render not found: build the repository "
-                           "(bash scripts/quickstart.sh), put opaline-render on PATH, or set its "
-                           "path in Preferences > Add-ons > opaline")
+        raise OpalineError(renderer_missing_message(context).replace("\n", ": ", 1))
     return None
 
 

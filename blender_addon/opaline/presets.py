@@ -1,15 +1,22 @@
 """Material presets: folders holding NAME.opm (the material), NAME.png (albedo thumbnail) and
 NAME.json (the factor report), as the build writes them into <build>/presets/.
 
-The search order matches opaline-render's (docs/interfaces): the colon-separated
-OPALINE_PRESETS_PATH, then the add-on preferences' extra folders, then the presets folder of the
-renderer the add-on uses (<bin>/../presets), then this source tree's build/presets, then
-OPALINE_PRESETS_DIR (set by the test harness). The first folder holding a name wins.
+The search order follows opaline-render's (docs/subsurface-rendering.md, "Finding the
+material"): the colon-separated OPALINE_PRESETS_PATH, the add-on preferences' extra folders, the
+folders the renderer in use searches by itself (PREFIX/share/opaline/presets beside its bin
+folder, then a build tree's build/presets), the presets installed in each prefix a renderer is
+looked for in (PREFIX/share/opaline/presets: the add-on's own prefix when it runs from
+PREFIX/share/opaline/blender_addon, then $OPALINE_BIN_DIR/.., PATH's folders' .., ~/.local,
+/usr/local, /opt/opaline, /usr), this source tree's build/presets, then OPALINE_PRESETS_DIR (set
+by the test harness). The first folder holding a name wins. So the presets installed with a
+renderer stay listed when no renderer is found (or another one is).
 """
 
 import json
 import os
 import struct
+
+from . import locations
 
 # The measured subsurface types opaline-render accepts (<subsurface type="...">), i.e. the
 # methods of the .opm container (docs/formats.md); `dipole` is not a file method.
@@ -18,8 +25,6 @@ METHODS = ("svd", "tucker", "kcta", "nmf", "raw")
 _PREVIEWS = None          # bpy.utils.previews collection (thumbnails)
 _ENUM_ITEMS = []          # kept alive: Blender needs the strings of dynamic enums to persist
 _CACHE = {"key": None, "presets": []}
-
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 class Preset:
@@ -128,17 +133,17 @@ def human_size(n):
 
 def search_folders(extra_folders=(), renderer_path=None):
     """The preset folders in search order (existing folders only, no duplicates)."""
-    out = []
-    env = os.environ.get("OPALINE_PRESETS_PATH", "")
-    cands = [p for p in env.split(":") if p]
+    cands = [p for p in os.environ.get("OPALINE_PRESETS_PATH", "").split(":") if p]
     cands += [p for p in extra_folders if p]
     if renderer_path:
-        bindir = os.path.dirname(os.path.abspath(renderer_path))
-        cands.append(os.path.join(os.path.dirname(bindir), "presets"))
-        cands.append(os.path.join(os.path.dirname(bindir), "share", "opaline", "presets"))
-    cands.append(os.path.join(REPO_ROOT, "build", "presets"))
+        cands += locations.renderer_preset_folders(renderer_path)
+    cands += locations.installed_preset_folders()
+    root = locations.source_root()
+    if root:
+        cands.append(os.path.join(root, "build", "presets"))
     if os.environ.get("OPALINE_PRESETS_DIR"):
         cands.append(os.environ["OPALINE_PRESETS_DIR"])
+    out = []
     for c in cands:
         c = os.path.abspath(os.path.expanduser(c))
         if os.path.isdir(c) and c not in out:
@@ -182,10 +187,8 @@ def renderer_knows(folder, renderer_path):
     if folder in env:
         return True
     if renderer_path:
-        root = os.path.dirname(os.path.dirname(os.path.abspath(renderer_path)))
-        if folder in (os.path.join(root, "presets"),
-                      os.path.join(root, "share", "opaline", "presets")):
-            return True
+        own = [os.path.abspath(f) for f in locations.renderer_preset_folders(renderer_path)]
+        return folder in own or os.path.realpath(folder) in own
     return False
 
 
@@ -212,6 +215,24 @@ def find(name, context=None):
         if p.name == name:
             return p
     return None
+
+
+def missing_message(name, context=None):
+    """Why the preset `name` is not found, blaming what is really missing: the renderer (whose
+    installed presets cannot be searched without it), else the preset, with the folders
+    searched."""
+    from . import preferences
+    prefs = preferences.get(context)
+    extra = [f.path for f in prefs.preset_folders] if prefs else []
+    renderer = preferences.find_renderer(context, required=False)
+    folders = search_folders(extra, renderer)
+    where = ("preset folders searched: " + ", ".join(folders)) if folders else \
+        "no preset folder exists"
+    if renderer is None:
+        return ("opaline preset '%s' not found because %s; %s" % (
+            name, preferences.renderer_missing_message(context).replace("\n", ": ", 1), where))
+    return "unknown opaline preset '%s' (%s; see Preferences > Add-ons > opaline)" % (
+        name, where)
 
 
 def _icon(preset):

@@ -203,8 +203,8 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn):
                                % label)
         p = find_preset(s.preset)
         if p is None:
-            raise OpalineError("%s: unknown opaline preset '%s' (not in any preset folder; "
-                               "see Preferences > Add-ons > opaline)" % (label, s.preset))
+            from .. import presets
+            raise OpalineError("%s: %s" % (label, presets.missing_message(s.preset)))
         typ = p.method
         value = p.name if renderer_knows(p.folder) else p.opm
     elif s.kind == 'DIPOLE':
