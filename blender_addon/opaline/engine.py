@@ -279,11 +279,12 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
 
 def compatible_panels():
     """The standard property panels whose settings opaline uses (lights, world colour, camera,
-    output format, frame range, colour management, the material's Surface and preview). One
-    panel per setting: the EEVEE panels, which exist in every supported version; not Cycles'
-    (their settings are Cycles' own, and they share one COMPAT_ENGINES set)."""
+    output format, frame range, colour management, the material preview; the material slots
+    and Surface are the add-on's own panels). One panel per setting: the EEVEE panels, which
+    exist in every supported version; not Cycles' (their settings are Cycles' own, and they
+    share one COMPAT_ENGINES set)."""
     want = {"DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
-            "EEVEE_MATERIAL_PT_surface", "MATERIAL_PT_preview",
+            "MATERIAL_PT_preview",
             "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface",
             "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
             "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management"}

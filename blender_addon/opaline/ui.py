@@ -7,7 +7,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from . import presets
+from . import compat, presets
 from .errors import OpalineError
 
 
@@ -129,6 +129,41 @@ class OPALINE_PT_material_engine(bpy.types.Panel):
         box = layout.box()
         box.prop(mat.opaline, "enabled", text="opaline subsurface")
         draw_material_settings(box, context, mat)
+
+
+class OPALINE_PT_surface(bpy.types.Panel):
+    """The material's Surface under opaline: the nodes of its Cycles output (the one opaline's
+    exporter reads), not the EEVEE output the preview nodes add; says when opaline subsurface
+    replaces it."""
+    bl_label = "Surface"
+    bl_idname = "MATERIAL_PT_opaline_surface"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "material"
+    COMPAT_ENGINES = {'OPALINE'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+    def draw(self, context):
+        layout = self.layout
+        mat = context.material
+        if mat.opaline.enabled:
+            layout.label(text="Not used by opaline renders: opaline subsurface replaces it",
+                         icon='INFO')
+        if compat.has_use_nodes_toggle():
+            layout.prop(mat, "use_nodes", icon='NODETREE')
+        layout.use_property_split = True
+        if compat.uses_nodes(mat):
+            node = mat.node_tree.get_output_node('CYCLES')
+            sock = node.inputs.get("Surface") if node is not None else None
+            if sock is not None:
+                layout.template_node_view(mat.node_tree, node, sock)
+            else:
+                layout.label(text="No output node")
+        else:
+            layout.prop(mat, "diffuse_color", text="Base Color")
 
 
 class OPALINE_OT_preset_search(bpy.types.Operator):
@@ -316,7 +351,8 @@ def menu_export(self, context):
 
 
 classes = (OPALINE_OT_preset_search, OPALINE_OT_uv_unwrap, OPALINE_PT_material,
-           OPALINE_PT_material_engine, OPALINE_PT_render, OPALINE_OT_export)
+           OPALINE_PT_material_engine, OPALINE_PT_surface, OPALINE_PT_render,
+           OPALINE_OT_export)
 
 
 def register_menus():

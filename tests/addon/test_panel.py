@@ -125,8 +125,11 @@ class TestPanels(Base):
         self.assertLess(len(shown), 25, shown)
         for key in ("OPALINE_PT_render", "OPALINE_PT_material_engine", "RENDER_PT_format",
                     "RENDER_PT_frame_range", "DATA_PT_lens", "DATA_PT_EEVEE_light",
-                    "EEVEE_WORLD_PT_surface", "EEVEE_MATERIAL_PT_surface"):
+                    "EEVEE_WORLD_PT_surface", "OPALINE_PT_surface"):
             self.assertIn(key, shown)
+        # One Surface panel: EEVEE's would show the preview nodes' EEVEE output.
+        self.assertNotIn("EEVEE_MATERIAL_PT_surface", shown)
+        self.assertNotIn("CYCLES_MATERIAL_PT_surface", shown)
         for cycles_only in ("CYCLES_RENDER_PT_sampling_render_denoise",
                             "CYCLES_RENDER_PT_sampling_render", "CYCLES_RENDER_PT_motion_blur",
                             "CYCLES_OBJECT_PT_lightgroup", "CYCLES_RENDER_PT_light_paths"):
@@ -339,6 +342,25 @@ class TestPreviewNodes(Base):
         self.assertEqual(sorted(n.name for n in nt.nodes), before)
         self.assertEqual(sorted((l.from_node.name, l.to_node.name) for l in nt.links),
                          links_before)
+        # The Surface panel under opaline shows the user's (Cycles) output, not the preview's.
+        mat.opaline.enabled = True
+        from opaline import ui
+        drawn = []
+
+        class Layout(Rec):
+            def template_node_view(self, ntree, node, sock):
+                drawn.append(node.name)
+
+        class Self:
+            layout = Layout()
+
+        class Ctx:
+            material = mat
+        ui.OPALINE_PT_surface.draw(Self(), Ctx())
+        self.assertEqual(drawn, ["Material Output"])
+        self.assertIn("Not used by opaline renders: opaline subsurface replaces it",
+                      Self.layout.log["labels"])
+        mat.opaline.enabled = False
         # A user's node that merely shares the name prefix is never removed.
         lookalike = nt.nodes.new("ShaderNodeTexImage")
         lookalike.name = preview.PREFIX + "albedo"
