@@ -16,7 +16,8 @@ REPLACES_NOTE = "Replaces the Surface shader for opaline renders"
 
 def objects_without_uvs(mat, objects):
     """The mesh objects among `objects` that use material `mat` and have no UV map: a measured
-    material is laid over the surface by its UVs, so on them it would collapse to one texel."""
+    material is laid over the surface by its UVs; on them the renderer falls back to a box
+    projection (seams where the projection axis changes)."""
     out = []
     for ob in objects:
         if ob.type != 'MESH' or ob.data is None or len(ob.data.uv_layers):
@@ -68,7 +69,7 @@ def draw_material_settings(layout, context, mat):
             box = layout.box()
             box.alert = True
             names = ", ".join(ob.name for ob in bad[:3]) + (" ..." if len(bad) > 3 else "")
-            box.label(text="No UV map on %s: the material collapses to one texel" % names,
+            box.label(text="No UV map on %s: box-projected (seams), not laid by UVs" % names,
                       icon='ERROR')
             op = box.operator(OPALINE_OT_uv_unwrap.bl_idname, icon='UV')
             op.material = mat.name

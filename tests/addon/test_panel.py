@@ -242,11 +242,19 @@ class TestNoUV(Base):
         mat.opaline.enabled = True
         mat.opaline.preset = "SVD_S10_Chessboard4x4"
         ob = self.plane(mat, uv=False)
-        self.export()
+        root = self.export()
         warned = [w for w in self.res.warnings if "no UV map" in w]
         self.assertEqual(len(warned), 1, self.res.warnings)
         self.assertIn("plane", warned[0])
-        self.assertIn("one texel", warned[0])
+        self.assertIn("box projection at the material's physical size", warned[0])
+        # The generated projection: no (0, 0) UVs that would collapse the material to one
+        # texel; the PLY has no u, v, so the renderer box-projects at the physical size.
+        from opaline.export import meshes as M
+        fn = [c.get("value") for c in root.find("shape") if c.get("name") == "filename"][0]
+        verts, _ = M.read_ply(os.path.join(self.dir, fn))
+        self.assertEqual(len(verts[0]), 6)
+        with open(os.path.join(self.dir, fn), "rb") as f:
+            self.assertNotIn(b"property float u", f.read(400))
         # The panel says so and offers the unwrap.
         from opaline import ui
 
@@ -262,8 +270,10 @@ class TestNoUV(Base):
         self.assertEqual(len(ob.data.uv_layers), 1)
         uvs = [tuple(d.uv) for d in ob.data.uv_layers[0].data]
         self.assertGreater(len(set(uvs)), 1)          # a real unwrap, not one point
-        self.export()
+        root = self.export()
         self.assertFalse([w for w in self.res.warnings if "no UV map" in w])
+        fn = [c.get("value") for c in root.find("shape") if c.get("name") == "filename"][0]
+        self.assertEqual(len(M.read_ply(os.path.join(self.dir, fn))[0][0]), 8)
         rec = Rec()
         ui.draw_material_settings(rec, Ctx(), mat)
         self.assertFalse(any("No UV map" in t for t in rec.log["labels"]))

@@ -307,7 +307,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                 try:
                     for mi, (verts, faces) in sorted(meshes_mod.mesh_parts(me).items()):
                         fname, written = meshes_mod.write_ply(
-                            mesh_dir, "%s_m%d" % (key[3:], mi), verts, faces)
+                            mesh_dir, "%s_m%d" % (key[3:], mi), verts, faces, has_uv)
                         parts[mi] = fname
                         if written:
                             res.meshes_written += 1
@@ -337,9 +337,10 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                 if (key in no_uv_keys and sub.attrs[0][1] != "dipole" and
                         orig.name not in uvless):
                     uvless.add(orig.name)
-                    warn("object %s has no UV map: its measured material %s collapses to one "
-                         "texel (the whole object one colour); unwrap it (material panel > "
-                         "Unwrap UVs)" % (orig.name, mat.name))
+                    warn("object %s has no UV map: its measured material %s is laid by the "
+                         "renderer's box projection at the material's physical size (seams "
+                         "where the projection axis changes), not by UVs; unwrap it for "
+                         "control (material panel > Unwrap UVs)" % (orig.name, mat.name))
             else:
                 mname = mat.name if mat is not None else None
                 if mname not in bsdf_ids:
