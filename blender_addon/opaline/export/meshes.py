@@ -3,8 +3,9 @@
 `mesh_parts(mesh)` turns an evaluated mesh into per-material triangle lists with positions,
 normals (Blender's split normals: flat faces get the face normal, smooth faces the vertex
 normal, custom/auto-smooth normals respected) and UVs (the active render UV map, stored as
-(u, 1 - v): Mitsuba's convention, the same as its OBJ reader's default flip). Corners equal in
-position, normal and UV are merged into one PLY vertex.
+(u, 1 - v): Mitsuba's convention, the same as its OBJ reader's default flip; a mesh without a UV
+map is written without u, v). Corners equal in position, normal and UV are merged into one PLY
+vertex.
 
 Files are content-addressed: NAME-<hash>.ply where the hash covers the whole file, so a mesh
 whose data did not change is not rewritten on the next export, instances share one file, and
