@@ -11,8 +11,8 @@ bl_info = {
     "author": "opaline developers",
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
-    "location": "Properties > Material > opaline subsurface; File > Export > opaline scene; "
-                "Render engine 'opaline'",
+    "location": "Render engine 'opaline'; Properties > Material > opaline subsurface; "
+                "Properties > Render > opaline; File > Export > opaline scene",
     "description": "Measured heterogeneous translucent materials: presets, export, F12 render",
     "doc_url": "https://github.com/opaline/opaline/blob/main/docs/blender-addon.md",
     "category": "Render",

@@ -12,3 +12,8 @@ def uses_nodes(idblock):
     if getattr(idblock, "node_tree", None) is None:
         return False
     return VERSION >= (5, 0, 0) or bool(idblock.use_nodes)
+
+
+def has_use_nodes_toggle():
+    """Whether materials have a "Use Nodes" switch worth showing (before 5.0)."""
+    return VERSION < (5, 0, 0)

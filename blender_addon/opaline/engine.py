@@ -278,18 +278,18 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
 
 
 def compatible_panels():
-    """Standard property panels that make sense with opaline (lights, world, camera, output).
-    The names are the same in Blender 3.4 (EEVEE: BLENDER_EEVEE), 4.2 to 4.5 (EEVEE Next:
-    BLENDER_EEVEE_NEXT, whose panels kept the EEVEE_ / DATA_PT_EEVEE_ names) and 5.x
-    (BLENDER_EEVEE again); none is only in one of them (3.4's DATA_PT_area is gone since 4.0,
-    and its shape and size are in the light panels) and CYCLES_LIGHT_PT_spot never existed."""
-    want = {"DATA_PT_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
-            "CYCLES_LIGHT_PT_light", "CYCLES_WORLD_PT_surface",
-            "CYCLES_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface",
-            "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
-            "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management",
-            "MATERIAL_PT_preview", "WORLD_PT_context_world", "DATA_PT_context_light",
-            "DATA_PT_context_camera"}
+    """The standard property panels whose settings opaline uses (lights, world colour, camera,
+    output format, frame range, colour management, the material preview; the material slots
+    and Surface are the add-on's own panels). One panel per setting: the EEVEE panels, which
+    exist in every supported version; not Cycles' (their settings are Cycles' own, and they
+    share one COMPAT_ENGINES set). The names are the same in Blender 3.4 (BLENDER_EEVEE), 4.2 to
+    4.5 (EEVEE Next, BLENDER_EEVEE_NEXT, whose panels kept the EEVEE_ / DATA_PT_EEVEE_ names)
+    and 5.x (BLENDER_EEVEE again)."""
+    want = {"DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
+            "MATERIAL_PT_preview",
+            "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface",
+            "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
+            "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management"}
     out = []
     for p in bpy.types.Panel.__subclasses__():
         if getattr(p, "COMPAT_ENGINES", None) is not None and p.__name__ in want:
@@ -297,13 +297,26 @@ def compatible_panels():
     return out
 
 
+# Panels whose COMPAT_ENGINES is inherited (a set shared with a base class and its other
+# panels, as Cycles' are) get a set of their own, which unregister_engine removes again.
+_OWN_SETS = []
+
+
 def register_engine():
     bpy.utils.register_class(OpalineRenderEngine)
     for p in compatible_panels():
-        p.COMPAT_ENGINES.add('OPALINE')
+        if "COMPAT_ENGINES" in p.__dict__:
+            p.COMPAT_ENGINES.add('OPALINE')
+        else:
+            p.COMPAT_ENGINES = set(p.COMPAT_ENGINES) | {'OPALINE'}
+            _OWN_SETS.append(p)
 
 
 def unregister_engine():
     for p in compatible_panels():
-        p.COMPAT_ENGINES.discard('OPALINE')
+        if p in _OWN_SETS:
+            del p.COMPAT_ENGINES
+        else:
+            p.COMPAT_ENGINES.discard('OPALINE')
+    _OWN_SETS.clear()
     bpy.utils.unregister_class(OpalineRenderEngine)

@@ -30,7 +30,7 @@ _CACHE = {"key": None, "presets": []}
 class Preset:
     """One preset found on disk; `report` is the parsed NAME.json (or {})."""
 
-    __slots__ = ("name", "folder", "opm", "png", "report")
+    __slots__ = ("name", "folder", "opm", "png", "report", "_size_cm")
 
     def __init__(self, name, folder, report):
         self.name = name
@@ -39,44 +39,94 @@ class Preset:
         png = os.path.join(folder, name + ".png")
         self.png = png if os.path.isfile(png) else None
         self.report = report
+        self._size_cm = False
 
     @property
     def method(self):
         """One of METHODS: from the report, else the .opm's META, else the name's prefix."""
         return method_of(self.opm, self.report)
 
+    @property
+    def label(self):
+        """A short label that tells presets apart when the chooser cuts it: the material's
+        name first, then the method and its parameters ("Chess4x4 (SVD S10)")."""
+        return display_label(self.name)
+
+    @property
+    def size_cm(self):
+        """(width, height) of the material sample in cm, from the .opm's META, or None."""
+        if self._size_cm is False:
+            self._size_cm = opm_size_cm(self.opm)
+        return self._size_cm
+
+    def file_bytes(self):
+        if "size_bytes" in self.report:
+            return int(self.report["size_bytes"])
+        try:
+            return os.path.getsize(self.opm)
+        except OSError:
+            return None
+
     def summary(self):
-        """One line for the panel and tool tips: method, terms, size, error."""
+        """One line for the panel and tool tips: method, terms, size in MB, error, the
+        sample's physical size."""
         r = self.report
-        parts = [self.method]
+        parts = [self.method.upper()]
         if "terms" in r:
             parts.append("%s terms" % r["terms"])
-        if "size_bytes" in r:
-            parts.append(human_size(r["size_bytes"]))
-        elif os.path.isfile(self.opm):
-            parts.append(human_size(os.path.getsize(self.opm)))
+        n = self.file_bytes()
+        if n is not None:
+            parts.append(megabytes(n))
         if "compression_ratio" in r:
             parts.append("%.0fx smaller" % float(r["compression_ratio"]))
         if "relative_rmse" in r:
-            parts.append("rel. RMSE %.2f %%" % (100.0 * float(r["relative_rmse"])))
+            parts.append("error %.2f %% (rel. RMSE)" % (100.0 * float(r["relative_rmse"])))
         elif "rmse" in r:
-            parts.append("RMSE %.3g" % float(r["rmse"]))
+            parts.append("error %.3g (RMSE)" % float(r["rmse"]))
+        else:
+            parts.append("error unknown (no report)")
+        parts.append(physical_size_text(self.size_cm))
         return ", ".join(parts)
 
 
-def opm_meta_method(path):
-    """The `method` of the META section of the .opm container at path (docs/formats.md), or
-    None when the file cannot be read or has none. Reads the header and the section table only,
-    not the (possibly large) data."""
+def megabytes(n):
+    """n bytes in MB (1 MB = 2^20 bytes), e.g. '11.5 MB'."""
+    mb = float(n) / (1 << 20)
+    return ("%.1f MB" if mb >= 0.1 else "%.2f MB") % mb
+
+
+def physical_size_text(size_cm):
+    if size_cm is None:
+        return "sample size unknown"
+    return "sample %.3g x %.3g cm" % size_cm
+
+
+def display_label(name):
+    """name as the chooser shows it: 'SVD_S10_Chess4x4' -> 'Chess4x4 (SVD S10)' (method prefix
+    and its parameters moved after the material's name); other names unchanged."""
+    toks = name.split("_")
+    if len(toks) < 2 or toks[0].lower() not in METHODS:
+        return name
+    i = 1
+    while i < len(toks) - 1 and toks[i][:1].isalpha() and toks[i].rstrip("0123456789") != toks[i] \
+            and toks[i].rstrip("0123456789").isalpha():
+        i += 1
+    return "%s (%s)" % ("_".join(toks[i:]), " ".join([toks[0].upper()] + toks[1:i]))
+
+
+def opm_meta(path):
+    """The META section of the .opm container at path (docs/formats.md) as a dict of strings,
+    or {} when the file cannot be read or has none. Reads the header and the section table
+    only, not the (possibly large) data."""
     try:
         with open(path, "rb") as fh:
             head = fh.read(40)
             if len(head) < 40 or head[:8] != b"OPALINEM":
-                return None
+                return {}
             nsec, = struct.unpack_from("<I", head, 12)
             table, = struct.unpack_from("<Q", head, 24)
             if not 1 <= nsec <= 4096:
-                return None
+                return {}
             fh.seek(table)
             ents = fh.read(32 * nsec)
             for i in range(len(ents) // 32):
@@ -85,15 +135,34 @@ def opm_meta_method(path):
                     continue
                 off, size = struct.unpack_from("<QQ", ents, 32 * i + 8)
                 if size > 1 << 20:
-                    return None
+                    return {}
                 fh.seek(off)
+                meta = {}
                 for line in fh.read(size).decode("utf-8", "replace").splitlines():
-                    k, _, v = line.partition("=")
-                    if k.strip() == "method":
-                        return v.strip().lower()
+                    k, sep, v = line.partition("=")
+                    if sep:
+                        meta[k.strip()] = v.strip()
+                return meta
     except (OSError, ValueError, struct.error):
+        return {}
+    return {}
+
+
+def opm_meta_method(path):
+    """The `method` of the .opm's META (lower case), or None."""
+    m = opm_meta(path).get("method")
+    return m.lower() if m else None
+
+
+def opm_size_cm(path):
+    """(width, height) in cm of the material sample in the .opm at path (META size_x_cm,
+    size_y_cm), or None when the file does not say."""
+    meta = opm_meta(path)
+    try:
+        w, h = float(meta["size_x_cm"]), float(meta["size_y_cm"])
+    except (KeyError, ValueError):
         return None
-    return None
+    return (w, h) if w > 0.0 and h > 0.0 else None
 
 
 def method_of(opm_path, report=None):
@@ -251,23 +320,44 @@ def _icon(preset):
         return 0
 
 
+NONE_ID = "NONE"
+
+
 def enum_items(self, context):
-    """Items for the preset chooser: (name, name, summary, icon, index)."""
+    """Items for the preset chooser: (name, label, summary, icon, index). The first item,
+    NONE_ID, stands for "no preset chosen" (so that no preset looks selected when none is)."""
     if not _ENUM_ITEMS:
         ps = current(context)
-        if not ps:
-            _ENUM_ITEMS.append(("NONE", "No presets found",
+        if ps:
+            _ENUM_ITEMS.append((NONE_ID, "No preset", "No preset chosen", 'BLANK1', 0))
+        else:
+            _ENUM_ITEMS.append((NONE_ID, "No presets found",
                                 "Build the repository or add a preset folder in the add-on "
                                 "preferences", 'ERROR', 0))
+        labels = [p.label for p in ps]
         for i, p in enumerate(ps):
-            _ENUM_ITEMS.append((p.name, p.name, p.summary(), _icon(p), i))
+            label = p.label if labels.count(p.label) == 1 else p.name
+            _ENUM_ITEMS.append((p.name, label, "%s: %s" % (p.name, p.summary()), _icon(p),
+                                i + 1))
     return _ENUM_ITEMS
+
+
+_SEARCH_ITEMS = []
+
+
+def search_items(self, context):
+    """Items for the preset search popup: the label says name, method, MB, error and sample
+    size, so typing any of them ("svd", "marble", "12.6 cm") finds a preset."""
+    _SEARCH_ITEMS[:] = [(p.name, "%s  -  %s" % (p.label, p.summary()), p.name)
+                        for p in current(context)]
+    return _SEARCH_ITEMS
 
 
 def clear():
     """Frees thumbnails and caches (unregister, refresh)."""
     global _PREVIEWS
     _ENUM_ITEMS.clear()
+    _SEARCH_ITEMS.clear()
     _CACHE["key"] = None
     _CACHE["presets"] = []
     if _PREVIEWS is not None:

@@ -13,24 +13,32 @@ DIPOLE_MATERIALS = ("Apple", "Chicken1", "Chicken2", "Cream", "Ketchup", "Marble
 
 
 def _preset_get(self):
+    """The chooser's value: the NONE item when no preset is chosen (nothing looks selected)."""
     items = presets.enum_items(self, bpy.context)
     for it in items:
-        if it[0] == self.preset:
+        if it[0] == (self.preset or presets.NONE_ID):
             return it[4]
-    return 0 if not self.preset else -1
+    return 0
 
 
 def _preset_set(self, value):
     items = presets.enum_items(self, bpy.context)
     for it in items:
-        if it[4] == value and it[0] != "NONE":
-            self.preset = it[0]
+        if it[4] == value:
+            self.preset = "" if it[0] == presets.NONE_ID else it[0]
             return
+
+
+def _update_preview(self, context):
+    from . import preview
+    preview.sync(self.id_data)
 
 
 class OPALINE_PG_material(bpy.types.PropertyGroup):
     enabled: BoolProperty(name="opaline subsurface", default=False,
-                          description="Render this material as a measured translucent material")
+                          description="Render this material as a measured translucent material "
+                                      "(replaces the Surface shader in opaline renders)",
+                          update=_update_preview)
     kind: EnumProperty(
         name="Kind",
         items=[('PRESET', "Factored preset", "A factored measured material from the preset "
@@ -39,8 +47,9 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
                ('DIPOLE', "Dipole material type", "A homogeneous medium from the Jensen et al. "
                 "2001 table, rendered with the dipole model", 'SHADING_RENDERED', 1),
                ('FILE', "Material file", "An .opm material file", 'FILE', 2)],
-        default='PRESET')
-    preset: StringProperty(name="Preset", description="Preset name (NAME.opm in a preset folder)")
+        default='PRESET', update=_update_preview)
+    preset: StringProperty(name="Preset", description="Preset name (NAME.opm in a preset folder)",
+                           update=_update_preview)
     preset_enum: EnumProperty(name="Preset", items=presets.enum_items, get=_preset_get,
                               set=_preset_set, description="The measured material preset")
     dipole_material: EnumProperty(
@@ -48,7 +57,8 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
         items=[(n, n, "Jensen et al. 2001 measured medium '%s'" % n) for n in DIPOLE_MATERIALS],
         default="Skin1")
     filepath: StringProperty(name="Material file", subtype='FILE_PATH',
-                             description="An .opm file written by opaline-factor")
+                             description="An .opm file written by opaline-factor",
+                             update=_update_preview)
     file_method: EnumProperty(
         name="Method",
         items=[('AUTO', "Auto", "From the file's report (NAME.json beside it), the file's "
@@ -63,12 +73,33 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
                          soft_max=100.0,
                          description="Multiplies the material sample's physical size when it "
                                      "is laid over the surface (10: a 12.6 cm sample covers "
-                                     "1.26 m)")
-    ior: FloatProperty(name="Interior IOR", default=1.3, min=1.0, soft_max=3.0,
-                       description="Index of refraction inside the material")
+                                     "1.26 m)", update=_update_preview)
+    ior: FloatProperty(name="Interior IOR", default=1.3, min=1.0, max=3.0,
+                       description="Index of refraction inside the medium (dipole only: it "
+                                   "sets the dipole's boundary; measured materials contain "
+                                   "their boundary, so they have no IOR)")
 
 
 class OPALINE_PG_scene(bpy.types.PropertyGroup):
+    """opaline's render settings (Render properties > opaline), exported into the scene XML
+    (samples: the camera's sampleCount; max_bounces: the integrator's maxDepth; irr_samples and
+    max_sss_points: each <subsurface>'s irrSamples and maxPoints) and used by F12 (threads)."""
+    samples: IntProperty(name="Samples", default=64, min=1, soft_max=4096,
+                         description="Paths per pixel")
+    max_bounces: IntProperty(name="Max Bounces", default=8, min=0, soft_max=64,
+                             description="Bounces of a path (as Cycles' Max Bounces; 0: "
+                                         "direct light only; the exported maxDepth is "
+                                         "bounces + 2)")
+    irr_samples: IntProperty(name="Irradiance Samples", default=16, min=1, max=65536,
+                             soft_max=256,
+                             description="Subsurface pre-pass: paths per irradiance point "
+                                         "(more: less noise in translucent objects, longer "
+                                         "pre-pass)")
+    max_sss_points: IntProperty(name="Irradiance Point Cap", default=250000, min=1,
+                                max=50000000,
+                                description="Subsurface pre-pass: most irradiance points per "
+                                            "shape; above it the points are coarser than the "
+                                            "material (the renderer warns)")
     threads: IntProperty(name="Threads", default=0, min=0,
                          description="Worker threads for opaline-render (0: all cores)")
     keep_temp: BoolProperty(name="Keep exported files", default=False,

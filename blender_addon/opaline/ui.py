@@ -4,14 +4,79 @@ operator."""
 import os
 
 import bpy
-from bpy.props import StringProperty
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from . import presets
+from . import compat, presets
 from .errors import OpalineError
 
 
+REPLACES_NOTE = "Replaces the Surface shader for opaline renders"
+
+
+def objects_without_uvs(mat, objects):
+    """The mesh objects among `objects` that use material `mat` and have no UV map: a measured
+    material is laid over the surface by its UVs; on them the renderer falls back to a box
+    projection (seams where the projection axis changes)."""
+    out = []
+    for ob in objects:
+        if ob.type != 'MESH' or ob.data is None or len(ob.data.uv_layers):
+            continue
+        if any(slot.material == mat for slot in ob.material_slots):
+            out.append(ob)
+    return out
+
+
+def draw_material_settings(layout, context, mat):
+    """The opaline settings of `mat` (shared by the panel under opaline and under other
+    engines)."""
+    s = mat.opaline
+    col = layout.column()
+    col.active = s.enabled
+    col.use_property_split = True
+    if s.enabled:
+        col.label(text=REPLACES_NOTE, icon='SHADING_RENDERED')
+    col.prop(s, "kind")
+    if s.kind == 'PRESET':
+        row = col.row()
+        row.template_icon_view(s, "preset_enum", show_labels=True, scale=6.0, scale_popup=5.0)
+        sub = row.column(align=True)
+        sub.operator(OPALINE_OT_preset_search.bl_idname, text="", icon='VIEWZOOM')
+        sub.operator("opaline.presets_refresh", text="", icon='FILE_REFRESH')
+        p = presets.find(s.preset, context) if s.preset else None
+        if p is not None:
+            box = col.box()
+            box.label(text="%s  (%s)" % (p.label, p.name))
+            box.label(text=p.summary(), icon='INFO')
+            size = p.size_cm
+            if size is not None:
+                box.label(text="Covers %.3g x %.3g cm of the surface at Physical scale %g" % (
+                    size[0] * s.scale, size[1] * s.scale, s.scale))
+        elif s.preset:
+            col.label(text="Unknown preset '%s'" % s.preset, icon='ERROR')
+        else:
+            col.label(text="No preset chosen: pick one, or search", icon='INFO')
+    elif s.kind == 'DIPOLE':
+        col.prop(s, "dipole_material")
+        col.prop(s, "ior")
+    else:
+        col.prop(s, "filepath")
+        col.prop(s, "file_method")
+    col.prop(s, "scale")
+    if s.enabled and s.kind != 'DIPOLE':
+        bad = objects_without_uvs(mat, context.scene.objects) if context.scene else []
+        if bad:
+            box = layout.box()
+            box.alert = True
+            names = ", ".join(ob.name for ob in bad[:3]) + (" ..." if len(bad) > 3 else "")
+            box.label(text="No UV map on %s: box-projected (seams), not laid by UVs" % names,
+                      icon='ERROR')
+            op = box.operator(OPALINE_OT_uv_unwrap.bl_idname, icon='UV')
+            op.material = mat.name
+
+
 class OPALINE_PT_material(bpy.types.Panel):
+    """The opaline settings under other render engines (at the bottom of the Material tab)."""
     bl_label = "opaline subsurface"
     bl_idname = "MATERIAL_PT_opaline_subsurface"
     bl_space_type = 'PROPERTIES'
@@ -20,38 +85,164 @@ class OPALINE_PT_material(bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return context.material is not None
+        return context.material is not None and context.engine != 'OPALINE'
 
     def draw_header(self, context):
         self.layout.prop(context.material.opaline, "enabled", text="")
 
     def draw(self, context):
+        draw_material_settings(self.layout, context, context.material)
+
+
+class OPALINE_PT_material_engine(bpy.types.Panel):
+    """The Material tab's first panel when opaline is the render engine: the material slots,
+    then the opaline settings of the active material (before the Surface panel)."""
+    bl_label = "opaline material"
+    bl_idname = "MATERIAL_PT_opaline_engine"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "material"
+    bl_options = {'HIDE_HEADER'}
+    bl_order = -1
+    COMPAT_ENGINES = {'OPALINE'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and (context.material is not None or
+                                                         context.object is not None)
+
+    def draw(self, context):
         layout = self.layout
-        s = context.material.opaline
-        layout.active = s.enabled
+        ob = context.object
+        mat = context.material
+        if ob is not None:
+            row = layout.row()
+            row.template_list("MATERIAL_UL_matslots", "", ob, "material_slots", ob,
+                              "active_material_index", rows=3)
+            col = row.column(align=True)
+            col.operator("object.material_slot_add", icon='ADD', text="")
+            col.operator("object.material_slot_remove", icon='REMOVE', text="")
+            layout.template_ID(ob, "active_material", new="material.new")
+        elif mat is not None and context.space_data is not None:
+            layout.template_ID(context.space_data, "pin_id")
+        if mat is None:
+            return
+        box = layout.box()
+        box.prop(mat.opaline, "enabled", text="opaline subsurface")
+        draw_material_settings(box, context, mat)
+
+
+class OPALINE_PT_surface(bpy.types.Panel):
+    """The material's Surface under opaline: the nodes of its Cycles output (the one opaline's
+    exporter reads), not the EEVEE output the preview nodes add; says when opaline subsurface
+    replaces it."""
+    bl_label = "Surface"
+    bl_idname = "MATERIAL_PT_opaline_surface"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "material"
+    COMPAT_ENGINES = {'OPALINE'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+    def draw(self, context):
+        layout = self.layout
+        mat = context.material
+        if mat.opaline.enabled:
+            layout.label(text="Not used by opaline renders: opaline subsurface replaces it",
+                         icon='INFO')
+        if compat.has_use_nodes_toggle():
+            layout.prop(mat, "use_nodes", icon='NODETREE')
         layout.use_property_split = True
-        layout.prop(s, "kind")
-        if s.kind == 'PRESET':
-            col = layout.column()
-            row = col.row()
-            row.template_icon_view(s, "preset_enum", show_labels=True, scale=6.0,
-                                   scale_popup=5.0)
-            row.operator("opaline.presets_refresh", text="", icon='FILE_REFRESH')
-            p = presets.find(s.preset, context) if s.preset else None
-            if p is not None:
-                col.label(text=p.name)
-                col.label(text=p.summary(), icon='INFO')
-            elif s.preset:
-                col.label(text="Unknown preset '%s'" % s.preset, icon='ERROR')
+        if compat.uses_nodes(mat):
+            node = mat.node_tree.get_output_node('CYCLES')
+            sock = node.inputs.get("Surface") if node is not None else None
+            if sock is not None:
+                layout.template_node_view(mat.node_tree, node, sock)
             else:
-                col.label(text="Choose a preset", icon='INFO')
-        elif s.kind == 'DIPOLE':
-            layout.prop(s, "dipole_material")
+                layout.label(text="No output node")
         else:
-            layout.prop(s, "filepath")
-            layout.prop(s, "file_method")
-        layout.prop(s, "scale")
-        layout.prop(s, "ior")
+            layout.prop(mat, "diffuse_color", text="Base Color")
+
+
+class OPALINE_OT_preset_search(bpy.types.Operator):
+    """Search the presets by name, method, size, error or sample size"""
+    bl_idname = "opaline.preset_search"
+    bl_label = "Search Presets"
+    bl_property = "preset"
+    bl_options = {'REGISTER', 'UNDO', 'INTERNAL'}
+    preset: EnumProperty(name="Preset", items=presets.search_items)
+
+    @classmethod
+    def poll(cls, context):
+        return context.material is not None
+
+    def invoke(self, context, event):
+        context.window_manager.invoke_search_popup(self)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        context.material.opaline.preset = self.preset
+        return {'FINISHED'}
+
+
+class OPALINE_OT_uv_unwrap(bpy.types.Operator):
+    """Unwrap the objects that use this material and have no UV map, with Blender's Smart UV
+    Project"""
+    bl_idname = "opaline.uv_unwrap"
+    bl_label = "Unwrap UVs (Smart UV Project)"
+    bl_options = {'REGISTER', 'UNDO'}
+    material: StringProperty(name="Material", description="The material whose objects to unwrap")
+
+    def execute(self, context):
+        mat = bpy.data.materials.get(self.material)
+        if mat is None:
+            self.report({'ERROR'}, "opaline: no material named '%s'" % self.material)
+            return {'CANCELLED'}
+        bad = objects_without_uvs(mat, context.scene.objects)
+        done, skipped = smart_uv_project(context, bad)
+        for ob in skipped:
+            self.report({'WARNING'}, "opaline: %s is not in the view layer; not unwrapped"
+                        % ob.name)
+        self.report({'INFO'}, "opaline: unwrapped %d objects" % len(done))
+        return {'FINISHED'}
+
+
+def smart_uv_project(context, objects):
+    """Runs Smart UV Project on each mesh of `objects` (in edit mode, all faces); returns
+    (unwrapped, skipped: not in the view layer). Restores the selection and mode."""
+    vl = context.view_layer
+    prev_active = vl.objects.active
+    prev_sel = [ob for ob in vl.objects if ob.select_get()]
+    prev_mode = context.mode
+    if prev_mode != 'OBJECT' and prev_active is not None:
+        bpy.ops.object.mode_set(mode='OBJECT')
+    done, skipped, meshes = [], [], set()
+    try:
+        for ob in objects:
+            if ob.data in meshes:
+                done.append(ob)
+                continue
+            if vl.objects.get(ob.name) is None:
+                skipped.append(ob)
+                continue
+            for o in vl.objects:
+                o.select_set(False)
+            ob.select_set(True)
+            vl.objects.active = ob
+            bpy.ops.object.mode_set(mode='EDIT')
+            bpy.ops.mesh.select_all(action='SELECT')
+            bpy.ops.uv.smart_project()
+            bpy.ops.object.mode_set(mode='OBJECT')
+            meshes.add(ob.data)
+            done.append(ob)
+    finally:
+        for o in vl.objects:
+            o.select_set(o in prev_sel)
+        vl.objects.active = prev_active
+    return done, skipped
 
 
 class OPALINE_PT_render(bpy.types.Panel):
@@ -69,13 +260,16 @@ class OPALINE_PT_render(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        sc = context.scene
-        cy = getattr(sc, "cycles", None)
-        if cy is not None:
-            layout.prop(cy, "samples", text="Samples")
-            layout.prop(cy, "max_bounces", text="Max Bounces")
-        layout.prop(sc.opaline, "threads")
-        layout.prop(sc.opaline, "keep_temp")
+        o = context.scene.opaline
+        col = layout.column()
+        col.prop(o, "samples")
+        col.prop(o, "max_bounces")
+        col = layout.column(heading="Subsurface Pre-pass")
+        col.prop(o, "irr_samples")
+        col.prop(o, "max_sss_points")
+        col = layout.column()
+        col.prop(o, "threads")
+        col.prop(o, "keep_temp")
 
 
 class OPALINE_OT_export(bpy.types.Operator, ExportHelper):
@@ -85,25 +279,71 @@ class OPALINE_OT_export(bpy.types.Operator, ExportHelper):
     bl_options = {'PRESET'}
     filename_ext = ".xml"
     filter_glob: StringProperty(default="*.xml", options={'HIDDEN'})
+    use_selection: BoolProperty(name="Selected Only", default=False,
+                                description="Export only the selected objects (and the "
+                                            "scene camera)")
+    use_frame_range: BoolProperty(name="Frame Range", default=False,
+                                  description="Export one XML per frame, NAME_<frame>.xml, "
+                                              "sharing meshes/ (as batch.py)")
+    frame_start: IntProperty(name="Start", default=1, description="First frame exported")
+    frame_end: IntProperty(name="End", default=250, description="Last frame exported")
+    samples: IntProperty(name="Samples", default=0, min=0,
+                         description="Samples per pixel written into the XML (0: the scene's "
+                                     "opaline render settings)")
+    collect_materials: BoolProperty(name="Collect Materials", default=False,
+                                    description="Copy every material file the scene uses "
+                                                "(.opm) into materials/ beside the XML and "
+                                                "name it relatively, so the export can be "
+                                                "moved to another machine")
+
+    def invoke(self, context, event):
+        if not self.properties.is_property_set("frame_start"):
+            self.frame_start = context.scene.frame_start
+        if not self.properties.is_property_set("frame_end"):
+            self.frame_end = context.scene.frame_end
+        return ExportHelper.invoke(self, context, event)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "use_selection")
+        layout.prop(self, "samples")
+        layout.prop(self, "collect_materials")
+        layout.prop(self, "use_frame_range")
+        col = layout.column(align=True)
+        col.active = self.use_frame_range
+        col.prop(self, "frame_start")
+        col.prop(self, "frame_end")
 
     def execute(self, context):
         from .export import scene as scene_export
         from . import preferences
+        if self.use_frame_range and self.frame_end < self.frame_start:
+            self.report({'ERROR'}, "opaline export: frame range %d-%d ends before it starts"
+                        % (self.frame_start, self.frame_end))
+            return {'CANCELLED'}
+        frames = (self.frame_start, self.frame_end) if self.use_frame_range else None
         try:
-            depsgraph = context.evaluated_depsgraph_get()
-            res = scene_export.export_scene(depsgraph, self.filepath, context,
-                                            preferences.find_renderer(context, required=False))
+            results = scene_export.export_frames(
+                context, self.filepath, frames,
+                renderer_path=preferences.find_renderer(context, required=False),
+                samples=self.samples or None, selected_only=self.use_selection,
+                collect_materials=self.collect_materials)
         except OpalineError as e:
             self.report({'ERROR'}, "opaline export: %s" % e)
             return {'CANCELLED'}
         except OSError as e:
             self.report({'ERROR'}, "opaline export: cannot write: %s" % e)
             return {'CANCELLED'}
-        for w in res.warnings:
-            self.report({'WARNING'}, w)
-        self.report({'INFO'}, "opaline: wrote %s (%d shapes, %d lights; meshes %d written, %d "
-                    "unchanged)" % (os.path.basename(res.xml_path), res.shapes, res.lights,
-                                    res.meshes_written, res.meshes_reused))
+        for res in results:
+            for w in res.warnings:
+                self.report({'WARNING'}, w)
+        res = results[-1]
+        self.report({'INFO'}, "opaline: wrote %s%s (%d shapes, %d lights; meshes %d written, "
+                    "%d unchanged)" % (os.path.basename(res.xml_path),
+                                       " and %d more frames" % (len(results) - 1)
+                                       if len(results) > 1 else "", res.shapes, res.lights,
+                                       res.meshes_written, res.meshes_reused))
         return {'FINISHED'}
 
 
@@ -111,7 +351,9 @@ def menu_export(self, context):
     self.layout.operator(OPALINE_OT_export.bl_idname, text="opaline scene (.xml)")
 
 
-classes = (OPALINE_PT_material, OPALINE_PT_render, OPALINE_OT_export)
+classes = (OPALINE_OT_preset_search, OPALINE_OT_uv_unwrap, OPALINE_PT_material,
+           OPALINE_PT_material_engine, OPALINE_PT_surface, OPALINE_PT_render,
+           OPALINE_OT_export)
 
 
 def register_menus():

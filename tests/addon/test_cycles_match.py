@@ -166,6 +166,7 @@ class TestCyclesMatch(unittest.TestCase):
     def build(self, name):
         self.sc = S.empty_scene((RES, RES))
         self.sc.cycles.max_bounces = 0
+        self.sc.opaline.max_bounces = 0
         S.add_floor(50.0, (ALBEDO,) * 3)
         S.add_camera((0.0, 0.0, HEIGHT))
         self.dir = S.tmpdir("cycles-" + name)

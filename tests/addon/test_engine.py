@@ -146,7 +146,7 @@ class TestEngine(unittest.TestCase):
         r = S.need_renderer(self)
         S.prefs().renderer_path = r
         self.sc.render.resolution_x, self.sc.render.resolution_y = 24, 16
-        self.sc.cycles.samples = 4
+        self.sc.opaline.samples = 4
         self.sc.opaline.threads = 1
         self.sc.opaline.keep_temp = False
         bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(0, 0, 0.7))

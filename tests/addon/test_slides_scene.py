@@ -18,8 +18,8 @@ PRESET = "SVD_S10_Chess4x4"
 
 def build(preset_folder):
     sc = S.empty_scene((40, 30))
-    sc.cycles.samples = 4
-    sc.cycles.max_bounces = 2
+    sc.opaline.samples = 4
+    sc.opaline.max_bounces = 2
     if preset_folder:
         S.prefs().preset_folders.add().path = preset_folder
     import opaline.presets

@@ -242,6 +242,7 @@ class TestTextureExport(unittest.TestCase):
         gradients, darker in Cycles between strongly different texels)."""
         S.need_renderer(self)
         self.sc.cycles.max_bounces = 0
+        self.sc.opaline.max_bounces = 0
         src = os.path.join(self.dir, "quad.png")
         linear = interpolation == 'Linear'
         textured_plane(make_image("quad", src, texels=gradient(16) if linear else TEXELS),

@@ -186,11 +186,17 @@ def bsdf_for(mat, warn, textures=None):
     return _twosided(b), None
 
 
-def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn):
+def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None,
+                   material_ref=None):
     """The <subsurface> element of a material with opaline subsurface enabled, else None.
 
     find_preset(name) -> presets.Preset or None; renderer_knows(folder) -> whether
-    opaline-render finds presets of that folder by name (else the .opm path is written)."""
+    opaline-render finds presets of that folder by name (else the .opm path is written);
+    prepass: (irrSamples, maxPoints) of the scene's render settings, or None for the
+    renderer's defaults; material_ref(opm_path) -> the value that names a material file in the
+    XML (default: the absolute path; collecting exports give a path relative to the XML).
+    intIOR is written for the dipole only: measured Rd contains the boundary, and the renderer
+    reads no IOR for it."""
     if mat is None:
         return None
     s = getattr(mat, "opaline", None)
@@ -206,7 +212,10 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn):
             from .. import presets
             raise OpalineError("%s: %s" % (label, presets.missing_message(s.preset)))
         typ = p.method
-        value = p.name if renderer_knows(p.folder) else p.opm
+        if material_ref is not None:
+            value = material_ref(p.opm)
+        else:
+            value = p.name if renderer_knows(p.folder) else p.opm
     elif s.kind == 'DIPOLE':
         typ = "dipole"
         value = s.dipole_material
@@ -218,11 +227,15 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn):
         typ = s.file_method
         if typ == 'AUTO':
             typ = _method_of_file(path)
-        value = os.path.abspath(path)
+        value = material_ref(path) if material_ref is not None else os.path.abspath(path)
     e = Element("subsurface", {"type": typ})
     e.string("material", value)
     e.float("scale", s.scale)
-    e.float("intIOR", s.ior)
+    if typ == "dipole":
+        e.float("intIOR", s.ior)
+    if prepass is not None:
+        e.integer("irrSamples", prepass[0])
+        e.integer("maxPoints", prepass[1])
     return e
 
 

@@ -3,8 +3,9 @@
 `mesh_parts(mesh)` turns an evaluated mesh into per-material triangle lists with positions,
 normals (Blender's split normals: flat faces get the face normal, smooth faces the vertex
 normal, custom/auto-smooth normals respected) and UVs (the active render UV map, stored as
-(u, 1 - v): Mitsuba's convention, the same as its OBJ reader's default flip). Corners equal in
-position, normal and UV are merged into one PLY vertex.
+(u, 1 - v): Mitsuba's convention, the same as its OBJ reader's default flip; a mesh without a UV
+map is written without u, v). Corners equal in position, normal and UV are merged into one PLY
+vertex.
 
 Files are content-addressed: NAME-<hash>.ply where the hash covers the whole file, so a mesh
 whose data did not change is not rewritten on the next export, instances share one file, and
@@ -94,10 +95,15 @@ def mesh_parts(mesh):
 
 
 def ply_bytes(verts, faces, has_uv=True):
-    """(header_without_hash_line, body) of a binary little-endian PLY."""
+    """(header_without_hash_line, body) of a binary little-endian PLY. has_uv False leaves the
+    u, v properties out (a mesh without a UV map: the renderer then lays measured materials by
+    its box projection at their physical size instead of collapsing them to the texel at uv
+    (0, 0))."""
     nverts = len(verts) // 8
     nfaces = len(faces) // 3
     v = array.array('f', verts)
+    if not has_uv:
+        v = array.array('f', [x for i in range(nverts) for x in v[8 * i:8 * i + 6]])
     f = array.array('i', faces)
     if sys.byteorder != "little":
         v.byteswap()
@@ -110,16 +116,16 @@ def ply_bytes(verts, faces, has_uv=True):
         rec[13 * i + 1:13 * i + 13] = fb[12 * i:12 * i + 12]
     header = ("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
               "property float nx\nproperty float ny\nproperty float nz\n"
-              "property float u\nproperty float v\n"
+              "%s"
               "element face %d\nproperty list uchar int vertex_indices\nend_header\n"
-              % (nverts, nfaces))
+              % (nverts, "property float u\nproperty float v\n" if has_uv else "", nfaces))
     return header.encode("ascii"), v.tobytes() + bytes(rec)
 
 
-def write_ply(folder, name, verts, faces):
+def write_ply(folder, name, verts, faces, has_uv=True):
     """Writes (or reuses) folder/NAME-<hash>.ply; returns (file_name, written: bool)."""
     from .xml_writer import write_bytes
-    header, body = ply_bytes(verts, faces)
+    header, body = ply_bytes(verts, faces, has_uv)
     h = hashlib.sha1()
     h.update(header)
     h.update(body)
@@ -143,20 +149,23 @@ def _has_hash(path, digest):
 
 
 def read_ply(path):
-    """Reads a PLY written by write_ply: (verts as list of 8-tuples, faces as list of 3-tuples).
-    For tests."""
+    """Reads a PLY written by write_ply: (verts as list of 8-tuples, or 6-tuples without UVs,
+    faces as list of 3-tuples). For tests."""
     with open(path, "rb") as fh:
         data = fh.read()
     end = data.index(b"end_header\n") + len(b"end_header\n")
     nv = nf = 0
+    nprop = 0
     for line in data[:end].decode("ascii").splitlines():
         p = line.split()
         if p[:2] == ["element", "vertex"]:
             nv = int(p[2])
         elif p[:2] == ["element", "face"]:
             nf = int(p[2])
-    verts = [struct.unpack_from("<8f", data, end + 32 * i) for i in range(nv)]
-    off = end + 32 * nv
+        elif p[:2] == ["property", "float"]:
+            nprop += 1
+    verts = [struct.unpack_from("<%df" % nprop, data, end + 4 * nprop * i) for i in range(nv)]
+    off = end + 4 * nprop * nv
     faces = []
     for i in range(nf):
         cnt = data[off]

@@ -10,7 +10,9 @@ themselves); lights (lights.py); meshes, curves, surfaces, text and metaballs as
 meshes with modifiers applied (meshes.py), shared between instances of one data block; each
 material slot's BSDF or opaline subsurface (materials.py) with its image textures in a
 `textures/` folder (textures.py); the world background as a constant
-emitter; samples and bounces from the Cycles render settings.
+emitter; samples, bounces and the subsurface pre-pass settings from the scene's opaline render
+settings (Scene.opaline). Options: selected objects only, collected material files
+(MaterialCollector), a frame range (export_frames).
 """
 
 import os
@@ -28,6 +30,7 @@ from ..errors import OpalineError
 
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
 MESH_FOLDER = "meshes"
+MATERIAL_FOLDER = "materials"
 
 
 class ExportResult:
@@ -119,17 +122,103 @@ def world_radiance(world, warn):
 
 
 def render_samples(scene):
-    cy = getattr(scene, "cycles", None)
-    if cy is not None:
-        return max(1, int(cy.samples)), int(cy.max_bounces)
+    """(samples, max bounces) from the scene's opaline render settings."""
+    o = getattr(scene, "opaline", None)
+    if o is not None:
+        return max(1, int(o.samples)), int(o.max_bounces)
     return 64, 8
 
 
-def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=None):
+def prepass_settings(scene):
+    """(irrSamples, maxPoints) of the subsurface pre-pass from the scene's render settings, or
+    None (the renderer's defaults) when the scene has none."""
+    o = getattr(scene, "opaline", None)
+    if o is None:
+        return None
+    return int(o.irr_samples), int(o.max_sss_points)
+
+
+class MaterialCollector:
+    """Copies the material files an export uses into `<xml_dir>/materials/` and names them
+    relatively ("materials/NAME.opm"), so the exported folder can be moved. A file already
+    there with the same size and modification time is not copied again; two different files
+    with one name get distinct names."""
+
+    def __init__(self, xml_dir):
+        self.dir = os.path.join(xml_dir, MATERIAL_FOLDER)
+        self.names = {}     # absolute source path -> file name in the folder
+        self.copied = 0
+
+    def __call__(self, src):
+        import shutil
+        src = os.path.abspath(src)
+        if src not in self.names:
+            base, ext = os.path.splitext(os.path.basename(src))
+            name, i = base + ext, 1
+            while name in self.names.values():
+                name, i = "%s_%d%s" % (base, i, ext), i + 1
+            os.makedirs(self.dir, exist_ok=True)
+            dst = os.path.join(self.dir, name)
+            st = os.stat(src)
+            try:
+                dt = os.stat(dst)
+                same = dt.st_size == st.st_size and int(dt.st_mtime) == int(st.st_mtime)
+            except OSError:
+                same = False
+            if not same:
+                shutil.copyfile(src, dst)
+                shutil.copystat(src, dst)
+                self.copied += 1
+            self.names[src] = name
+        return MATERIAL_FOLDER + "/" + self.names[src]
+
+
+def frame_path(xml_path, frame):
+    """The XML of one frame of a frame-range export: NAME_<frame, 4 digits>.xml beside
+    xml_path (batch.py's naming)."""
+    stem, ext = os.path.splitext(xml_path)
+    return "%s_%04d%s" % (stem, frame, ext or ".xml")
+
+
+def export_frames(context, xml_path, frames=None, **kw):
+    """Exports the current frame to xml_path (frames None) or each frame of the inclusive
+    range frames = (first, last) to frame_path(xml_path, f), sharing meshes/ and materials/;
+    restores the current frame. kw as for export_scene. Returns the ExportResults."""
+    scene = context.scene
+    if frames is None:
+        return [export_scene(context.evaluated_depsgraph_get(), xml_path, context, **kw)]
+    first, last = frames
+    cur, sub = scene.frame_current, scene.frame_subframe
+    out = []
+    try:
+        for f in range(first, last + 1):
+            scene.frame_set(f)
+            out.append(export_scene(context.evaluated_depsgraph_get(), frame_path(xml_path, f),
+                                    context, **kw))
+    finally:
+        scene.frame_set(cur, subframe=sub)
+    return out
+
+
+def _selected(inst):
+    """Whether a depsgraph instance belongs to the selection: its object, or for an instance
+    its instancer, is selected."""
+    ob = inst.parent if (inst.is_instance and inst.parent is not None) else inst.object
+    try:
+        return ob.original.select_get()
+    except RuntimeError:  # not in the view layer
+        return False
+
+
+def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=None,
+                 selected_only=False, collect_materials=False):
     """Writes the scene of `depsgraph` to `xml_path`; returns an ExportResult.
 
     renderer_path: the opaline-render the file is meant for (decides whether presets are
-    written by name or by path); samples: overrides the scene's sample count."""
+    written by name or by path); samples: overrides the scene's sample count; selected_only:
+    only the selected objects (the camera is always written); collect_materials: copy the
+    material files into materials/ beside the XML and name them relatively
+    (MaterialCollector)."""
     from .. import presets
     res = ExportResult()
     res.xml_path = os.path.abspath(xml_path)
@@ -149,7 +238,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         spp = int(samples)
     root = scene_element()
     integ = root.add(Element("integrator", {"type": "path"},
-                             comment="Cycles max bounces %d" % bounces))
+                             comment="max bounces %d" % bounces))
     integ.integer("maxDepth", camera_mod.max_depth_from_bounces(bounces))
     cam_eval = cam_obj.evaluated_get(depsgraph) if hasattr(cam_obj, "evaluated_get") else cam_obj
     root.add(camera_mod.export_camera(scene_orig, cam_eval, _rows(cam_eval.matrix_world), spp,
@@ -174,9 +263,13 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     def knows(folder):
         return presets.renderer_knows(folder, renderer_path)
 
+    prepass = prepass_settings(scene_orig)
+    collector = MaterialCollector(xml_dir) if collect_materials else None
+    uvless = set()      # objects warned for a measured material without UVs
     hidden_cols = _hidden_collections(scene_orig, getattr(depsgraph, "view_layer", None))
     textures = textures_mod.TextureWriter(xml_dir)
     mesh_cache = {}     # key -> {material_index: file name}
+    no_uv_keys = set()  # keys of meshes without a UV map
     bsdf_ids = {}       # material name -> id of its shared <bsdf>
     shapes = []
     for inst in depsgraph.object_instances:
@@ -184,6 +277,8 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         if ob.type not in GEOMETRY_TYPES and ob.type != 'LIGHT':
             continue
         if not _renders(inst, hidden_cols):
+            continue
+        if selected_only and not _selected(inst):
             continue
         mw = _rows(inst.matrix_world)
         if ob.type == 'LIGHT':
@@ -202,15 +297,17 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         parts = mesh_cache.get(key)
         if parts is None:
             parts = {}
+            has_uv = True
             try:
                 me = ob.to_mesh()
             except RuntimeError:
                 me = None
             if me is not None:
+                has_uv = len(me.uv_layers) > 0
                 try:
                     for mi, (verts, faces) in sorted(meshes_mod.mesh_parts(me).items()):
                         fname, written = meshes_mod.write_ply(
-                            mesh_dir, "%s_m%d" % (key[3:], mi), verts, faces)
+                            mesh_dir, "%s_m%d" % (key[3:], mi), verts, faces, has_uv)
                         parts[mi] = fname
                         if written:
                             res.meshes_written += 1
@@ -219,6 +316,8 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                 finally:
                     ob.to_mesh_clear()
             mesh_cache[key] = parts
+            if not has_uv:
+                no_uv_keys.add(key)
             if not parts:
                 warn("object %s has no faces; skipped" % orig.name)
         slots = ob.material_slots
@@ -231,9 +330,17 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                 orig.name, (", slot %d" % mi) if len(parts) > 1 else ""))
             s.string("filename", MESH_FOLDER + "/" + fname)
             s.add(transform_matrix("toWorld", mw))
-            sub = materials_mod.subsurface_for(mat, find_preset, knows, xml_dir, warn)
+            sub = materials_mod.subsurface_for(mat, find_preset, knows, xml_dir, warn, prepass,
+                                               collector)
             if sub is not None:
                 s.add(sub)
+                if (key in no_uv_keys and sub.attrs[0][1] != "dipole" and
+                        orig.name not in uvless):
+                    uvless.add(orig.name)
+                    warn("object %s has no UV map: its measured material %s is laid by the "
+                         "renderer's box projection at the material's physical size (seams "
+                         "where the projection axis changes), not by UVs; unwrap it for "
+                         "control (material panel > Unwrap UVs)" % (orig.name, mat.name))
             else:
                 mname = mat.name if mat is not None else None
                 if mname not in bsdf_ids:

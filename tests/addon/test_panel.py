@@ -1,0 +1,383 @@
+"""The material panel and render settings under the opaline engine (issue 15): which standard
+panels show, where the opaline panel sits and what it says, the render settings reaching the
+XML, the Interior IOR only where it acts, the no-UV warning and its fix, the preset chooser's
+items, and the albedo preview nodes the add-on manages."""
+
+import os
+import struct
+import sys
+import unittest
+import xml.etree.ElementTree as ET
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import addon_support as S  # noqa: E402
+
+import bpy  # noqa: E402
+
+
+def fake_opm(path, method, size_cm=None):
+    """A container with only a META section (what the add-on reads: method, physical size)."""
+    meta = "method=%s\n" % method
+    if size_cm is not None:
+        meta += "size_x_cm=%g\nsize_y_cm=%g\n" % size_cm
+    meta = meta.encode()
+    table = 64 + ((len(meta) + 63) // 64) * 64
+    head = b"OPALINEM" + struct.pack("<IIQQII", 1, 1, table + 32, table, 0, 0)
+    body = head.ljust(64, b"\0") + meta.ljust(table - 64, b"\0")
+    body += b"META".ljust(8, b"\0") + struct.pack("<QQII", 64, len(meta), 0, 0)
+    with open(path, "wb") as f:
+        f.write(body)
+
+
+def fake_png(path, rgb=(0.2, 0.5, 0.8)):
+    im = bpy.data.images.new("albedo_src", 4, 4)
+    im.pixels = [c for _ in range(16) for c in (rgb[0], rgb[1], rgb[2], 1.0)]
+    im.filepath_raw = path
+    im.file_format = 'PNG'
+    im.save()
+    bpy.data.images.remove(im)
+
+
+class Rec:
+    """A fake UILayout that records the properties drawn and the label texts."""
+
+    def __init__(self, log=None):
+        self.log = log if log is not None else {"props": [], "labels": [], "ops": []}
+
+    def prop(self, data, name, **kw):
+        self.log["props"].append(name)
+        return Rec(self.log)
+
+    def label(self, text="", **kw):
+        self.log["labels"].append(text)
+        return Rec(self.log)
+
+    def operator(self, idname, **kw):
+        self.log["ops"].append(idname)
+
+        class Props:
+            pass
+        return Props()
+
+    def __getattr__(self, name):
+        return lambda *a, **k: Rec(self.log)
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)
+
+
+class Base(unittest.TestCase):
+    def setUp(self):
+        self.sc = S.empty_scene()
+        self.dir = S.tmpdir(self.id().split(".")[-1])
+        self.xml = os.path.join(self.dir, "scene.xml")
+        self.sc.render.engine = 'OPALINE'
+
+    def presets(self):
+        """Two presets of one material with different methods (names sharing a long prefix,
+        as the chessboards do), with reports, albedo maps and physical sizes."""
+        folder = os.path.join(self.dir, "presets")
+        os.makedirs(folder)
+        fake_opm(os.path.join(folder, "SVD_S10_Chessboard4x4.opm"), "svd", (12.6, 12.6))
+        fake_opm(os.path.join(folder, "SVD_S20_Chessboard4x4.opm"), "svd", (12.6, 12.6))
+        fake_opm(os.path.join(folder, "TUCKER_T15_P7_Chessboard4x4.opm"), "tucker", (6.3, 6.3))
+        with open(os.path.join(folder, "SVD_S10_Chessboard4x4.json"), "w") as f:
+            f.write('{"method": "svd", "terms": 10, "size_bytes": 12071808, '
+                    '"relative_rmse": 0.0184553273}')
+        fake_png(os.path.join(folder, "SVD_S10_Chessboard4x4.png"))
+        fake_png(os.path.join(folder, "TUCKER_T15_P7_Chessboard4x4.png"), (0.9, 0.1, 0.1))
+        S.prefs().preset_folders.add().path = folder
+        import opaline.presets
+        opaline.presets.clear()
+        return folder
+
+    def plane(self, mat, uv=True):
+        ob = S.add_mesh("plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)],
+                        mat)
+        if uv:
+            ob.data.uv_layers.new(name="UVMap")
+        return ob
+
+    def export(self, **kw):
+        self.res = S.export(self.xml, **kw)
+        return ET.parse(self.xml).getroot()
+
+
+def _all_panels():
+    out = []
+
+    def walk(c):
+        for s in c.__subclasses__():
+            out.append(s)
+            walk(s)
+    walk(bpy.types.Panel)
+    return out
+
+
+class TestPanels(Base):
+    def test_only_what_opaline_uses(self):
+        """Under opaline, Cycles' settings (denoise, noise threshold, light paths, motion blur,
+        light groups ...) must not show: before, adding 'OPALINE' to a Cycles panel added it to
+        the set every Cycles panel shares (100 panels)."""
+        shown = sorted({p.__name__ for p in _all_panels()
+                        if getattr(p, "bl_space_type", "") == 'PROPERTIES'
+                        and 'OPALINE' in (getattr(p, "COMPAT_ENGINES", None) or ())})
+        self.assertLess(len(shown), 25, shown)
+        for key in ("OPALINE_PT_render", "OPALINE_PT_material_engine", "RENDER_PT_format",
+                    "RENDER_PT_frame_range", "DATA_PT_lens", "DATA_PT_EEVEE_light",
+                    "EEVEE_WORLD_PT_surface", "OPALINE_PT_surface"):
+            self.assertIn(key, shown)
+        # One Surface panel: EEVEE's would show the preview nodes' EEVEE output.
+        self.assertNotIn("EEVEE_MATERIAL_PT_surface", shown)
+        self.assertNotIn("CYCLES_MATERIAL_PT_surface", shown)
+        for cycles_only in ("CYCLES_RENDER_PT_sampling_render_denoise",
+                            "CYCLES_RENDER_PT_sampling_render", "CYCLES_RENDER_PT_motion_blur",
+                            "CYCLES_OBJECT_PT_lightgroup", "CYCLES_RENDER_PT_light_paths"):
+            self.assertNotIn(cycles_only, shown)
+        cy = getattr(bpy.types, "CYCLES_RENDER_PT_sampling", None)
+        if cy is not None:   # Cycles' own panels keep showing under Cycles only
+            self.assertEqual(set(cy.COMPAT_ENGINES) & {'OPALINE'}, set())
+            self.assertIn('CYCLES', cy.COMPAT_ENGINES)
+        import opaline.engine as E
+        # Unregistering gives the shared sets back untouched.
+        E.unregister_engine()
+        try:
+            self.assertFalse([p.__name__ for p in _all_panels()
+                              if 'OPALINE' in (getattr(p, "COMPAT_ENGINES", None) or ())
+                              and not p.__name__.startswith("OPALINE_PT_")])
+        finally:
+            E.register_engine()
+
+    def test_material_panel_first_under_opaline(self):
+        from opaline import ui
+        eng = ui.OPALINE_PT_material_engine
+        self.assertLess(eng.bl_order, 0)       # before the slots' Surface panel (order 0)
+        self.assertEqual(eng.bl_context, "material")
+        mat = bpy.data.materials.new("m")
+
+        class Ctx:
+            material = mat
+            object = None
+            engine = 'OPALINE'
+            scene = self.sc
+            space_data = None
+        self.assertTrue(eng.poll(Ctx()))
+        self.assertFalse(ui.OPALINE_PT_material.poll(Ctx()))   # no second copy below
+        Ctx.engine = 'CYCLES'
+        self.assertFalse(eng.poll(Ctx()))
+        self.assertTrue(ui.OPALINE_PT_material.poll(Ctx()))
+        # It says what it replaces, once a material is enabled.
+        rec = Rec()
+        ui.draw_material_settings(rec, Ctx(), mat)
+        self.assertNotIn(ui.REPLACES_NOTE, rec.log["labels"])
+        mat.opaline.enabled = True
+        rec = Rec()
+        ui.draw_material_settings(rec, Ctx(), mat)
+        self.assertIn("Replaces the Surface shader for opaline renders", rec.log["labels"])
+
+    def test_ior_only_for_the_dipole(self):
+        from opaline import ui
+        mat = bpy.data.materials.new("m")
+        mat.opaline.enabled = True
+
+        class Ctx:
+            material = mat
+            scene = self.sc
+        for kind, shown in (('PRESET', False), ('FILE', False), ('DIPOLE', True)):
+            mat.opaline.kind = kind
+            rec = Rec()
+            ui.draw_material_settings(rec, Ctx(), mat)
+            self.assertEqual("ior" in rec.log["props"], shown, kind)
+        # ... and in the XML: intIOR for the dipole only.
+        S.add_camera((0, 0, 5))
+        mat.opaline.dipole_material = "Ketchup"
+        mat.opaline.ior = 1.4
+        self.plane(mat)
+        sub = self.export().find("shape").find("subsurface")
+        self.assertEqual(sub.get("type"), "dipole")
+        (ior,) = [c for c in sub if c.get("name") == "intIOR"]
+        self.assertAlmostEqual(float(ior.get("value")), 1.4, places=6)
+
+
+class TestRenderSettings(Base):
+    def test_exported(self):
+        folder = self.presets()
+        S.add_camera((0, 0, 5))
+        o = self.sc.opaline
+        o.samples, o.max_bounces, o.irr_samples, o.max_sss_points, o.threads = 9, 2, 48, 123456, 3
+        mat = bpy.data.materials.new("sss")
+        mat.opaline.enabled = True
+        mat.opaline.preset = "SVD_S10_Chessboard4x4"
+        self.plane(mat)
+        root = self.export()
+        sampler = root.find("sensor").find("sampler")
+        self.assertEqual([c.get("value") for c in sampler if c.get("name") == "sampleCount"],
+                         ["9"])
+        self.assertEqual([c.get("value") for c in root.find("integrator")
+                          if c.get("name") == "maxDepth"], ["4"])
+        sub = root.find("shape").find("subsurface")
+        vals = {c.get("name"): c.get("value") for c in sub}
+        self.assertEqual(vals["irrSamples"], "48")
+        self.assertEqual(vals["maxPoints"], "123456")
+        self.assertEqual(vals["material"], os.path.join(folder, "SVD_S10_Chessboard4x4.opm"))
+        # The panel shows them all.
+        from opaline import ui
+        rec = Rec()
+
+        class Self:
+            layout = rec
+
+        class Ctx:
+            scene = self.sc
+        ui.OPALINE_PT_render.draw(Self(), Ctx())
+        for p in ("samples", "max_bounces", "irr_samples", "max_sss_points", "threads"):
+            self.assertIn(p, rec.log["props"])
+
+
+class TestNoUV(Base):
+    def test_warned_and_fixed(self):
+        self.presets()
+        S.add_camera((0, 0, 5))
+        mat = bpy.data.materials.new("sss")
+        mat.opaline.enabled = True
+        mat.opaline.preset = "SVD_S10_Chessboard4x4"
+        ob = self.plane(mat, uv=False)
+        root = self.export()
+        warned = [w for w in self.res.warnings if "no UV map" in w]
+        self.assertEqual(len(warned), 1, self.res.warnings)
+        self.assertIn("plane", warned[0])
+        self.assertIn("box projection at the material's physical size", warned[0])
+        # The generated projection: no (0, 0) UVs that would collapse the material to one
+        # texel; the PLY has no u, v, so the renderer box-projects at the physical size.
+        from opaline.export import meshes as M
+        fn = [c.get("value") for c in root.find("shape") if c.get("name") == "filename"][0]
+        verts, _ = M.read_ply(os.path.join(self.dir, fn))
+        self.assertEqual(len(verts[0]), 6)
+        with open(os.path.join(self.dir, fn), "rb") as f:
+            self.assertNotIn(b"property float u", f.read(400))
+        # The panel says so and offers the unwrap.
+        from opaline import ui
+
+        class Ctx:
+            scene = self.sc
+        rec = Rec()
+        ui.draw_material_settings(rec, Ctx(), mat)
+        self.assertTrue(any("No UV map on plane" in t for t in rec.log["labels"]),
+                        rec.log["labels"])
+        self.assertIn("opaline.uv_unwrap", rec.log["ops"])
+        # The fix: Blender's Smart UV Project, on request.
+        self.assertEqual(bpy.ops.opaline.uv_unwrap(material=mat.name), {'FINISHED'})
+        self.assertEqual(len(ob.data.uv_layers), 1)
+        uvs = [tuple(d.uv) for d in ob.data.uv_layers[0].data]
+        self.assertGreater(len(set(uvs)), 1)          # a real unwrap, not one point
+        root = self.export()
+        self.assertFalse([w for w in self.res.warnings if "no UV map" in w])
+        fn = [c.get("value") for c in root.find("shape") if c.get("name") == "filename"][0]
+        self.assertEqual(len(M.read_ply(os.path.join(self.dir, fn))[0][0]), 8)
+        rec = Rec()
+        ui.draw_material_settings(rec, Ctx(), mat)
+        self.assertFalse(any("No UV map" in t for t in rec.log["labels"]))
+
+
+class TestPresetChooser(Base):
+    def test_items(self):
+        folder = self.presets()
+        import opaline.presets as P
+        mat = bpy.data.materials.new("m")
+        items = P.enum_items(mat.opaline, bpy.context)
+        # Nothing chosen: the chooser shows the "no preset" item, not the first preset.
+        self.assertEqual(items[0][0], P.NONE_ID)
+        self.assertEqual(mat.opaline.preset_enum, P.NONE_ID)
+        presets = [i for i in items[1:] if "Chessboard" in i[0]]   # the built ones aside
+        self.assertEqual([i[0] for i in presets], ["SVD_S10_Chessboard4x4",
+                                                   "SVD_S20_Chessboard4x4",
+                                                   "TUCKER_T15_P7_Chessboard4x4"])
+        labels = [i[1] for i in presets]
+        self.assertEqual(len(set(labels)), 3, labels)
+        # The material's name leads, so cut labels still differ: the first 12 characters
+        # tell the methods apart.
+        self.assertEqual(labels[0], "Chessboard4x4 (SVD S10)")
+        self.assertEqual(labels[2], "Chessboard4x4 (TUCKER T15 P7)")
+        desc = presets[0][2]
+        for part in ("SVD_S10_Chessboard4x4", "SVD", "11.5 MB", "error 1.85 %",
+                     "sample 12.6 x 12.6 cm"):
+            self.assertIn(part, desc)
+        self.assertIn("sample 6.3 x 6.3 cm", presets[2][2])
+        self.assertIn("TUCKER", presets[2][2])
+        self.assertIn("error unknown", presets[2][2])
+        # Choosing and clearing through the chooser.
+        mat.opaline.preset_enum = "TUCKER_T15_P7_Chessboard4x4"
+        self.assertEqual(mat.opaline.preset, "TUCKER_T15_P7_Chessboard4x4")
+        mat.opaline.preset_enum = P.NONE_ID
+        self.assertEqual(mat.opaline.preset, "")
+        # The search: every preset, labelled with what one would type.
+        found = [i for i in P.search_items(None, bpy.context) if "Chessboard" in i[0]]
+        self.assertEqual(len(found), 3)
+        self.assertIn("12.6 x 12.6 cm", found[0][1])
+        self.assertIn("Chessboard4x4 (SVD S10)", found[0][1])
+        with bpy.context.temp_override(material=mat):
+            bpy.ops.opaline.preset_search('EXEC_DEFAULT', preset="SVD_S20_Chessboard4x4")
+        self.assertEqual(mat.opaline.preset, "SVD_S20_Chessboard4x4")
+
+
+class TestPreviewNodes(Base):
+    def test_created_updated_removed(self):
+        folder = self.presets()
+        mat = bpy.data.materials.new("m")
+        mat.use_nodes = True
+        nt = mat.node_tree
+        user = nt.nodes.new("ShaderNodeBsdfGlossy")
+        user.name = "my glossy"
+        nt.links.new(user.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+        before = sorted(n.name for n in nt.nodes)
+        links_before = sorted((l.from_node.name, l.to_node.name) for l in nt.links)
+        from opaline import preview
+        mat.opaline.enabled = True
+        self.assertEqual(preview.managed_nodes(mat), {})   # no preset yet
+        mat.opaline.preset = "SVD_S10_Chessboard4x4"
+        m = preview.managed_nodes(mat)
+        self.assertEqual(sorted(m), ["albedo", "bsdf", "output"])
+        self.assertEqual(os.path.realpath(bpy.path.abspath(m["albedo"].image.filepath)),
+                         os.path.realpath(os.path.join(folder, "SVD_S10_Chessboard4x4.png")))
+        self.assertEqual(m["output"].target, 'EEVEE')
+        self.assertTrue(m["output"].inputs["Surface"].is_linked)
+        # The user's output still feeds Cycles and the exporter.
+        self.assertEqual(nt.nodes["Material Output"].inputs["Surface"].links[0].from_node.name,
+                         "my glossy")
+        mat.opaline.preset = "TUCKER_T15_P7_Chessboard4x4"
+        m = preview.managed_nodes(mat)
+        self.assertTrue(m["albedo"].image.filepath.endswith("TUCKER_T15_P7_Chessboard4x4.png"))
+        self.assertEqual(len(nt.nodes), len(before) + 3)
+        mat.opaline.enabled = False
+        self.assertEqual(sorted(n.name for n in nt.nodes), before)
+        self.assertEqual(sorted((l.from_node.name, l.to_node.name) for l in nt.links),
+                         links_before)
+        # The Surface panel under opaline shows the user's (Cycles) output, not the preview's.
+        mat.opaline.enabled = True
+        from opaline import ui
+        drawn = []
+
+        class Layout(Rec):
+            def template_node_view(self, ntree, node, sock):
+                drawn.append(node.name)
+
+        class Self:
+            layout = Layout()
+
+        class Ctx:
+            material = mat
+        ui.OPALINE_PT_surface.draw(Self(), Ctx())
+        self.assertEqual(drawn, ["Material Output"])
+        self.assertIn("Not used by opaline renders: opaline subsurface replaces it",
+                      Self.layout.log["labels"])
+        mat.opaline.enabled = False
+        # A user's node that merely shares the name prefix is never removed.
+        lookalike = nt.nodes.new("ShaderNodeTexImage")
+        lookalike.name = preview.PREFIX + "albedo"
+        mat.opaline.enabled = True
+        mat.opaline.enabled = False
+        self.assertIn(lookalike.name, [n.name for n in nt.nodes])
+
+
+if __name__ == "__main__":
+    S.run_tests(TestPanels, TestRenderSettings, TestNoUV, TestPresetChooser, TestPreviewNodes)
