@@ -167,8 +167,23 @@ else
 fi
 no_temps "SIGKILL"
 
-# ---- signals: $1 signal, $2 point (S: after S seconds; temp: once the temporary file exists;
-# ---- temp+N: once it holds N bytes), $3 output, then the command
+# Waits (at most 30 s) until process $1 catches signal $2 (its handlers are installed: before
+# that a signal would kill it the default way, which is not what is tested).
+wait_for_handler() {
+  local n m
+  n=$(kill -l "$2")
+  for _ in $(seq 3000); do
+    m=$(awk '/^SigCgt:/ { print $2 }' "/proc/$1/status" 2>/dev/null) || return 1
+    [ -n "$m" ] && (( (16#$m >> (n - 1)) & 1 )) && return 0
+    kill -0 "$1" 2>/dev/null || return 1
+    sleep 0.01
+  done
+  return 1
+}
+
+# ---- signals: $1 signal, $2 point (S: S seconds after the program installed its handlers;
+# ---- temp: once the temporary file exists; temp+N: once it holds N bytes), $3 output, then
+# ---- the command
 interrupt() {
   local sig=$1 point=$2 out=$3
   shift 3
@@ -181,6 +196,7 @@ interrupt() {
     [ "$point" = temp ] || min=${point#temp+}
     wait_for_temp "$out" $pid $min || fail "$* made no temporary file of $min bytes before it ended"
   else
+    wait_for_handler $pid "$sig" || fail "$* never installed its $sig handler"
     sleep "$point"
   fi
   kill -"$sig" $pid 2>/dev/null
