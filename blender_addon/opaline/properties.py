@@ -72,8 +72,19 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
     threads: IntProperty(name="Threads", default=0, min=0,
                          description="Worker threads for opaline-render (0: all cores)")
     keep_temp: BoolProperty(name="Keep exported files", default=False,
-                            description="Keep the temporary export of each F12 render (its "
-                                        "folder is printed in the report)")
+                            description="Keep this session's export folder of the F12 "
+                                        "renders when Blender quits (its folder is printed "
+                                        "in the report)")
+
+    # ---- render engine settings (engine.py; shown by the render-settings panel) ----
+    max_sss_points: IntProperty(
+        name="Max irradiance points", default=250000, min=1, max=50000000,
+        soft_max=5000000,
+        description="Irradiance points per translucent object at most (the subsurface "
+                    "maxPoints, opaline-render --limit sss-max-points). When an object needs "
+                    "more for one per material pixel, the render warns that its subsurface "
+                    "is coarser than the material: raise this (more memory and pre-pass time)")
+    # ---- end of the render engine settings ----
 
 
 classes = (OPALINE_PG_material, OPALINE_PG_scene)
