@@ -161,6 +161,7 @@ def render_region(render):
 # ---------------------------------------------------------------- the session folder
 
 SESSION_PREFIX = "opaline-blender-"
+KEEP_MARKER = "KEEP"  # in a session folder: "Keep exported files" was on; never removed
 _session = {"dir": None, "keep": False}
 
 
@@ -176,7 +177,8 @@ def _pid_alive(pid):
 
 def remove_stale_folders(base=None):
     """Removes the session folders (SESSION_PREFIX + pid + "-...") in `base` (default: the
-    temporary folder) whose Blender is no longer running. Returns the removed paths."""
+    temporary folder) whose Blender is no longer running, except those kept on request (a
+    KEEP_MARKER file inside: "Keep exported files"). Returns the removed paths."""
     base = base or tempfile.gettempdir()
     removed = []
     try:
@@ -188,7 +190,8 @@ def remove_stale_folders(base=None):
         if not m or int(m.group(1)) == os.getpid() or _pid_alive(int(m.group(1))):
             continue
         path = os.path.join(base, name)
-        if os.path.isdir(path) and not os.path.islink(path):
+        if (os.path.isdir(path) and not os.path.islink(path) and
+                not os.path.exists(os.path.join(path, KEEP_MARKER))):
             shutil.rmtree(path, ignore_errors=True)
             removed.append(path)
     return removed
@@ -314,7 +317,11 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                            None)
         keep = bool(settings and settings.keep_temp)
         tmp = session_folder()
-        _session["keep"] = _session["keep"] or keep
+        if keep and not _session["keep"]:
+            _session["keep"] = True
+            with open(os.path.join(tmp, KEEP_MARKER), "w") as f:
+                f.write("Blender's opaline F12 exports, kept (Keep exported files): delete this "
+                        "folder when done\n")
         self.update_stats("", "opaline: exporting")
         xml = os.path.join(tmp, "scene.xml")
         res = scene_export.export_scene(depsgraph, xml, bpy.context, renderer)

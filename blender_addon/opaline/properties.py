@@ -72,9 +72,8 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
     threads: IntProperty(name="Threads", default=0, min=0,
                          description="Worker threads for opaline-render (0: all cores)")
     keep_temp: BoolProperty(name="Keep exported files", default=False,
-                            description="Keep this session's export folder of the F12 "
-                                        "renders when Blender quits (its folder is printed "
-                                        "in the report)")
+                            description="Keep the temporary export of each F12 render (its "
+                                        "folder is printed in the report)")
 
     # ---- render engine settings (engine.py; shown by the render-settings panel) ----
     max_sss_points: IntProperty(

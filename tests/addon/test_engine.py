@@ -203,9 +203,11 @@ class TestEngine(unittest.TestCase):
         alive = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
         try:
             names = ["opaline-blender-%d-abc" % dead.pid, "opaline-blender-%d-def" % alive.pid,
-                     "opaline-blender-%d-own" % os.getpid(), "other-%d-x" % dead.pid]
+                     "opaline-blender-%d-own" % os.getpid(), "other-%d-x" % dead.pid,
+                     "opaline-blender-%d-kept" % dead.pid]
             for n in names:
                 os.makedirs(os.path.join(base, n, "meshes"))
+            open(os.path.join(base, names[4], E.KEEP_MARKER), "w").close()
             removed = E.remove_stale_folders(base)
         finally:
             alive.kill()
