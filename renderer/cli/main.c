@@ -190,16 +190,16 @@ static void on_log(void *user, op_log_level level, const char *message)
 }
 
 /* In --stream mode the renderer works for the process that reads the stream (Blender): when that
- * process dies, the kernel sends SIGTERM (Linux), which cancels like any interrupt. A parent
- * already gone before the request took effect (the program was reparented) counts the same. */
+ * process dies, the kernel sends SIGTERM (Linux), which cancels like any interrupt. A parent that
+ * died before the request took effect (the program was reparented: its parent is no longer the
+ * OPALINE_PARENT_PID the starter set) counts the same. */
 static void stop_with_parent(void)
 {
 #ifdef __linux__
-    const char *want = getenv("OPALINE_PARENT_PID");
     if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0)
         op_log(OP_LOG_WARN, "cannot ask to stop with the parent process: %s", strerror(errno));
-    pid_t parent = getppid();
-    if (parent == 1 || (want && *want && atol(want) != (long)parent))
+    const char *want = getenv("OPALINE_PARENT_PID");
+    if (want && *want && atol(want) != (long)getppid())
         kill(getpid(), SIGTERM);
 #endif
 }
