@@ -294,9 +294,13 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                        (type(e).__name__, e))
 
     def _report(self, kind, msg):
-        """A report in the Info editor and the status bar (and the render's own report)."""
+        """A report of the render (a RuntimeError of bpy.ops.render.render in the background
+        for errors), also queued for the window manager's reports: the Info editor and the
+        status bar, whatever the render window shows."""
         last_reports.append((kind, msg))
         self.report({kind}, msg)
+        if kind in ('ERROR', 'WARNING'):
+            _wm_reports.put((kind, msg))
 
     def _fail(self, msg):
         msg = "opaline: " + msg
@@ -477,6 +481,38 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         self.update_progress(1.0)
 
 
+_wm_reports = queue.Queue()  # (kind, message) from the render thread, for the main thread
+
+
+class OPALINE_OT_render_report(bpy.types.Operator):
+    """Adds a report of the opaline render to the Info editor and the status bar"""
+    bl_idname = "opaline.render_report"
+    bl_label = "opaline render report"
+    bl_options = {'INTERNAL'}
+
+    kind: bpy.props.EnumProperty(items=[(k, k.capitalize(), "") for k in
+                                        ("ERROR", "WARNING", "INFO")], default='INFO')
+    message: bpy.props.StringProperty()
+
+    def execute(self, context):
+        self.report({self.kind}, self.message)
+        return {'FINISHED'}
+
+
+def drain_wm_reports():
+    """Main thread (a timer): moves the queued render reports to the window manager's reports.
+    Returns the seconds to the next call."""
+    while True:
+        try:
+            kind, msg = _wm_reports.get_nowait()
+        except queue.Empty:
+            return 0.5
+        try:
+            bpy.ops.opaline.render_report(kind=kind, message=msg)
+        except RuntimeError:
+            pass  # an ERROR report raises after it is added; it is in the reports already
+
+
 def compatible_panels():
     """Standard property panels that make sense with opaline (lights, world, camera, output)."""
     want = {"DATA_PT_light", "DATA_PT_EEVEE_light", "DATA_PT_spot", "DATA_PT_area",
@@ -495,6 +531,9 @@ def compatible_panels():
 
 def register_engine():
     bpy.utils.register_class(OpalineRenderEngine)
+    bpy.utils.register_class(OPALINE_OT_render_report)
+    if not bpy.app.background and not bpy.app.timers.is_registered(drain_wm_reports):
+        bpy.app.timers.register(drain_wm_reports, first_interval=0.5, persistent=True)
     for p in compatible_panels():
         p.COMPAT_ENGINES.add('OPALINE')
 
@@ -502,4 +541,7 @@ def register_engine():
 def unregister_engine():
     for p in compatible_panels():
         p.COMPAT_ENGINES.discard('OPALINE')
+    if bpy.app.timers.is_registered(drain_wm_reports):
+        bpy.app.timers.unregister(drain_wm_reports)
+    bpy.utils.unregister_class(OPALINE_OT_render_report)
     bpy.utils.unregister_class(OpalineRenderEngine)
