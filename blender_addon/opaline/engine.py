@@ -333,7 +333,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         for w in res.warnings:
             self._report('WARNING', "opaline: " + w)
         out = os.path.join(tmp, "render.exr")
-        cmd = [renderer, "--stream", "-o", out]
+        cmd = [renderer, "--stream", "--stream-log", "-o", out]
         if settings is not None and settings.threads > 0:
             cmd += ["-t", str(settings.threads)]
         max_points = getattr(settings, "max_sss_points", 0) if settings is not None else 0

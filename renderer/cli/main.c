@@ -49,6 +49,7 @@ static void usage(FILE *f)
             "  --crop X,Y,W,H render only the WxH pixels at X,Y (top-left origin) of the film\n"
             "  --stream       write the tile stream to stdout; the render stops (exit 130)\n"
             "                 when the parent process goes away\n"
+            "  --stream-log   with --stream, every log line also goes into the stream\n"
             "  --partial MODE on an interrupt, OUT is kept and with MODE beside (default) the\n"
             "                 finished tiles go to OUT.partial.EXT; none writes nothing\n"
             "  -q / -v        quieter / more verbose\n");
@@ -174,7 +175,8 @@ static void on_progress(void *user, const char *label, double fraction, double e
 }
 
 /* LOG: u32 level (0 error, 1 warning, 2 info, 3 debug), then the message (UTF-8, escaped as
- * op_log prints it). Every line op_log writes in --stream mode, while it also goes to stderr. */
+ * op_log prints it). Every line op_log writes with --stream-log (readers of the first version
+ * of the stream refuse record types they do not know), while it also goes to stderr. */
 static void on_log(void *user, op_log_level level, const char *message)
 {
     stream *s = user;
@@ -330,7 +332,7 @@ int main(int argc, char **argv)
     op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
-    int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0};
+    int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0}, stream_log = 0;
     op_scene_define defines[MAX_DEFINES];
     char *define_buf[MAX_DEFINES];
     int ndefines = 0;
@@ -400,6 +402,8 @@ int main(int argc, char **argv)
             check = 1;
         } else if (strcmp(a, "--stream") == 0) {
             stream_mode = 1;
+        } else if (strcmp(a, "--stream-log") == 0) {
+            stream_log = 1;
         } else if (strcmp(a, "--partial") == 0) {
             const char *w = argv[++i];
             partial_beside = strcmp(w, "beside") == 0;
@@ -450,7 +454,7 @@ int main(int argc, char **argv)
     pthread_mutex_init(&s.lock, NULL);
     s.f = stdout;
     s.error = 0;
-    if (stream_mode)
+    if (stream_mode && stream_log)
         op_log_set_hook(on_log, &s); /* before any thread starts; removed before s goes */
     op_error err = {0};
     if (op_interrupt_install(on_interrupt, NULL, &err) != OP_OK) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # opaline-render --stream: PROGRESS records carry their stage (the subsurface pre-pass's
 # "irradiance" and "subsurface", then "render"), each stage's fraction rising to 1; every log
-# line also goes into the stream as a LOG record (level and text), and still to stderr;
+# line also goes into the stream as a LOG record (level and text) with --stream-log, and still
+# to stderr;
 # --limit sss-max-points sets the per-shape cap of irradiance points (its warning arrives as a
 # LOG record). --crop renders only a window of the film, each pixel bit-identical to the full
 # render's (a translucent scene: the pre-pass too); a window outside the film exits 2.
@@ -41,7 +42,7 @@ cat > "$T/scene.xml" <<'XML'
 </scene>
 XML
 
-"$R" --stream -t 2 --limit sss-max-points=300 -o "$T/full.pfm" "$T/scene.xml" \
+"$R" --stream --stream-log -t 2 --limit sss-max-points=300 -o "$T/full.pfm" "$T/scene.xml" \
     >"$T/stream" 2>"$T/err" || fail "the stream run exited $?"
 grep -q "warning: .*capped at 300 " "$T/err" || fail "no capped warning on stderr"
 python3 - "$T/stream" <<'PY' || fail "the stream's stage and log records"
@@ -74,6 +75,18 @@ assert any("unused parameter 'intIOR'" in t for t in warn), logs
 assert any("capped at 300 " in t for t in warn), logs
 assert any(lv == 2 and t.startswith("wrote ") for lv, t in logs), logs
 print("stages", {k: len(v) for k, v in stages.items()}, "logs", len(logs))
+PY
+
+# Without --stream-log, no LOG record (a reader of the first version refuses unknown types).
+"$R" --stream -t 2 "$T/scene.xml" >"$T/stream1" 2>"$T/err" || fail "the plain stream exited $?"
+python3 - "$T/stream1" <<'PY' || fail "a LOG record without --stream-log"
+import struct, sys
+data, pos, types = open(sys.argv[1], "rb").read(), 0, set()
+while pos < len(data):
+    magic, typ, n = struct.unpack_from("<4sIQ", data, pos)
+    types.add(typ)
+    pos += 16 + n
+assert types == {1, 2, 3, 4}, types
 PY
 
 # The crop window: the same pixels as the full render, bit for bit.
