@@ -316,6 +316,14 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         del last_reports[:]
         scene = depsgraph.scene
         full_w, full_h, cx, cy, width, height = render_region(scene.render)
+        probe = self.begin_result(0, 0, full_w, full_h)  # clamped to Blender's result
+        if probe is not None:
+            size = (probe.resolution_x, probe.resolution_y)
+            self.end_result(probe, cancel=True)
+            if size != (width, height):
+                raise OpalineError("Blender renders %dx%d pixels, the Render Region gives "
+                                   "%dx%d: clear the Render Region (Ctrl+Alt+B) and draw it "
+                                   "again" % (size + (width, height)))
         renderer = preferences.find_renderer(bpy.context, required=True)
         settings = getattr(scene.original if hasattr(scene, "original") else scene, "opaline",
                            None)
@@ -461,7 +469,8 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         t2.join(timeout=2.0)
         if cancelled:
             return
-        tail = "\n".join(errors or errlines[-8:])
+        tail = "\n".join(errors or [ln for ln in errlines if ": error: " in ln][-8:] or
+                         errlines[-8:])
         if rc != 0:
             raise OpalineError("opaline-render failed (exit %d):\n%s" % (rc, tail or "(no "
                                                                              "message)"))
