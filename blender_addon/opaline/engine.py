@@ -1,15 +1,19 @@
-"""The "opaline" render engine: F12 exports the scene to a temporary folder, runs opaline-render
-in a subprocess with --stream, shows its progress, draws tiles into the Render Result as they
-finish, stops the renderer on cancel (SIGINT, then SIGKILL), and reports failures through
-RenderEngine.report/error_set instead of tracebacks.
+"""The "opaline" render engine: F12 exports the scene to this Blender session's folder (kept
+between renders, so unchanged meshes are not rewritten), runs opaline-render in a subprocess
+with --stream (only the Render Region when there is one), shows every stage's progress, draws
+tiles into the Render Result as they finish, stops the renderer on cancel (SIGINT, then
+SIGKILL), and reports the renderer's warnings and failures through RenderEngine.report (the
+Info editor and the status bar) instead of tracebacks.
 
-The tile stream (docs: notes/interfaces, "Tile stream") is parsed by `StreamReader`, a pure
-Python class so tests can feed it bytes.
+The tile stream (docs/rendering.md, "Tile stream") is parsed by `StreamReader`, a pure Python
+class so tests can feed it bytes.
 """
 
 import array
+import atexit
 import os
 import queue
+import re
 import shutil
 import signal
 import struct
@@ -24,7 +28,12 @@ import bpy
 from .errors import OpalineError
 
 MAGIC = b"OPTS"
-T_BEGIN, T_TILE, T_PROGRESS, T_END = 1, 2, 3, 4
+T_BEGIN, T_TILE, T_PROGRESS, T_END, T_LOG = 1, 2, 3, 4, 5
+LOG_LEVELS = ("error", "warning", "info", "debug")
+TILE = 32  # opaline-render's tile side
+# The reports of the last F12 (type, message), newest last: what the Info editor got.
+last_reports = []
+last_export = None  # the ExportResult of the last F12
 _HDR = struct.Struct("<4sIQ")
 MAX_PAYLOAD = 1 << 34
 
@@ -36,8 +45,10 @@ class StreamError(Exception):
 class StreamReader:
     """Reads records from a binary file object. `next()` returns (type, value) with value:
     BEGIN (w, h, channels); TILE (x, y, w, h, array('f') of w*h*4 floats, rows top to bottom);
-    PROGRESS fraction; END status; or None at a clean end of file. Raises StreamError on a
-    malformed stream (bad magic, short payload, unknown record, inconsistent sizes)."""
+    PROGRESS (fraction, stage label; "render" from a renderer that sends no label); END status;
+    LOG (level name, message); or None at a clean end of file. Records of a type it does not
+    know are skipped (a newer renderer). Raises StreamError on a malformed stream (bad magic,
+    short payload, inconsistent sizes)."""
 
     def __init__(self, f):
         self.f = f
@@ -55,6 +66,13 @@ class StreamReader:
         return b"".join(chunks)
 
     def next(self):
+        while True:
+            rec = self._next()
+            if rec is not None and rec[0] is None:
+                continue  # an unknown record, skipped
+            return rec
+
+    def _next(self):
         h = self._read(_HDR.size)
         if not h:
             return None
@@ -93,12 +111,152 @@ class StreamReader:
         if typ == T_PROGRESS:
             if n < 8:
                 raise StreamError("short PROGRESS record")
-            return T_PROGRESS, struct.unpack_from("<d", p)[0]
+            frac = struct.unpack_from("<d", p)[0]
+            label = "render"
+            if n >= 12:
+                ln = struct.unpack_from("<I", p, 8)[0]
+                if 12 + ln > n:
+                    raise StreamError("PROGRESS label of %d bytes in a %d-byte record" % (ln, n))
+                label = p[12:12 + ln].decode("utf-8", "replace")
+            return T_PROGRESS, (frac, label)
         if typ == T_END:
             if n < 4:
                 raise StreamError("short END record")
             return T_END, struct.unpack_from("<I", p)[0]
-        raise StreamError("unknown record type %d" % typ)
+        if typ == T_LOG:
+            if n < 4:
+                raise StreamError("short LOG record")
+            lv = struct.unpack_from("<I", p)[0]
+            level = LOG_LEVELS[lv] if lv < len(LOG_LEVELS) else "info"
+            return T_LOG, (level, p[4:].decode("utf-8", "replace"))
+        return None, typ
+
+
+def _f32(x):
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
+def render_region(render):
+    """The pixels Blender renders for `render` (scene.render): (full_w, full_h, x, y, w, h) with
+    x, y the region's top-left corner counted from the image's top-left (the renderer's
+    --crop), computed as Blender does (float border times the size, truncated; its y goes
+    up). Without a Render Region the region is the whole image."""
+    fw = render.resolution_x * render.resolution_percentage // 100
+    fh = render.resolution_y * render.resolution_percentage // 100
+    if not render.use_border:
+        return fw, fh, 0, 0, fw, fh
+    x0 = int(_f32(_f32(render.border_min_x) * fw))
+    x1 = int(_f32(_f32(render.border_max_x) * fw))
+    y0 = int(_f32(_f32(render.border_min_y) * fh))
+    y1 = int(_f32(_f32(render.border_max_y) * fh))
+    x0, x1 = max(0, min(x0, fw)), max(0, min(x1, fw))
+    y0, y1 = max(0, min(y0, fh)), max(0, min(y1, fh))
+    if x1 <= x0 or y1 <= y0:
+        raise OpalineError("the Render Region is empty (%dx%d pixels): draw a larger one "
+                           "(Ctrl+B) or clear it (Ctrl+Alt+B)" % (max(0, x1 - x0),
+                                                                  max(0, y1 - y0)))
+    return fw, fh, x0, fh - y1, x1 - x0, y1 - y0
+
+
+# ---------------------------------------------------------------- the session folder
+
+SESSION_PREFIX = "opaline-blender-"
+KEEP_MARKER = "KEEP"  # in a session folder: "Keep exported files" was on; never removed
+_session = {"dir": None, "keep": False}
+
+
+def _pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # exists, owned by someone else
+    return True
+
+
+def remove_stale_folders(base=None):
+    """Removes the session folders (SESSION_PREFIX + pid + "-...") in `base` (default: the
+    temporary folder) whose Blender is no longer running, except those kept on request (a
+    KEEP_MARKER file inside: "Keep exported files"). Returns the removed paths."""
+    base = base or tempfile.gettempdir()
+    removed = []
+    try:
+        names = os.listdir(base)
+    except OSError:
+        return removed
+    for name in names:
+        m = re.match(re.escape(SESSION_PREFIX) + r"(\d+)-", name)
+        if not m or int(m.group(1)) == os.getpid() or _pid_alive(int(m.group(1))):
+            continue
+        path = os.path.join(base, name)
+        if (os.path.isdir(path) and not os.path.islink(path) and
+                not os.path.exists(os.path.join(path, KEEP_MARKER))):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
+
+
+def session_folder():
+    """This Blender's export folder, kept from one F12 to the next (meshes are content-
+    addressed there, so an unchanged one is not written again) and removed when Blender quits
+    (or, if Blender dies, by the next session's first F12)."""
+    d = _session["dir"]
+    if d is None or not os.path.isdir(d):
+        remove_stale_folders()
+        d = tempfile.mkdtemp(prefix="%s%d-" % (SESSION_PREFIX, os.getpid()))
+        _session["dir"] = d
+    return d
+
+
+@atexit.register
+def _remove_session_folder():
+    d = _session["dir"]
+    if d and not _session["keep"]:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+# ---------------------------------------------------------------- progress
+
+PREPASS_STAGES = {"irradiance points": "irradiance points", "irradiance": "irradiance",
+                  "subsurface": "scattering", "scattering": "scattering"}
+
+
+class Progress:
+    """Turns the renderer's stage progress into one fraction of the whole render and a status
+    text like Cycles'. The stages are weighted by their usual share of a render: with a
+    subsurface pre-pass, loading 5 %, the pre-pass's stages 50 % together, the camera pass the
+    rest; without one, loading 5 % and the camera pass 95 %."""
+
+    def __init__(self, prepass, spp, tiles):
+        self.spans = {"load": (0.0, 0.05)}
+        if prepass:
+            self.spans.update({"irradiance points": (0.05, 0.10), "irradiance": (0.10, 0.35),
+                               "scattering": (0.35, 0.55), "render": (0.55, 1.0)})
+        else:
+            self.spans["render"] = (0.05, 1.0)
+        self.spp = spp
+        self.tiles = tiles
+        self.tiles_done = 0
+        self.total = 0.0
+
+    def stage(self, label, fraction):
+        """Returns (whole-render fraction, status text) for a stage's fraction."""
+        fraction = max(0.0, min(1.0, fraction))
+        name = PREPASS_STAGES.get(label, label)
+        lo, hi = self.spans.get(name, (self.total, self.total))
+        self.total = max(self.total, lo + (hi - lo) * fraction)
+        if name in PREPASS_STAGES.values():
+            text = "Subsurface pre-pass: %s %d %%" % (name, int(100 * fraction))
+        elif name == "render":
+            text = self.render_text(fraction)
+        else:
+            text = "%s %d %%" % (name.capitalize(), int(100 * fraction))
+        return self.total, text
+
+    def render_text(self, fraction):
+        return "Path tracing %d %%, %d/%d tiles, %d samples" % (
+            int(100 * fraction), min(self.tiles_done, self.tiles), self.tiles, self.spp)
 
 
 def flip_rows(a, w, h):
@@ -135,51 +293,92 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             self._fail("internal error (%s: %s); details on the console" %
                        (type(e).__name__, e))
 
+    def _report(self, kind, msg):
+        """A report of the render (a RuntimeError of bpy.ops.render.render in the background
+        for errors), also queued for the window manager's reports: the Info editor and the
+        status bar, whatever the render window shows."""
+        last_reports.append((kind, msg))
+        self.report({kind}, msg)
+        if kind in ('ERROR', 'WARNING'):
+            _wm_reports.put((kind, msg))
+
     def _fail(self, msg):
         msg = "opaline: " + msg
-        self.report({'ERROR'}, msg)
+        self._report('ERROR', msg)
         if hasattr(self, "error_set"):
             self.error_set(msg)
         print(msg, file=sys.stderr)
 
     def _render(self, depsgraph):
+        global last_export
         from . import preferences, presets
         from .export import scene as scene_export
+        del last_reports[:]
         scene = depsgraph.scene
-        scale = scene.render.resolution_percentage / 100.0
-        width = int(scene.render.resolution_x * scale)
-        height = int(scene.render.resolution_y * scale)
+        full_w, full_h, cx, cy, width, height = render_region(scene.render)
+        probe = self.begin_result(0, 0, full_w, full_h)  # clamped to Blender's result
+        if probe is not None:
+            size = (probe.resolution_x, probe.resolution_y)
+            self.end_result(probe, cancel=True)
+            if size != (width, height):
+                raise OpalineError("Blender renders %dx%d pixels, the Render Region gives "
+                                   "%dx%d: clear the Render Region (Ctrl+Alt+B) and draw it "
+                                   "again" % (size + (width, height)))
         renderer = preferences.find_renderer(bpy.context, required=True)
         settings = getattr(scene.original if hasattr(scene, "original") else scene, "opaline",
                            None)
         keep = bool(settings and settings.keep_temp)
-        tmp = tempfile.mkdtemp(prefix="opaline-f12-")
-        try:
-            self.update_stats("", "opaline: exporting")
-            xml = os.path.join(tmp, "scene.xml")
-            res = scene_export.export_scene(depsgraph, xml, bpy.context, renderer)
-            for w in res.warnings:
-                self.report({'WARNING'}, "opaline: " + w)
-            out = os.path.join(tmp, "render.exr")
-            cmd = [renderer, "--stream", "-o", out]
-            if settings is not None and settings.threads > 0:
-                cmd += ["-t", str(settings.threads)]
-            cmd.append(xml)
-            env = dict(os.environ)
-            folders = presets.search_folders(
-                [f.path for f in (preferences.get(bpy.context).preset_folders
-                                  if preferences.get(bpy.context) else [])], renderer)
-            env["OPALINE_PRESETS_PATH"] = ":".join(
-                [p for p in env.get("OPALINE_PRESETS_PATH", "").split(":") if p] + folders)
-            self._run(cmd, env, out, width, height)
-            if keep:
-                self.report({'INFO'}, "opaline: exported files kept in %s" % tmp)
-        finally:
-            if not keep:
-                shutil.rmtree(tmp, ignore_errors=True)
+        tmp = session_folder()
+        if keep and not _session["keep"]:
+            _session["keep"] = True
+            with open(os.path.join(tmp, KEEP_MARKER), "w") as f:
+                f.write("Blender's opaline F12 exports, kept (Keep exported files): delete this "
+                        "folder when done\n")
+        self.update_stats("", "opaline: exporting")
+        xml = os.path.join(tmp, "scene.xml")
+        res = scene_export.export_scene(depsgraph, xml, bpy.context, renderer)
+        last_export = res
+        for w in res.warnings:
+            self._report('WARNING', "opaline: " + w)
+        out = os.path.join(tmp, "render.exr")
+        cmd = [renderer, "--stream", "--stream-log", "-o", out]
+        if settings is not None and settings.threads > 0:
+            cmd += ["-t", str(settings.threads)]
+        max_points = getattr(settings, "max_sss_points", 0) if settings is not None else 0
+        if max_points > 0:
+            cmd += ["--limit", "sss-max-points=%d" % max_points]
+        if (cx, cy, width, height) != (0, 0, full_w, full_h):
+            cmd += ["--crop", "%d,%d,%d,%d" % (cx, cy, width, height)]
+        cmd.append(xml)
+        env = dict(os.environ)
+        env["OPALINE_PARENT_PID"] = str(os.getpid())
+        folders = presets.search_folders(
+            [f.path for f in (preferences.get(bpy.context).preset_folders
+                              if preferences.get(bpy.context) else [])], renderer)
+        env["OPALINE_PRESETS_PATH"] = ":".join(
+            [p for p in env.get("OPALINE_PRESETS_PATH", "").split(":") if p] + folders)
+        with open(xml, encoding="utf-8") as f:
+            prepass = "<subsurface" in f.read()
+        progress = Progress(prepass, scene_export.render_samples(
+            scene.original if hasattr(scene, "original") else scene)[0],
+            ((width + TILE - 1) // TILE) * ((height + TILE - 1) // TILE))
+        self._run(cmd, env, out, width, height, progress)
+        if keep:
+            self._report('INFO', "opaline: exported files kept in %s" % tmp)
 
-    def _run(self, cmd, env, out_path, width, height):
-        self.update_stats("", "opaline: rendering")
+    def _log(self, level, text):
+        """A renderer's LOG record: warnings and errors to the reports, the rest to the
+        console."""
+        if level == "warning":
+            if "irradiance points" in text and "capped at" in text:
+                text += (" [opaline render settings: Max irradiance points, "
+                         "scene.opaline.max_sss_points]")
+            self._report('WARNING', "opaline-render: " + text)
+        elif level != "error":  # errors: in the failure's report, with the exit status
+            print("opaline-render: %s: %s" % (level, text), file=sys.stderr)
+
+    def _run(self, cmd, env, out_path, width, height, progress):
+        self.update_stats("", "opaline: loading the scene")
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
                                 start_new_session=True)
         events = queue.Queue()
@@ -214,6 +413,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         end_status = None
         eof = False
         stop_sent = None
+        errors = []  # the renderer's error messages, from its LOG records
         while not eof:
             if not cancelled and self.test_break():
                 cancelled = True
@@ -246,18 +446,31 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                     continue
                 by = height - (y + h)
                 result = self.begin_result(x, by, w, h)
+                if result is None:
+                    raise OpalineError("Blender refused the tile %dx%d at %d,%d of the %dx%d "
+                                       "result" % (w, h, x, by, width, height))
                 _set_rect(result.layers[0].passes["Combined"], flip_rows(a, w, h), w, h)
                 self.end_result(result)
                 tiles += 1
+                progress.tiles_done = tiles
             elif typ == T_PROGRESS:
-                self.update_progress(max(0.0, min(1.0, val)))
+                frac, label = val
+                total, text = progress.stage(label, frac)
+                self.update_progress(total)
+                self.update_stats("", "opaline: " + text)
+            elif typ == T_LOG:
+                level, text = val
+                if level == "error":
+                    errors.append(text)
+                self._log(level, text)
             elif typ == T_END:
                 end_status = val
         rc = proc.wait()
         t2.join(timeout=2.0)
         if cancelled:
             return
-        tail = "\n".join(errlines[-8:])
+        tail = "\n".join(errors or [ln for ln in errlines if ": error: " in ln][-8:] or
+                         errlines[-8:])
         if rc != 0:
             raise OpalineError("opaline-render failed (exit %d):\n%s" % (rc, tail or "(no "
                                                                              "message)"))
@@ -275,6 +488,38 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             finally:
                 self.end_result(result)
         self.update_progress(1.0)
+
+
+_wm_reports = queue.Queue()  # (kind, message) from the render thread, for the main thread
+
+
+class OPALINE_OT_render_report(bpy.types.Operator):
+    """Adds a report of the opaline render to the Info editor and the status bar"""
+    bl_idname = "opaline.render_report"
+    bl_label = "opaline render report"
+    bl_options = {'INTERNAL'}
+
+    kind: bpy.props.EnumProperty(items=[(k, k.capitalize(), "") for k in
+                                        ("ERROR", "WARNING", "INFO")], default='INFO')
+    message: bpy.props.StringProperty()
+
+    def execute(self, context):
+        self.report({self.kind}, self.message)
+        return {'FINISHED'}
+
+
+def drain_wm_reports():
+    """Main thread (a timer): moves the queued render reports to the window manager's reports.
+    Returns the seconds to the next call."""
+    while True:
+        try:
+            kind, msg = _wm_reports.get_nowait()
+        except queue.Empty:
+            return 0.5
+        try:
+            bpy.ops.opaline.render_report(kind=kind, message=msg)
+        except RuntimeError:
+            pass  # an ERROR report raises after it is added; it is in the reports already
 
 
 def compatible_panels():
@@ -304,6 +549,9 @@ _OWN_SETS = []
 
 def register_engine():
     bpy.utils.register_class(OpalineRenderEngine)
+    bpy.utils.register_class(OPALINE_OT_render_report)
+    if not bpy.app.background and not bpy.app.timers.is_registered(drain_wm_reports):
+        bpy.app.timers.register(drain_wm_reports, first_interval=0.5, persistent=True)
     for p in compatible_panels():
         if "COMPAT_ENGINES" in p.__dict__:
             p.COMPAT_ENGINES.add('OPALINE')
@@ -319,4 +567,7 @@ def unregister_engine():
         else:
             p.COMPAT_ENGINES.discard('OPALINE')
     _OWN_SETS.clear()
+    if bpy.app.timers.is_registered(drain_wm_reports):
+        bpy.app.timers.unregister(drain_wm_reports)
+    bpy.utils.unregister_class(OPALINE_OT_render_report)
     bpy.utils.unregister_class(OpalineRenderEngine)

@@ -65,6 +65,12 @@ op_log_level op_log_get_level(void);
 /* Writes one line "opaline: <level>: <message>" to stderr, the message passed through
  * op_text_escape; safe from any thread. */
 void op_log(op_log_level level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Receives every line op_log writes (after the level filter), the message escaped as printed,
+ * without the "opaline: <level>: " prefix; called from the logging thread, so it must be
+ * thread-safe and must not call op_log. */
+typedef void (*op_log_hook_fn)(void *user, op_log_level level, const char *message);
+/* Sets (fn NULL: removes) the hook. Call before starting threads, like op_log_set_level. */
+void op_log_set_hook(op_log_hook_fn fn, void *user);
 /* Copies src into dst (cap bytes, always NUL-terminated when cap > 0) with every control
  * character, C1 control and invalid UTF-8 byte written as a \xNN escape (tab, newline and
  * carriage return as \t, \n, \r), never cutting an escape or a character, so that text from

@@ -6,6 +6,14 @@
 
 /* Written once at start-up, before any thread starts, then only read. */
 static op_log_level max_level = OP_LOG_INFO;
+static op_log_hook_fn hook;
+static void *hook_user;
+
+void op_log_set_hook(op_log_hook_fn fn, void *user)
+{
+    hook = fn;
+    hook_user = user;
+}
 
 void op_log_set_level(op_log_level level)
 {
@@ -82,4 +90,6 @@ void op_log(op_log_level level, const char *fmt, ...)
     op_text_escape(safe, sizeof safe, line);
     /* One fprintf per line: stdio locks the stream, so lines from threads never interleave. */
     fprintf(stderr, "opaline: %s: %s\n", names[level], safe);
+    if (hook)
+        hook(hook_user, level, safe);
 }

@@ -7,6 +7,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+#ifdef __linux__
+#include <sys/prctl.h>
+#endif
 
 #include "opaline_render.h"
 
@@ -40,8 +44,12 @@ static void usage(FILE *f)
             "  -D name=value  overrides <default name=...>; repeatable\n"
             "  --check        parse and validate only\n"
             "  --limit NAME=VALUE  raise or lower a scene limit (coordinate, image-pixels,\n"
-            "                 kernel, sss-points; see docs/limits.md); repeatable\n"
-            "  --stream       write the tile stream to stdout\n"
+            "                 kernel, sss-points, sss-max-points; see docs/limits.md);\n"
+            "                 repeatable\n"
+            "  --crop X,Y,W,H render only the WxH pixels at X,Y (top-left origin) of the film\n"
+            "  --stream       write the tile stream to stdout; the render stops (exit 130)\n"
+            "                 when the parent process goes away\n"
+            "  --stream-log   with --stream, every log line also goes into the stream\n"
             "  --partial MODE on an interrupt, OUT is kept and with MODE beside (default) the\n"
             "                 finished tiles go to OUT.partial.EXT; none writes nothing\n"
             "  -q / -v        quieter / more verbose\n");
@@ -146,19 +154,71 @@ static void on_tile(void *user, const op_render_tile *t)
     pthread_mutex_unlock(&s->lock);
 }
 
+/* PROGRESS: f64 fraction of the stage, then (since the stage label was added; readers of the
+ * first version read the fraction only) u32 label length and the label. */
 static void on_progress(void *user, const char *label, double fraction, double eta)
 {
     (void)eta;
     stream *s = user;
-    if (strcmp(label, "render") != 0)
-        return; /* the subsurface pre-passes are not part of the image's progress */
-    unsigned char p[8];
+    size_t n = strlen(label);
+    if (n > 255)
+        n = 255;
+    unsigned char p[12 + 255];
     uint64_t bits;
     memcpy(&bits, &fraction, 8);
     put_u64(p, bits);
+    put_u32(p + 8, (uint32_t)n);
+    memcpy(p + 12, label, n);
     pthread_mutex_lock(&s->lock);
-    record(s, 3, p, 8);
+    record(s, 3, p, 12 + n);
     pthread_mutex_unlock(&s->lock);
+}
+
+/* LOG: u32 level (0 error, 1 warning, 2 info, 3 debug), then the message (UTF-8, escaped as
+ * op_log prints it). Every line op_log writes with --stream-log (readers of the first version
+ * of the stream refuse record types they do not know), while it also goes to stderr. */
+static void on_log(void *user, op_log_level level, const char *message)
+{
+    stream *s = user;
+    size_t n = strlen(message);
+    unsigned char p[4];
+    put_u32(p, (uint32_t)level);
+    pthread_mutex_lock(&s->lock);
+    record_start(s, 5, 4 + (uint64_t)n);
+    put(s, p, 4);
+    put(s, message, n);
+    record_end(s);
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* In --stream mode the renderer works for the process that reads the stream (Blender): when that
+ * process dies, the kernel sends SIGTERM (Linux), which cancels like any interrupt. A parent that
+ * died before the request took effect (the program was reparented: its parent is no longer the
+ * OPALINE_PARENT_PID the starter set) counts the same. */
+static void stop_with_parent(void)
+{
+#ifdef __linux__
+    if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0)
+        op_log(OP_LOG_WARN, "cannot ask to stop with the parent process: %s", strerror(errno));
+    const char *want = getenv("OPALINE_PARENT_PID");
+    if (want && *want && atol(want) != (long)getppid())
+        kill(getpid(), SIGTERM);
+#endif
+}
+
+/* Parses "X,Y,W,H" (non-negative integers; the film checks they fit). */
+static int parse_crop(const char *s, int v[4])
+{
+    for (int i = 0; i < 4; i++) {
+        char *end;
+        errno = 0;
+        long x = strtol(s, &end, 10);
+        if (errno || end == s || x < 0 || x > 65536 || *end != (i < 3 ? ',' : '\0'))
+            return 0;
+        v[i] = (int)x;
+        s = end + 1;
+    }
+    return 1;
 }
 
 /* ------------------------------------------------------------ output images */
@@ -272,7 +332,7 @@ int main(int argc, char **argv)
     op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
-    int partial_beside = 1;
+    int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0}, stream_log = 0;
     op_scene_define defines[MAX_DEFINES];
     char *define_buf[MAX_DEFINES];
     int ndefines = 0;
@@ -284,7 +344,7 @@ int main(int argc, char **argv)
         const char *a = argv[i];
         int need = strcmp(a, "-o") == 0 || strcmp(a, "-t") == 0 || strcmp(a, "-s") == 0 ||
                    strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0 ||
-                   strcmp(a, "--partial") == 0;
+                   strcmp(a, "--partial") == 0 || strcmp(a, "--crop") == 0;
         if (need && i + 1 >= argc) {
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             bad = 1;
@@ -331,10 +391,19 @@ int main(int argc, char **argv)
                 op_log(OP_LOG_ERROR, "--%s", lerr.message); /* "--limit ...: ..." */
                 bad = 1;
             }
+        } else if (strcmp(a, "--crop") == 0) {
+            if (!parse_crop(argv[++i], crop)) {
+                op_log(OP_LOG_ERROR, "--crop %s: need X,Y,W,H (whole numbers, pixels of the "
+                       "film from its top-left corner)", argv[i]);
+                bad = 1;
+            }
+            has_crop = 1;
         } else if (strcmp(a, "--check") == 0) {
             check = 1;
         } else if (strcmp(a, "--stream") == 0) {
             stream_mode = 1;
+        } else if (strcmp(a, "--stream-log") == 0) {
+            stream_log = 1;
         } else if (strcmp(a, "--partial") == 0) {
             const char *w = argv[++i];
             partial_beside = strcmp(w, "beside") == 0;
@@ -381,22 +450,36 @@ int main(int argc, char **argv)
                      : verbosity == 0  ? OP_LOG_INFO
                                        : OP_LOG_DEBUG);
 
+    stream s;
+    pthread_mutex_init(&s.lock, NULL);
+    s.f = stdout;
+    s.error = 0;
+    if (stream_mode && stream_log)
+        op_log_set_hook(on_log, &s); /* before any thread starts; removed before s goes */
     op_error err = {0};
     if (op_interrupt_install(on_interrupt, NULL, &err) != OP_OK) {
         op_log(OP_LOG_ERROR, "%s", err.message);
+        op_log_set_hook(NULL, NULL);
         return op_exit_code(err.status);
     }
+    if (stream_mode)
+        stop_with_parent();
     op_scene *scene = NULL;
     op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
     for (int k = 0; k < ndefines; k++)
         free(define_buf[k]);
+    if (st == OP_OK && has_crop)
+        st = op_scene_set_crop(scene, crop[0], crop[1], crop[2], crop[3], &err);
     if (st) {
         op_log(OP_LOG_ERROR, "%s", err.message);
+        op_log_set_hook(NULL, NULL);
+        op_scene_free(scene);
         return op_exit_code(st);
     }
     if (atomic_load(&g_signal)) { /* loading is not cancellable, but quick: stop before rendering */
         op_log(OP_LOG_WARN, "interrupted (%s) while loading %s",
                signal_name(atomic_load(&g_signal)), scene_path);
+        op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
         return op_exit_code(OP_ERR_CANCELLED);
     }
@@ -406,6 +489,7 @@ int main(int argc, char **argv)
         op_log(OP_LOG_INFO, "%s: valid (%dx%d, %d shapes, %d triangles, %d emitters, %d "
                "translucent)", scene_path, info.width, info.height, info.shapes, info.triangles,
                info.emitters, info.subsurface_shapes);
+        op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
         return 0;
     }
@@ -415,10 +499,6 @@ int main(int argc, char **argv)
         outputs[noutputs++] = default_out;
     }
 
-    stream s;
-    pthread_mutex_init(&s.lock, NULL);
-    s.f = stdout;
-    s.error = 0;
     op_render_options opt;
     op_render_options_init(&opt);
     opt.threads = threads;
@@ -438,6 +518,7 @@ int main(int argc, char **argv)
     op_renderer *r = op_renderer_new(&opt);
     if (!r) {
         op_log(OP_LOG_ERROR, "out of memory");
+        op_log_set_hook(NULL, NULL);
         pthread_mutex_destroy(&s.lock);
         op_scene_free(scene);
         return 1;
@@ -480,6 +561,7 @@ int main(int argc, char **argv)
             code = op_exit_code(OP_ERR_IO);
         }
     }
+    op_log_set_hook(NULL, NULL);
     pthread_mutex_destroy(&s.lock);
     op_renderer_free(r);
     op_scene_free(scene);

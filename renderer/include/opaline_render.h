@@ -45,9 +45,13 @@ typedef struct op_scene_limits {
                                material (the pre-pass costs K^2 per irradiance point) */
     long long sss_points;   /* "sss-points": the most irradiance points of all translucent
                                shapes together, after each shape's maxPoints cap */
+    int sss_max_points;     /* "sss-max-points": the maxPoints (irradiance points of one shape,
+                               a quality cap that warns when reached) of every <subsurface>
+                               that sets none */
 } op_scene_limits;
 
-/* The defaults: coordinate 1e7, image-pixels 2^27 (16384 x 8192), kernel 255, sss-points 5e7. */
+/* The defaults: coordinate 1e7, image-pixels 2^27 (16384 x 8192), kernel 255, sss-points 5e7,
+ * sss-max-points 250000. */
 void op_scene_limits_init(op_scene_limits *lim);
 /* Sets one limit from "name=value" (a name above, a positive number within the limit's hard
  * range); anything else is OP_ERR_INPUT naming the known limits. */
@@ -79,6 +83,12 @@ typedef struct op_scene_info {
 } op_scene_info;
 
 void op_scene_get_info(const op_scene *scene, op_scene_info *info);
+
+/* Replaces the film's crop window (cropOffsetX/Y, cropWidth/Height) by the w x h pixels at
+ * (x, y) of the full film, top-left origin: a render then computes only those pixels, each
+ * exactly as in the full image. A window not inside the film is OP_ERR_INPUT. Call before
+ * rendering. */
+op_status op_scene_set_crop(op_scene *scene, int x, int y, int w, int h, op_error *err);
 
 /* A finished tile: RGBA linear floats, rows from the top; x, y its top-left pixel in the image. */
 typedef struct op_render_tile {

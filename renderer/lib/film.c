@@ -47,6 +47,21 @@ static op_status build_filter(op_node *f, op_film *out, op_error *err)
     return OP_OK;
 }
 
+op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
+                           const char *where, op_error *err)
+{
+    if (x < 0 || y < 0 || w < 1 || h < 1 || x + w > film->full_width ||
+        y + h > film->full_height)
+        return op_error_set(err, OP_ERR_INPUT, "%s: crop window %lldx%lld at (%lld, %lld) is not "
+                            "inside the %dx%d film", where, w, h, x, y, film->full_width,
+                            film->full_height);
+    film->crop_x = (int)x;
+    film->crop_y = (int)y;
+    film->width = (int)w;
+    film->height = (int)h;
+    return OP_OK;
+}
+
 op_status op_film_build(op_node *film, op_film *out, op_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -74,16 +89,11 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
         GET_OR_FAIL(op_node_int(film, "cropOffsetY", 0, &cy, err));
         GET_OR_FAIL(op_node_int(film, "cropWidth", w, &cw, err));
         GET_OR_FAIL(op_node_int(film, "cropHeight", h, &ch, err));
-        if (cx < 0 || cy < 0 || cw < 1 || ch < 1 || cx + cw > w || cy + ch > h)
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: crop window %lldx%lld at "
-                                "(%lld, %lld) is not inside the %lldx%lld film", film->file,
-                                film->line, cw, ch, cx, cy, w, h);
         out->full_width = (int)w;
         out->full_height = (int)h;
-        out->crop_x = (int)cx;
-        out->crop_y = (int)cy;
-        out->width = (int)cw;
-        out->height = (int)ch;
+        char where[300];
+        snprintf(where, sizeof where, "%s:%d: <film>", film->file, film->line);
+        GET_OR_FAIL(op_film_set_crop(out, cx, cy, cw, ch, where, err));
         const char *fn, *pf, *cf;
         GET_OR_FAIL(op_node_string(film, "filename", NULL, &fn, err));
         if (fn)

@@ -39,6 +39,11 @@ typedef struct op_sampler {
 
 /* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
 op_status op_film_build(op_node *film, op_film *out, op_error *err);
+/* Sets the crop window (Mitsuba's cropOffsetX/Y, cropWidth/Height: the pixels rendered, a
+ * rectangle of the full_width x full_height film, top-left origin). A window not inside the
+ * film is OP_ERR_INPUT, the message starting with `where`. */
+op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
+                           const char *where, op_error *err);
 /* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's
  * log-average luminance (log(1e-3 + Y) averaged) and maximum Y set the scale key / avg and the
  * white point; each pixel's Y becomes Lp (1 + Lp / (Lwhite^2 b^4)) / (1 + Lp) with Lp = Y scale

@@ -69,6 +69,11 @@ void op_scene_free(op_scene *scene)
     free(scene);
 }
 
+op_status op_scene_set_crop(op_scene *s, int x, int y, int w, int h, op_error *err)
+{
+    return op_film_set_crop(&s->film, x, y, w, h, "--crop", err);
+}
+
 void op_scene_get_info(const op_scene *s, op_scene_info *info)
 {
     static const char *names[] = {"path", "direct", "normals", "uv", "albedo"};

@@ -62,6 +62,7 @@ void op_scene_limits_init(op_scene_limits *lim)
     lim->image_pixels = 1LL << 27;
     lim->kernel = 255;
     lim->sss_points = 50000000;
+    lim->sss_max_points = 250000;
 }
 
 op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_error *err)
@@ -71,15 +72,16 @@ op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_e
         const char *name;
         double max;
     } known[] = {{"coordinate", 1e15}, {"image-pixels", 1LL << 30}, {"kernel", 4095},
-                 {"sss-points", 1e9}};
+                 {"sss-points", 1e9}, {"sss-max-points", 5e7}};
     const char *eq = strchr(assignment, '=');
     size_t n = eq ? (size_t)(eq - assignment) : strlen(assignment);
     int k = 0;
-    while (k < 4 && !(strlen(known[k].name) == n && strncmp(known[k].name, assignment, n) == 0))
+    while (k < 5 && !(strlen(known[k].name) == n && strncmp(known[k].name, assignment, n) == 0))
         k++;
-    if (k == 4 || !eq)
+    if (k == 5 || !eq)
         return op_error_set(err, OP_ERR_INPUT, "limit '%s': expected NAME=VALUE with NAME one of "
-                            "coordinate, image-pixels, kernel, sss-points", assignment);
+                            "coordinate, image-pixels, kernel, sss-points, sss-max-points",
+                            assignment);
     char *end;
     errno = 0;
     double v = strtod(eq + 1, &end);
@@ -94,8 +96,10 @@ op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_e
         lim->image_pixels = (long long)v;
     else if (k == 2)
         lim->kernel = (int)v;
-    else
+    else if (k == 3)
         lim->sss_points = (long long)v;
+    else
+        lim->sss_max_points = (int)v;
     return OP_OK;
 }
 
@@ -366,7 +370,7 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     GET_OR_FAIL(op_node_float(node, "scale", 1.0, &d->scale, err));
     GET_OR_FAIL(op_node_int(node, "irrSamples", 16, &irr, err));
     GET_OR_FAIL(op_node_float(node, "density", 1.0, &d->density, err));
-    GET_OR_FAIL(op_node_int(node, "maxPoints", 250000, &maxp, err));
+    GET_OR_FAIL(op_node_int(node, "maxPoints", b->lim->sss_max_points, &maxp, err));
     if (!(d->scale > 0.0 && d->scale < 1e9))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: scale %g must be > 0",
                             node->file, node->line, d->scale);

@@ -37,7 +37,7 @@ class TestStream(unittest.TestCase):
                 tile(2, 0, 2, 2, lambda x, y: (x, y, 0, 1)) + rec(4, struct.pack("<I", 0)))
         r = E.StreamReader(io.BytesIO(data))
         self.assertEqual(r.next(), (1, (4, 2, 4)))
-        self.assertEqual(r.next(), (3, 0.5))
+        self.assertEqual(r.next(), (3, (0.5, "render")))  # a renderer without stage labels
         typ, (x, y, w, h, a) = r.next()
         self.assertEqual((typ, x, y, w, h), (2, 2, 0, 2, 2))
         self.assertEqual(list(a[:8]), [2, 0, 0, 1, 3, 0, 0, 1])
@@ -45,10 +45,33 @@ class TestStream(unittest.TestCase):
         self.assertEqual(r.next(), (4, 0))
         self.assertIsNone(r.next())
 
+    def test_stage_and_log(self):
+        data = (rec(3, struct.pack("<dI", 0.25, 10) + b"irradiance") + rec(9, b"future") +
+                rec(5, struct.pack("<I", 1) + "capped at 5 \u00e9".encode()) +
+                rec(5, struct.pack("<I", 0) + b"bad"))
+        r = E.StreamReader(io.BytesIO(data))
+        self.assertEqual(r.next(), (3, (0.25, "irradiance")))
+        self.assertEqual(r.next(), (5, ("warning", "capped at 5 \u00e9")))  # 9 skipped
+        self.assertEqual(r.next(), (5, ("error", "bad")))
+        self.assertIsNone(r.next())
+
+    def test_progress_text(self):
+        p = E.Progress(True, 64, 12)
+        total, text = p.stage("irradiance", 0.4)
+        self.assertEqual(text, "Subsurface pre-pass: irradiance 40 %")
+        self.assertAlmostEqual(total, 0.20)
+        t2, text = p.stage("subsurface", 0.5)
+        self.assertEqual(text, "Subsurface pre-pass: scattering 50 %")
+        p.tiles_done = 3
+        t3, text = p.stage("render", 0.25)
+        self.assertEqual(text, "Path tracing 25 %, 3/12 tiles, 64 samples")
+        self.assertTrue(total < t2 < t3 < 1.0)
+
     def test_malformed(self):
         bad = [b"XXXX" + bytes(12),
                rec(1, struct.pack("<3I", 4, 2, 4))[:-3],
-               rec(9, b""),
+               rec(3, struct.pack("<dI", 0.5, 9) + b"abc"),
+               rec(5, b"ab"),
                rec(1, struct.pack("<3I", 4, 2, 3)),
                rec(1, struct.pack("<3I", 2, 2, 4)) + tile(1, 1, 2, 2, lambda x, y: (0, 0, 0, 0)),
                rec(2, struct.pack("<4I", 0, 0, 2, 2) + bytes(8))]
@@ -74,6 +97,13 @@ FAKE = textwrap.dedent('''\
     out = sys.stdout.buffer
     def rec(t, p):
         out.write(struct.pack("<4sIQ", b"OPTS", t, len(p)) + p)
+    if "BADSCENE" in xml:
+        rec(5, struct.pack("<I", 0) + b"scene.xml:7: <bsdf>: a long message that says all")
+        sys.exit(2)
+    if "WARN" in xml:
+        rec(5, struct.pack("<I", 1) + b"scene.xml:3: unused parameter 'intIOR'")
+    if "--crop" in args:
+        w, h = [int(v) for v in args[args.index("--crop") + 1].split(",")][2:]
     rec(1, struct.pack("<3I", w, h, 4))
     tiles = [(0, 0, w // 2, h // 2), (w // 2, 0, w - w // 2, h // 2),
              (0, h // 2, w // 2, h - h // 2), (w // 2, h // 2, w - w // 2, h - h // 2)]
@@ -135,6 +165,80 @@ class TestEngine(unittest.TestCase):
         self.assertIn("something is wrong", msg)
         self.assertNotIn("Traceback", msg)
 
+    def test_error_and_warning_reports(self):
+        self.fake()
+        bpy.data.objects["floor"].name = "WARN"
+        self.render("warn.exr")
+        self.assertIn(('WARNING', "opaline-render: scene.xml:3: unused parameter 'intIOR'"),
+                      E.last_reports)
+        bpy.data.objects["WARN"].name = "BADSCENE"
+        with self.assertRaises(RuntimeError) as cm:
+            self.render("bad.exr")
+        self.assertIn("a long message that says all", str(cm.exception))
+        # queued for the window manager's reports (drained by a timer when Blender has a UI)
+        queued = []
+        while not E._wm_reports.empty():
+            queued.append(E._wm_reports.get_nowait())
+        self.assertIn(('ERROR', E.last_reports[-1][1]), queued)
+        self.assertEqual(E.drain_wm_reports(), 0.5)
+        self.assertEqual(bpy.ops.opaline.render_report(kind='WARNING', message="w"),
+                         {'FINISHED'})
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.opaline.render_report(kind='ERROR', message=queued[-1][1])
+        self.assertIn("a long message that says all", str(cm.exception))
+        errs = [m for k, m in E.last_reports if k == 'ERROR']
+        self.assertEqual(len(errs), 1, E.last_reports)
+        self.assertIn("opaline-render failed (exit 2):\nscene.xml:7: <bsdf>: a long message "
+                      "that says all", errs[0])
+
+    def test_session_folder_reused(self):
+        self.fake()
+        d = os.urandom(4)[0] / 255.0  # a mesh no earlier render of this session wrote
+        S.add_mesh("unique", [(0, 0, d), (1, 0, d), (0, 1, d)], [(0, 1, 2)])
+        self.render("one.exr")
+        first = E.last_export
+        folder = os.path.dirname(first.xml_path)
+        self.assertTrue(os.path.basename(folder).startswith("opaline-blender-%d-" % os.getpid()))
+        self.assertGreater(first.meshes_written, 0)
+        self.render("two.exr")
+        self.assertEqual(os.path.dirname(E.last_export.xml_path), folder)
+        self.assertEqual(E.last_export.meshes_written, 0)
+        self.assertEqual(E.last_export.meshes_reused,
+                         first.meshes_written + first.meshes_reused)
+
+    def test_stale_folders_removed(self):
+        import subprocess
+        base = S.tmpdir("stale")
+        dead = subprocess.Popen([sys.executable, "-c", "pass"])
+        dead.wait()
+        alive = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+        try:
+            names = ["opaline-blender-%d-abc" % dead.pid, "opaline-blender-%d-def" % alive.pid,
+                     "opaline-blender-%d-own" % os.getpid(), "other-%d-x" % dead.pid,
+                     "opaline-blender-%d-kept" % dead.pid]
+            for n in names:
+                os.makedirs(os.path.join(base, n, "meshes"))
+            open(os.path.join(base, names[4], E.KEEP_MARKER), "w").close()
+            removed = E.remove_stale_folders(base)
+        finally:
+            alive.kill()
+            alive.wait()
+        self.assertEqual(removed, [os.path.join(base, names[0])])
+        self.assertEqual(sorted(os.listdir(base)), sorted(names[1:]))
+
+    def test_region_fake(self):
+        # Blender's border of a 16x8 image: x 4..12, y (up) 2..6; the renderer's crop counts
+        # y from the top.
+        self.fake()
+        r = self.sc.render
+        r.use_border = True
+        r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.25, 0.75
+        self.assertEqual(E.render_region(r), (16, 8, 4, 2, 8, 4))
+        for crop in (True, False):
+            r.use_crop_to_border = crop
+            w, h, a = self.render("region%d.exr" % crop)
+            self.assertEqual((w, h), (8, 4) if crop else (16, 8))
+
     def test_no_camera(self):
         self.fake()
         self.sc.camera = None
@@ -165,6 +269,92 @@ class TestEngine(unittest.TestCase):
                     worst = max(worst, abs(p - q) / max(1.0, abs(q)))
         # Same scene, same renderer, same seed: equal up to half-float storage.
         self.assertLess(worst, 2e-3, "engine and command line differ by %g" % worst)
+
+
+    def translucent_sphere(self, max_points):
+        mat = bpy.data.materials.new("skin")
+        mat.opaline.enabled = True
+        mat.opaline.kind = 'DIPOLE'
+        mat.opaline.dipole_material = "Skin1"
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(0, 0, 0.7))
+        bpy.context.active_object.data.materials.append(mat)
+        self.sc.opaline.max_sss_points = max_points
+
+    def test_region_real(self):
+        """Render Region: with crop, the region's pixels; without, the full image with only the
+        region filled; both equal to the same pixels of a full render."""
+        S.prefs().renderer_path = S.need_renderer(self)
+        r = self.sc.render
+        r.resolution_x, r.resolution_y = 40, 24
+        self.sc.cycles.samples = 2
+        self.sc.opaline.threads = 2
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(0, 0, 0.7))
+        fw, fh, full = self.render("full.exr")
+        r.use_border = True
+        r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.3, 0.8, 0.2, 0.6
+        _, _, x0, top, rw, rh = E.render_region(r)
+        bx0, by0 = x0, fh - top - rh  # Blender's rows go up
+        r.use_crop_to_border = True
+        w, h, crop = self.render("crop.exr")
+        self.assertEqual((w, h), (rw, rh))
+        for y in range(rh):
+            for x in range(rw):
+                i, j = 4 * (y * rw + x), 4 * ((by0 + y) * fw + bx0 + x)
+                self.assertEqual(list(crop[i:i + 4]), list(full[j:j + 4]), (x, y))
+        r.use_crop_to_border = False
+        w, h, uncrop = self.render("uncrop.exr")
+        self.assertEqual((w, h), (fw, fh))
+        inside = 0
+        for y in range(fh):
+            for x in range(fw):
+                j = 4 * (y * fw + x)
+                if bx0 <= x < bx0 + rw and by0 <= y < by0 + rh:
+                    self.assertEqual(list(uncrop[j:j + 4]), list(full[j:j + 4]), (x, y))
+                    inside += 1
+                else:
+                    self.assertEqual(list(uncrop[j:j + 3]), [0.0, 0.0, 0.0], (x, y))
+        self.assertEqual(inside, rw * rh)
+        self.assertGreater(sum(full), 0.0)
+
+    def test_stage_progress_real(self):
+        """The pre-pass stages of a translucent scene reach a StreamReader over the real
+        renderer, each stage's fractions rising to 1; then the render's."""
+        import subprocess
+        rend = S.need_renderer(self)
+        self.sc.render.resolution_x, self.sc.render.resolution_y = 24, 16
+        self.translucent_sphere(20000)
+        xml = os.path.join(self.dir, "sss", "scene.xml")
+        S.export(xml, samples=2)
+        proc = subprocess.Popen([rend, "--stream", "-t", "2", xml], stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL)
+        reader = E.StreamReader(proc.stdout)
+        stages = {}
+        order = []
+        while True:
+            rec = reader.next()
+            if rec is None:
+                break
+            if rec[0] == E.T_PROGRESS:
+                frac, label = rec[1]
+                if label not in stages:
+                    order.append(label)
+                stages.setdefault(label, []).append(frac)
+        self.assertEqual(proc.wait(), 0)
+        self.assertEqual(order, ["irradiance", "subsurface", "render"])
+        for label, fr in stages.items():
+            self.assertEqual(fr, sorted(fr), label)
+            self.assertEqual(fr[-1], 1.0, label)
+
+    def test_warning_real(self):
+        """A quality warning (irradiance points capped) reaches the render's reports, and the
+        artist's cap (scene.opaline.max_sss_points) is the one applied."""
+        S.prefs().renderer_path = S.need_renderer(self)
+        self.sc.render.resolution_x, self.sc.render.resolution_y = 16, 8
+        self.sc.cycles.samples = 1
+        self.translucent_sphere(50)
+        self.render("capped.exr")
+        warns = [m for k, m in E.last_reports if k == 'WARNING']
+        self.assertTrue(any("capped at 50 " in m for m in warns), E.last_reports)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,127 @@
+#!/usr/bin/env bash
+# opaline-render --stream: PROGRESS records carry their stage (the subsurface pre-pass's
+# "irradiance" and "subsurface", then "render"), each stage's fraction rising to 1; every log
+# line also goes into the stream as a LOG record (level and text) with --stream-log, and still
+# to stderr;
+# --limit sss-max-points sets the per-shape cap of irradiance points (its warning arrives as a
+# LOG record). --crop renders only a window of the film, each pixel bit-identical to the full
+# render's (a translucent scene: the pre-pass too); a window outside the film exits 2.
+set -uo pipefail
+BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
+R=$BIN/opaline-render
+[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
+command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/render_stream_stages.XXXXXX")
+trap 'rm -rf "$T"' EXIT
+fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -20; exit 1; }
+
+cat > "$T/scene.xml" <<'XML'
+<scene version="0.6.0">
+  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="30"/>
+    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="2"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="40"/>
+      <rfilter type="gaussian"/></film>
+  </sensor>
+  <emitter type="point">
+    <point name="position" x="1" y="-2" z="4"/>
+    <spectrum name="intensity" value="30"/>
+  </emitter>
+  <shape type="sphere">
+    <point name="center" x="0" y="0" z="0.5"/>
+    <float name="radius" value="0.5"/>
+    <subsurface type="dipole"><string name="material" value="Skin1"/></subsurface>
+  </shape>
+  <shape type="rectangle">
+    <transform name="toWorld"><scale value="3"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/>
+      <float name="intIOR" value="1.5"/></bsdf>
+  </shape>
+</scene>
+XML
+
+"$R" --stream --stream-log -t 2 --limit sss-max-points=300 -o "$T/full.pfm" "$T/scene.xml" \
+    >"$T/stream" 2>"$T/err" || fail "the stream run exited $?"
+grep -q "warning: .*capped at 300 " "$T/err" || fail "no capped warning on stderr"
+python3 - "$T/stream" <<'PY' || fail "the stream's stage and log records"
+import struct, sys
+data = open(sys.argv[1], "rb").read()
+pos, stages, order, logs, end = 0, {}, [], [], None
+while pos < len(data):
+    magic, typ, n = struct.unpack_from("<4sIQ", data, pos)
+    assert magic == b"OPTS", magic
+    p = data[pos + 16:pos + 16 + n]
+    pos += 16 + n
+    if typ == 3:
+        frac, = struct.unpack_from("<d", p)
+        ln, = struct.unpack_from("<I", p, 8)
+        assert n == 12 + ln, (n, ln)
+        label = p[12:].decode()
+        if label not in stages:
+            order.append(label)
+        stages.setdefault(label, []).append(frac)
+    elif typ == 5:
+        logs.append((struct.unpack_from("<I", p)[0], p[4:].decode()))
+    elif typ == 4:
+        end = struct.unpack_from("<I", p)[0]
+assert pos == len(data) and end == 0, (pos, len(data), end)
+assert order == ["irradiance", "subsurface", "render"], order
+for label, fr in stages.items():
+    assert fr == sorted(fr) and fr[-1] == 1.0 and all(0 <= f <= 1 for f in fr), (label, fr)
+warn = [t for lv, t in logs if lv == 1]
+assert any("unused parameter 'intIOR'" in t for t in warn), logs
+assert any("capped at 300 " in t for t in warn), logs
+assert any(lv == 2 and t.startswith("wrote ") for lv, t in logs), logs
+print("stages", {k: len(v) for k, v in stages.items()}, "logs", len(logs))
+PY
+
+# Without --stream-log, no LOG record (a reader of the first version refuses unknown types).
+"$R" --stream -t 2 "$T/scene.xml" >"$T/stream1" 2>"$T/err" || fail "the plain stream exited $?"
+python3 - "$T/stream1" <<'PY' || fail "a LOG record without --stream-log"
+import struct, sys
+data, pos, types = open(sys.argv[1], "rb").read(), 0, set()
+while pos < len(data):
+    magic, typ, n = struct.unpack_from("<4sIQ", data, pos)
+    types.add(typ)
+    pos += 16 + n
+assert types == {1, 2, 3, 4}, types
+PY
+
+# The crop window: the same pixels as the full render, bit for bit.
+"$R" --stream -t 2 --limit sss-max-points=300 --crop 13,7,20,25 -o "$T/crop.pfm" \
+    "$T/scene.xml" >"$T/cstream" 2>"$T/err" || fail "the crop run exited $?"
+python3 - "$T/full.pfm" "$T/crop.pfm" "$T/cstream" <<'PY' || fail "crop pixels differ"
+import struct, sys
+def pfm(path):
+    data = open(path, "rb").read()
+    parts = data.split(b"\n", 3)
+    w, h = map(int, parts[1].split())
+    assert float(parts[2]) < 0
+    vals = struct.unpack("<%df" % (3 * w * h), parts[3][:12 * w * h])
+    return w, h, [vals[3 * w * y:3 * w * (y + 1)] for y in range(h)]  # rows bottom first
+fw, fh, full = pfm(sys.argv[1])
+cw, ch, crop = pfm(sys.argv[2])
+assert (fw, fh, cw, ch) == (48, 40, 20, 25), (fw, fh, cw, ch)
+x0, top = 13, 7
+for y in range(ch):          # crop row y (from the bottom) is full row fh - top - ch + y
+    fy = fh - top - ch + y
+    assert crop[y] == full[fy][3 * x0:3 * (x0 + cw)], ("row", y)
+assert sum(sum(r) for r in crop) > 0
+s, pos, begin = open(sys.argv[3], "rb").read(), 0, None
+while pos < len(s) and begin is None:
+    magic, typ, n = struct.unpack_from("<4sIQ", s, pos)
+    if typ == 1:
+        begin = struct.unpack_from("<3I", s, pos + 16)
+    pos += 16 + n
+assert begin == (20, 25, 4), begin
+PY
+
+for bad in 40,0,9,1 0,0,0,5 1,2,3 a,b,c,d 0,0,49,40; do
+    "$R" --crop "$bad" -o "$T/x.pfm" "$T/scene.xml" >/dev/null 2>"$T/err"
+    rc=$?
+    [ $rc -eq 2 ] || fail "--crop $bad exited $rc, expected 2"
+    grep -q -- "--crop" "$T/err" || fail "--crop $bad: the message does not name --crop"
+done
+echo "ok"
