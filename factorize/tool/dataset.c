@@ -22,20 +22,25 @@ static const struct {
     int n;
     double p1, p2, p3;
 } presets[] = {
-    {"chess4x4", "Chess4x4", OP_DS_CHESS4X4, 277, 277, 29, 12.6, 12.6, "Marble", "Skin1", 0, 0, 0, 0},
-    {"chess8x8", "Chess8x8", OP_DS_CHESS8X8, 222, 222, 39, 25.1, 25.1, "Skimmilk", "Potato", 0, 0, 0, 0},
+    {"chess4x4", "Chess4x4", OP_DS_CHESS4X4, 277, 277, 29, 12.6, 12.6, "Marble", "Skin1", 0, 0, 0,
+     0},
+    {"chess8x8", "Chess8x8", OP_DS_CHESS8X8, 222, 222, 39, 25.1, 25.1, "Skimmilk", "Potato", 0, 0,
+     0, 0},
     {"marble-closeup", "MarbleCloseup", OP_DS_MARBLE_CLOSEUP, 128, 128, 39, 2.6, 2.6, "Marble",
      "Vein", 0, 0, 0, 0},
     {"veined-marble", "VeinedMarble", OP_DS_VEINED_MARBLE, 213, 211, 29, 13.0, 13.0, "Marble",
      "Vein", 0, 0, 0, 0},
-    {"homogeneous", "Homogeneous", OP_DS_HOMOGENEOUS, 64, 64, 29, 5.0, 5.0, "Marble", "Marble", 0, 0, 0, 0},
+    {"homogeneous", "Homogeneous", OP_DS_HOMOGENEOUS, 64, 64, 29, 5.0, 5.0, "Marble", "Marble", 0,
+     0, 0, 0},
     {"carrara-marble", "CarraraMarble", OP_DS_CARRARA_MARBLE, 144, 144, 21, 7.2, 7.2, "Marble",
      "Vein", 4, 0.9, 0, 0},
     {"jade", "Jade", OP_DS_JADE, 128, 128, 21, 5.12, 5.12, "Jade", "Marble", 0, 0.15, 1.5, 0},
     {"layered-wax", "LayeredWax", OP_DS_LAYERED_WAX, 128, 128, 21, 6.4, 6.4, "Cream", "RedWax", 0,
      3.0, 2.0, 12.8},
-    {"soap", "Soap", OP_DS_SOAP, 128, 128, 21, 5.12, 5.12, "Wholemilk", "PinkSoap", 2, 3.0, 0, 0},
-    {"skin", "Skin", OP_DS_SKIN, 128, 128, 25, 3.84, 3.84, "Skin2", "Skin1", 0, 3.0, 0.55, 0.7},
+    {"soap", "Soap", OP_DS_SOAP, 128, 128, 21, 5.12, 5.12, "PinkSoap", "Wholemilk", 2, 3.0, 0,
+     0},
+    {"skin", "Skin", OP_DS_SKIN, 128, 128, 25, 3.84, 3.84, "Skin2", "Skin1", 0, 3.0, 0.55,
+     0.7},
 };
 
 #define N_PRESETS (sizeof presets / sizeof presets[0])
@@ -110,8 +115,8 @@ op_status op_dataset_layout(const op_dataset_spec *s, op_layout *l, op_error *er
         return op_layout_inclusions(l, w, h, sx, sy, p1, p2, s->seed, a, b, err);
     case OP_DS_LAYERED_WAX: {
         double bands = round(10 * sy / p3);
-        return op_layout_layers(l, w, h, sx, sy, bands < 1 ? 1 : bands > 4096 ? 4096 : (int)bands,
-                                p1, p2, s->seed, a, b, err);
+        int count = bands < 1 ? 1 : bands > 4096 ? 4096 : (int)bands;
+        return op_layout_layers(l, w, h, sx, sy, count, p1, p2, s->seed, a, b, err);
     }
     case OP_DS_SKIN:
         return op_layout_skin(l, w, h, sx, sy, p1, p2, p3, s->seed, a, b, err);

@@ -195,7 +195,8 @@ op_status op_layout_inclusions(op_layout *l, int w, int h, double sx, double sy,
                     best = v;
             }
             size_t idx = (size_t)y * w + x;
-            rank[idx].value = best + 0.2 * tile_fbm((x + 0.5) / w, (y + 0.5) / h, pu, pv, seed ^ 0x5a5aULL);
+            double edge = tile_fbm((x + 0.5) / w, (y + 0.5) / h, pu, pv, seed ^ 0x5a5aULL);
+            rank[idx].value = best + 0.2 * edge;
             rank[idx].index = idx;
         }
     qsort(rank, n, sizeof *rank, ranked_cmp);

@@ -39,8 +39,8 @@ static const op_medium media[] = {
      "blend by volume: 0.2 Marble + 0.65 Gatorade + 0.15 Potato (Jensen 2001, Narasimhan 2006)"},
     {"RedWax", {5.22, 3.85, 2.214}, {0.01844, 0.29296, 0.44641},
      "blend by volume: 0.7 Cream + 0.3 Ketchup (Jensen et al. 2001)"},
-    {"PinkSoap", {1.530062684, 1.926063788, 2.262006072}, {0.006456, 0.024624, 0.0387292},
-     "blend by volume: 0.6 Wholemilk + 0.4 StrawberryShampoo (Jensen 2001, Narasimhan 2006)"},
+    {"PinkSoap", {1.020094026, 1.284095682, 1.508009108}, {0.009134, 0.035736, 0.0510938},
+     "blend by volume: 0.4 Wholemilk + 0.6 StrawberryShampoo (Jensen 2001, Narasimhan 2006)"},
 };
 
 int op_medium_count(void)

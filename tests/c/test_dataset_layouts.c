@@ -43,7 +43,8 @@ static int components(const op_layout *l)
             int x = (int)(i % (size_t)l->width), y = (int)(i / (size_t)l->width);
             static const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
             for (int k = 0; k < 4; k++) {
-                int nx = (x + dx[k] + l->width) % l->width, ny = (y + dy[k] + l->height) % l->height;
+                int nx = (x + dx[k] + l->width) % l->width;
+                int ny = (y + dy[k] + l->height) % l->height;
                 size_t j = (size_t)ny * (size_t)l->width + (size_t)nx;
                 if (l->map[j] && !seen[j]) {
                     seen[j] = 1;
@@ -244,7 +245,7 @@ static void blends_are_their_parents(void **state)
     } blends[] = {
         {"Jade", {"Marble", "Gatorade", "Potato"}, {0.2, 0.65, 0.15}},
         {"RedWax", {"Cream", "Ketchup", NULL}, {0.7, 0.3, 0}},
-        {"PinkSoap", {"Wholemilk", "StrawberryShampoo", NULL}, {0.6, 0.4, 0}},
+        {"PinkSoap", {"Wholemilk", "StrawberryShampoo", NULL}, {0.4, 0.6, 0}},
     };
     for (size_t i = 0; i < sizeof blends / sizeof blends[0]; i++) {
         const op_medium *m = medium(blends[i].name);
