@@ -9,25 +9,45 @@
 #include <string.h>
 #include <strings.h>
 
+/* Each dataset's defaults. The layout parameters n, p1, p2, p3 mean, by layout:
+ * veins: stripes, vein mm; inclusions: -, fraction, radius mm; layers: -, band mm, wave mm,
+ * band period mm (the band count follows the sample's height); skin: -, pore pitch mm, pore
+ * radius mm, vein mm (see dataset_layout.h). */
 static const struct {
     const char *key, *name;
     op_dataset_kind kind;
     int w, h, k;
     double sx, sy;
     const char *a, *b;
+    int n;
+    double p1, p2, p3;
 } presets[] = {
-    {"chess4x4", "Chess4x4", OP_DS_CHESS4X4, 277, 277, 29, 12.6, 12.6, "Marble", "Skin1"},
-    {"chess8x8", "Chess8x8", OP_DS_CHESS8X8, 222, 222, 39, 25.1, 25.1, "Skimmilk", "Potato"},
+    {"chess4x4", "Chess4x4", OP_DS_CHESS4X4, 277, 277, 29, 12.6, 12.6, "Marble", "Skin1", 0, 0, 0,
+     0},
+    {"chess8x8", "Chess8x8", OP_DS_CHESS8X8, 222, 222, 39, 25.1, 25.1, "Skimmilk", "Potato", 0, 0,
+     0, 0},
     {"marble-closeup", "MarbleCloseup", OP_DS_MARBLE_CLOSEUP, 128, 128, 39, 2.6, 2.6, "Marble",
-     "Vein"},
+     "Vein", 0, 0, 0, 0},
     {"veined-marble", "VeinedMarble", OP_DS_VEINED_MARBLE, 213, 211, 29, 13.0, 13.0, "Marble",
-     "Vein"},
-    {"homogeneous", "Homogeneous", OP_DS_HOMOGENEOUS, 64, 64, 29, 5.0, 5.0, "Marble", "Marble"},
+     "Vein", 0, 0, 0, 0},
+    {"homogeneous", "Homogeneous", OP_DS_HOMOGENEOUS, 64, 64, 29, 5.0, 5.0, "Marble", "Marble", 0,
+     0, 0, 0},
+    {"carrara-marble", "CarraraMarble", OP_DS_CARRARA_MARBLE, 144, 144, 21, 7.2, 7.2, "Marble",
+     "Vein", 4, 0.9, 0, 0},
+    {"jade", "Jade", OP_DS_JADE, 128, 128, 21, 5.12, 5.12, "Jade", "Marble", 0, 0.15, 1.5, 0},
+    {"layered-wax", "LayeredWax", OP_DS_LAYERED_WAX, 128, 128, 21, 6.4, 6.4, "Cream", "RedWax", 0,
+     3.0, 2.0, 12.8},
+    {"soap", "Soap", OP_DS_SOAP, 128, 128, 21, 5.12, 5.12, "PinkSoap", "Wholemilk", 2, 3.0, 0,
+     0},
+    {"skin", "Skin", OP_DS_SKIN, 128, 128, 25, 3.84, 3.84, "Skin2", "Skin1", 0, 3.0, 0.55,
+     0.7},
 };
+
+#define N_PRESETS (sizeof presets / sizeof presets[0])
 
 op_status op_dataset_spec_defaults(const char *name, op_dataset_spec *spec, op_error *err)
 {
-    for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++) {
+    for (size_t i = 0; i < N_PRESETS; i++) {
         if (strcasecmp(name, presets[i].key))
             continue;
         memset(spec, 0, sizeof *spec);
@@ -48,7 +68,8 @@ op_status op_dataset_spec_defaults(const char *name, op_dataset_spec *spec, op_e
     }
     return op_error_set(err, OP_ERR_INPUT,
                         "unknown dataset '%s' (known: chess4x4, chess8x8, marble-closeup, "
-                        "veined-marble, homogeneous)", name);
+                        "veined-marble, homogeneous, carrara-marble, jade, layered-wax, soap, "
+                        "skin)", name);
 }
 
 op_status op_dataset_spec_check(const op_dataset_spec *s, op_error *err)
@@ -77,7 +98,28 @@ op_status op_dataset_spec_check(const op_dataset_spec *s, op_error *err)
 op_status op_dataset_layout(const op_dataset_spec *s, op_layout *l, op_error *err)
 {
     const op_medium *a = s->media[0], *b = s->media[1];
+    size_t row = 0;
+    while (row < N_PRESETS && presets[row].kind != s->kind)
+        row++;
+    if (row == N_PRESETS)
+        return op_error_set(err, OP_ERR_INTERNAL, "unknown dataset kind %d", (int)s->kind);
+    int n = presets[row].n;
+    double p1 = presets[row].p1, p2 = presets[row].p2, p3 = presets[row].p3;
+    int w = s->width, h = s->height;
+    double sx = s->size_x_cm, sy = s->size_y_cm;
     switch (s->kind) {
+    case OP_DS_CARRARA_MARBLE:
+    case OP_DS_SOAP:
+        return op_layout_veins(l, w, h, sx, sy, n, p1, s->seed, a, b, err);
+    case OP_DS_JADE:
+        return op_layout_inclusions(l, w, h, sx, sy, p1, p2, s->seed, a, b, err);
+    case OP_DS_LAYERED_WAX: {
+        double bands = round(10 * sy / p3);
+        int count = bands < 1 ? 1 : bands > 4096 ? 4096 : (int)bands;
+        return op_layout_layers(l, w, h, sx, sy, count, p1, p2, s->seed, a, b, err);
+    }
+    case OP_DS_SKIN:
+        return op_layout_skin(l, w, h, sx, sy, p1, p2, p3, s->seed, a, b, err);
     case OP_DS_CHESS4X4:
         return op_layout_chessboard(l, s->width, s->height, s->size_x_cm, s->size_y_cm, 4, a, b,
                                     err);

@@ -22,7 +22,9 @@
 typedef enum op_generator { OP_GEN_DIFFUSION, OP_GEN_MONTECARLO } op_generator;
 
 typedef enum op_dataset_kind {
-    OP_DS_CHESS4X4, OP_DS_CHESS8X8, OP_DS_MARBLE_CLOSEUP, OP_DS_VEINED_MARBLE, OP_DS_HOMOGENEOUS
+    OP_DS_CHESS4X4, OP_DS_CHESS8X8, OP_DS_MARBLE_CLOSEUP, OP_DS_VEINED_MARBLE, OP_DS_HOMOGENEOUS,
+    /* the preset library's materials (docs/presets.md) */
+    OP_DS_CARRARA_MARBLE, OP_DS_JADE, OP_DS_LAYERED_WAX, OP_DS_SOAP, OP_DS_SKIN
 } op_dataset_kind;
 
 typedef struct op_dataset_spec {
@@ -39,8 +41,9 @@ typedef struct op_dataset_spec {
     void *progress_user;
 } op_dataset_spec;
 
-/* Fills spec with the paper defaults of a dataset NAME (chess4x4, chess8x8, marble-closeup,
- * veined-marble, homogeneous; case-insensitive). OP_ERR_INPUT for an unknown name. */
+/* Fills spec with the defaults of a dataset NAME (chess4x4, chess8x8, marble-closeup,
+ * veined-marble, homogeneous, carrara-marble, jade, layered-wax, soap, skin;
+ * case-insensitive). OP_ERR_INPUT for an unknown name. */
 op_status op_dataset_spec_defaults(const char *name, op_dataset_spec *spec, op_error *err);
 /* Checks sizes, kernel and media; OP_ERR_INPUT with a message naming the bad value. */
 op_status op_dataset_spec_check(const op_dataset_spec *spec, op_error *err);

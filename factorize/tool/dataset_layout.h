@@ -31,6 +31,27 @@ op_status op_layout_chessboard(op_layout *l, int w, int h, double size_x_cm, dou
 op_status op_layout_veins(op_layout *l, int w, int h, double size_x_cm, double size_y_cm,
                           int stripes, double vein_mm, uint64_t seed, const op_medium *a,
                           const op_medium *b, op_error *err);
+/* Inclusions: irregular blobs of `b` in `a` (each blob a jittered disc with noisy edges,
+ * radius about radius_mm), covering exactly round(fraction * W * H) pixels: the blob field is
+ * thresholded at the rank that gives that count. Seamless under tiling; `seed` fixes it.
+ * 0 <= fraction <= 1. */
+op_status op_layout_inclusions(op_layout *l, int w, int h, double size_x_cm, double size_y_cm,
+                               double fraction, double radius_mm, uint64_t seed,
+                               const op_medium *a, const op_medium *b, op_error *err);
+/* Strata: `count` bands of `b` in `a`, stacked along y, each about layer_mm thick (per band
+ * 0.75 to 1.25 times that, swelling along x), their mid-lines waving along x by up to wave_mm.
+ * Every column crosses exactly `count` bands of b; the mean band thickness is layer_mm to
+ * within the band jitter. Needs count >= 1 and layer_mm at most half the band period
+ * (H * pixel_y / count), wave_mm >= 0. */
+op_status op_layout_layers(op_layout *l, int w, int h, double size_x_cm, double size_y_cm,
+                           int count, double layer_mm, double wave_mm, uint64_t seed,
+                           const op_medium *a, const op_medium *b, op_error *err);
+/* Skin-like: a dermis `a` with pores and fine capillary veins of `b`. One pore per cell of a
+ * grid of pitch about pore_pitch_mm (jittered centre, radius 0.6 to 1.0 times pore_mm); veins
+ * are the zero set of a periodic noise, vein_mm wide. Seamless; `seed` fixes it. */
+op_status op_layout_skin(op_layout *l, int w, int h, double size_x_cm, double size_y_cm,
+                         double pore_pitch_mm, double pore_mm, double vein_mm, uint64_t seed,
+                         const op_medium *a, const op_medium *b, op_error *err);
 void op_layout_free(op_layout *l);
 
 /* Medium index (0 or 1) of pixel (x, y), any integers (wrapped periodically). */
@@ -46,5 +67,7 @@ static inline int op_layout_at(const op_layout *l, int64_t x, int64_t y)
 
 /* Fraction of pixels holding medium 1. */
 double op_layout_fraction(const op_layout *l);
+/* Number of pores op_layout_skin makes on a sample of w x h pixels of the given size. */
+int op_layout_skin_pores(int w, int h, double size_x_cm, double size_y_cm, double pore_pitch_mm);
 
 #endif
