@@ -9,6 +9,7 @@
 # add-on without a renderer: the shipped presets stay listed and the errors blame the renderer.
 # Skips (77) only when Blender is not installed (or the build has no presets to install).
 set -euo pipefail
+. "$(dirname "$0")/e2e_support.sh"
 BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 BUILD=$(cd "$BIN/.." && pwd)
 PRESET=SVD_S10_Chess4x4
@@ -56,36 +57,8 @@ PY
 
 # The moved renderer, a preset by name, no environment: found in the moved prefix.
 mkdir -p "$T/cli"
-cat > "$T/cli/scene.xml" <<XML
-<scene version="0.6.0">
-  <integrator type="path"><integer name="maxDepth" value="3"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="2"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="36"/></film>
-  </sensor>
-  <emitter type="spot">
-    <transform name="toWorld"><lookat origin="0, 0, 6" target="0, 0, 0"/></transform>
-    <float name="cutoffAngle" value="40"/>
-    <spectrum name="intensity" value="60"/>
-  </emitter>
-  <shape type="sphere">
-    <point name="center" x="0" y="0" z="0.5"/>
-    <float name="radius" value="0.5"/>
-    <subsurface type="svd">
-      <string name="material" value="$PRESET"/>
-      <float name="scale" value="15"/>
-      <integer name="irrSamples" value="1"/>
-      <integer name="maxPoints" value="3000"/>
-    </subsurface>
-  </shape>
-  <shape type="rectangle">
-    <transform name="toWorld"><scale value="3"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-  </shape>
-</scene>
-XML
+sphere_scene "$T/cli/scene.xml" 48 36 2 \
+  "<subsurface type=\"svd\"><string name=\"material\" value=\"$PRESET\"/><float name=\"scale\" value=\"15\"/><integer name=\"irrSamples\" value=\"1\"/><integer name=\"maxPoints\" value=\"3000\"/></subsurface>"
 (cd "$T" && "${clean[@]}" "$P/bin/opaline-render" -v -v -t 2 -o "$T/cli/out.pfm" \
    "$T/cli/scene.xml") 2>"$T/cli/log" || { cat "$T/cli/log"; echo "FAIL: CLI render"; exit 1; }
 grep -qF "material preset \"$PRESET\" is $P/share/opaline/presets/$PRESET.opm" "$T/cli/log" ||
