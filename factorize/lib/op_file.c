@@ -150,7 +150,7 @@ op_status op_file_read(const char *path, size_t max_bytes, char **data, size_t *
     *data = NULL;
     *size = 0;
     int fd;
-    uint64_t bytes;
+    uint64_t bytes = 0; /* set by op_file_open on success (initialized for gcc 14) */
     op_status st = op_file_open(path, &fd, &bytes, err);
     if (st != OP_OK)
         return st;
