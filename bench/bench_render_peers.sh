@@ -12,7 +12,8 @@
 # light both through its light sample and when a bounce ray escapes (no MIS), so its bunny is about
 # twice as bright (a bias, not extra work); opaline weighs the two by MIS. The tutorial samples
 # with its own sampler and writes 8-bit PPM; opaline writes OpenEXR. Each renderer uses its own
-# BVH (both Embree 3 here: opaline-render links Debian's libembree3).
+# BVH (opaline-render links whichever Embree the build found, 3 on Debian 12, 4 on Debian 13,
+# the same as the tutorial's).
 #
 # Usage: bench/bench_render_peers.sh [BUILD_DIR] [THREADS] [SPP]   (a Release build)
 set -euo pipefail
@@ -26,7 +27,8 @@ RENDER=$BUILD/bin/opaline-render
 [ -f "$BUNNY" ] || { echo "skip: $BUNNY is absent (../shared is not beside the checkout)"; exit 0; }
 [ -x "$RENDER" ] || { echo "error: $RENDER not built (cmake --build $BUILD)"; exit 1; }
 bash "$SRC/scripts/install-deps.sh" --bench # Embree's tutorials (embree-tools)
-PEER=$(command -v pathtracer || true)
+# Embree 3's embree-tools name it pathtracer, Embree 4's embree_pathtracer.
+PEER=$(command -v pathtracer || command -v embree_pathtracer || true)
 [ -n "$PEER" ] || { echo "skip: Embree's pathtracer tutorial is absent (apt-get install embree-tools)"; exit 0; }
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
