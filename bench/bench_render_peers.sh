@@ -83,7 +83,8 @@ echo "bunny $W x $H, $THREADS threads, $SPP spp, paths of at most 8 segments, me
 ver() { dpkg-query -W -f '${Version}' "$1" 2>/dev/null || echo unknown; }
 rev=$(git -C "$SRC" rev-parse --short HEAD 2>/dev/null || echo unknown)
 [ -z "$(git -C "$SRC" status --porcelain 2>/dev/null)" ] || rev="$rev (modified)"
-echo "versions: embree-tools $(ver embree-tools), libembree3-3 $(ver libembree3-3), opaline $rev"
+lib=$(dpkg-query -W -f='${Package}\n' 'libembree*' 2>/dev/null | grep -v -- -dev | head -n 1)
+echo "versions: embree-tools $(ver embree-tools), ${lib:-libembree} $(ver "${lib:-libembree}"), opaline $rev"
 echo "machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 ours=$(rate opaline)
