@@ -213,6 +213,8 @@ assert cube_px > 0.02 and cube_px > corner, "the cube is not lit (%.4f)" % cube_
 # than storage rounding, as in tests/addon/test_engine.py.
 assert worst < 2e-3, "F12 and the command line differ by %g" % worst
 
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(T, "scene.blend"))  # for the batch run below
+
 # No renderer: a wrong path set. The presets installed with the renderer on PATH stay listed,
 # and F12 says the renderer is missing.
 prefs = bpy.context.preferences.addons[key].preferences
@@ -244,3 +246,23 @@ PY
 "${benv[@]}" "$BLENDER" --background --python-exit-code 1 --python "$T/f12.py" -- "$P" "$T" "$PRESET" \
   >"$T/f12.log" 2>&1 || { cat "$T/f12.log"; echo "FAIL: F12 in Blender $version"; exit 1; }
 grep -E "^(add-on|F12 vs|OK)" "$T/f12.log"
+
+# Batch export with the installed add-on's batch.py run as a script (a second copy of the package,
+# named "opaline", while the enabled one may be the extension bl_ext.user_default.opaline): it
+# must find that add-on's preferences. The renderer is only in the preferences (not on PATH), so
+# the preset can be named only if they were found.
+cat > "$T/set_pref.py" <<'PY'
+import sys, bpy
+key = next(k for k in bpy.context.preferences.addons.keys() if k == "opaline" or k.endswith(".opaline"))
+bpy.context.preferences.addons[key].preferences.renderer_path = sys.argv[-1]
+bpy.ops.wm.save_userpref()
+PY
+"${benv[@]}" "$BLENDER" --background --python-exit-code 1 --python "$T/set_pref.py" --   "$P/bin/opaline-render" >"$T/pref.log" 2>&1 || { cat "$T/pref.log"; echo "FAIL: setting the preference"; exit 1; }
+batch=$(find "$U" -name batch.py -path '*/opaline/batch.py' | head -n 1)
+[ -n "$batch" ] || { echo "FAIL: the installed add-on has no batch.py"; exit 1; }
+nopath=("${benv[@]}" PATH=/usr/bin:/bin)
+"${nopath[@]}" "$BLENDER" -b "$T/scene.blend" --python "$batch" -- --out "$T/batch" --frames 1 \
+  >"$T/batch.log" 2>&1 || { cat "$T/batch.log"; echo "FAIL: batch.py with the installed add-on"; exit 1; }
+grep -q "value=\"$PRESET\"" "$T"/batch/*_0001.xml ||
+  { cat "$T/batch.log"; echo "FAIL: the batch export does not name the preset"; exit 1; }
+echo "batch.py ($(basename "$(dirname "$(dirname "$batch")")")) found the add-on's preferences"
