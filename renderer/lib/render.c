@@ -213,6 +213,13 @@ static void render_tile(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)w * (uint64_t)h);
 }
 
+static double seconds_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 /* The subsurface pre-pass, through the cache file when opt names one: its results are reused
  * where the key matches, and the file is (re)written, before the camera pass, when the pre-pass
  * computed anything or the file was missing or stale. */
@@ -224,24 +231,30 @@ static op_status prepass(const op_scene *s, const op_render_options *opt,
     unsigned char key[OP_SSS_KEY_BYTES];
     op_sss_store store;
     op_sss_file_state state;
+    double t0 = seconds_now();
     op_status st = op_sss_key(s, opt->seed, key, err);
     if (st)
         return st;
+    double t1 = seconds_now();
     if ((st = op_sss_store_load(opt->sss_cache, key, s->nsss, &store, &state, err)))
         return st;
+    double t2 = seconds_now();
     so->store = &store;
     st = op_sss_cache_build(s, so, sss, err);
     if (st == OP_OK) {
         long long fresh = store.new_e + store.new_m;
         if (state == OP_SSS_FILE_VALID)
             op_log(OP_LOG_INFO, "pre-pass cache %s: reused %lld sources / %lld receivers, "
-                   "computed %lld new (%lld sources, %lld receivers)", opt->sss_cache,
-                   store.reused_e, store.reused_m, fresh, store.new_e, store.new_m);
+                   "computed %lld new (%lld sources, %lld receivers); key %.3f s, read %.3f s",
+                   opt->sss_cache, store.reused_e, store.reused_m, fresh, store.new_e,
+                   store.new_m, t1 - t0, t2 - t1);
         if (fresh > 0 || state != OP_SSS_FILE_VALID) {
+            double t3 = seconds_now();
             st = op_sss_store_save(opt->sss_cache, key, &store, err);
             if (st == OP_OK)
                 op_log(OP_LOG_INFO, "pre-pass cache %s: written (%lld new sources, %lld new "
-                       "receivers)", opt->sss_cache, store.new_e, store.new_m);
+                       "receivers; %.3f s)", opt->sss_cache, store.new_e, store.new_m,
+                       seconds_now() - t3);
         }
         if (st) {
             op_sss_cache_free(*sss);

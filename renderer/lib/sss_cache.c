@@ -338,8 +338,10 @@ op_status op_sss_store_load(const char *path, const unsigned char key[OP_SSS_KEY
     char *data = NULL;
     size_t n = 0;
     op_status st = op_file_read(path, SIZE_MAX - 1, &data, &n, err);
-    if (st) /* a directory, FIFO, device, unreadable file: never ours to replace */
+    if (st) { /* a directory, FIFO, device, unreadable file: never ours to replace */
+        op_sss_store_free(store);
         return op_error_prefix(err, "--sss-cache: ");
+    }
     const unsigned char *b = (const unsigned char *)data;
     if (n < sizeof MAGIC || memcmp(b, MAGIC, sizeof MAGIC) != 0) {
         st = not_ours(path, "not an opaline pre-pass cache (no OPLNSSSC header)", err);
