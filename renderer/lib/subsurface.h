@@ -7,7 +7,8 @@
  * The camera pass interpolates M between the points near a hit; the radiance leaving is M / pi.
  *
  * The work follows what the camera needs: a first pass traces one camera segment (through masks
- * and smooth bounces) per pixel corner and marks as receivers the points within the
+ * and smooth bounces) per pixel corner of the whole film (a crop window does not narrow it, so
+ * a cropped render's pixels are the full render's) and marks as receivers the points within the
  * interpolation radius plus a pixel footprint of each translucent hit. Points are laid only on
  * shapes that some camera segment reaches, exitance is computed only at the marked points
  * (receivers), irradiance only at the points whose kernel footprint holds a receiver
