@@ -241,6 +241,8 @@ static op_status prepass(const op_scene *s, const op_render_options *opt,
     double t2 = seconds_now();
     so->store = &store;
     st = op_sss_cache_build(s, so, sss, err);
+    if (st == OP_ERR_FORMAT) /* the store does not fit the scene (saved_prepare) */
+        op_error_prefix(err, "--sss-cache %s: ", opt->sss_cache);
     if (st == OP_OK) {
         long long fresh = store.new_e + store.new_m;
         if (state == OP_SSS_FILE_VALID)
