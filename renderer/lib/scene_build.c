@@ -858,9 +858,7 @@ op_status op_scene_build(op_node *root, const char *path, const op_scene_limits 
     snprintf(b.dir, sizeof b.dir, "%s", dirname(tmp));
     free(tmp);
     op_status st = build_all(&b, root, err);
-    for (int i = 0; i < s->nmaterials; i++)
-        free(b.mat_paths[i]);
-    free(b.mat_paths);
+    s->material_paths = b.mat_paths; /* the pre-pass cache's key reads them */
     for (int i = 0; i < b.nfiles; i++)
         free(b.file_keys[i]);
     free(b.file_keys);
@@ -887,9 +885,12 @@ void op_scene_release(op_scene *s)
         op_emitter_free(&s->emitters[i]);
     free(s->emitters);
     free(s->sss);
-    for (int i = 0; i < s->nmaterials; i++)
+    for (int i = 0; i < s->nmaterials; i++) {
         op_material_close(s->materials[i]);
+        free(s->material_paths[i]);
+    }
     free(s->materials);
+    free(s->material_paths);
     op_tex_cache_free(s->textures);
     op_accel_free(s->accel);
     free(s->path);

@@ -7,7 +7,8 @@
  * The camera pass interpolates M between the points near a hit; the radiance leaving is M / pi.
  *
  * The work follows what the camera needs: a first pass traces one camera segment (through masks
- * and smooth bounces) per pixel corner and marks as receivers the points within the
+ * and smooth bounces) per pixel corner of the whole film (a crop window does not narrow it, so
+ * a cropped render's pixels are the full render's) and marks as receivers the points within the
  * interpolation radius plus a pixel footprint of each translucent hit. Points are laid only on
  * shapes that some camera segment reaches, exitance is computed only at the marked points
  * (receivers), irradiance only at the points whose kernel footprint holds a receiver
@@ -23,6 +24,27 @@
 
 #include "integrator.h"
 
+/* What earlier pre-passes of the same key (sss_cache.h) computed for one translucent shape:
+ * per point whether its irradiance E (OP_SSS_HAS_E) and its exitance M (OP_SSS_HAS_M) are
+ * known, and their values (3 floats per point, meaningful where flagged). n is the shape's
+ * point count, 0 when nothing is known (then has, e and m are NULL). */
+typedef struct op_sss_saved {
+    int n;
+    unsigned char *has;
+    float *e, *m;
+} op_sss_saved;
+
+enum { OP_SSS_HAS_E = 1, OP_SSS_HAS_M = 2 };
+
+/* The saved results of every translucent shape (index = subsurface index). A build given a
+ * store reuses what it holds and adds what it computed; the counts say what it did. */
+typedef struct op_sss_store {
+    int nshapes;
+    op_sss_saved *shapes;
+    long long reused_e, reused_m; /* sources and receivers of this view taken from the store */
+    long long new_e, new_m;       /* irradiance and exitance values computed and added */
+} op_sss_store;
+
 typedef struct op_sss_build_options {
     int threads;
     uint64_t seed;
@@ -30,6 +52,7 @@ typedef struct op_sss_build_options {
     op_progress_fn progress;
     void *progress_user;
     int everywhere; /* 1: every point of every translucent shape, no camera pass */
+    op_sss_store *store; /* NULL, or results to reuse, extended with what the build computes */
 } op_sss_build_options;
 
 /* What a build computed, summed over the translucent shapes. */
@@ -37,6 +60,7 @@ typedef struct op_sss_stats {
     long long points;    /* irradiance points laid (on shapes a camera segment reaches) */
     long long sources;   /* points whose irradiance was computed */
     long long receivers; /* points whose exitance was computed */
+    long long sources_reused, receivers_reused; /* taken from the store instead */
     int shapes_reached;  /* translucent shapes a camera segment reaches */
     double seconds;      /* the build's wall time */
 } op_sss_stats;

@@ -154,7 +154,7 @@ static void test_partly_seen_plane(void **state)
     op_scene *scene = NULL;
     op_status s = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(s, err);
-    op_sss_build_options full = {2, 0, NULL, NULL, NULL, 1}, cam = {2, 0, NULL, NULL, NULL, 0};
+    op_sss_build_options full = {2, 0, NULL, NULL, NULL, 1, NULL}, cam = {2, 0, NULL, NULL, NULL, 0, NULL};
     op_sss_cache *cf = NULL, *cc = NULL;
     s = op_sss_cache_build(scene, &full, &cf, &err);
     OP_ASSERT_OK(s, err);

@@ -196,7 +196,7 @@ static void tile_exitance(const char *path, double out[3])
     op_scene *scene = NULL;
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1};
+    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1, NULL};
     op_sss_cache *cache = NULL;
     st = op_sss_cache_build(scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);
