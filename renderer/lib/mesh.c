@@ -1,5 +1,5 @@
 /* mesh.c - mesh helpers shared by the loaders and the scene builder; it calls no loader. */
-#include "mesh_internal.h"
+#include "mesh.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -295,7 +295,7 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     int it = s->integrator.type;
     if (s->nsss > 0 && (it == OP_INT_PATH || it == OP_INT_DIRECT)) {
         op_sss_build_options so = {opt->threads, opt->seed, opt->cancel, opt->progress,
-                                   opt->progress_user, 0, NULL};
+                                   opt->progress_user, 0, NULL, &op_path_transport};
         st = prepass(s, opt, &so, &sss, err);
         if (st)
             return st;

@@ -1,6 +1,7 @@
 /* scene_build.c - the scene builder (see scene_build.h). */
 #include "scene_build.h"
 
+#include "material_name.h"
 #include "subsurface.h"
 
 #include <errno.h>
@@ -393,7 +394,7 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     char preset[256];
     double log_a = 0.0, log_b = 0.0;
     op_method long_method = OP_METHOD_COUNT;
-    int is_long = op_sss_parse_long_name(name, preset, sizeof preset, &long_method, &log_a, &log_b);
+    int is_long = op_parse_long_material_name(name, preset, sizeof preset, &long_method, &log_a, &log_b);
     char path[4096];
     op_status st = op_resolve_material(is_long ? preset : name, b->dir, path, sizeof path, err);
     if (st == OP_OK)

@@ -1,12 +1,9 @@
 /* subsurface.c - irradiance points, exitance gathering and interpolation (see subsurface.h). */
 #include "subsurface.h"
 
-#include <ctype.h>
 #include <float.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <time.h>
 
 
@@ -354,6 +351,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
 
 typedef struct build_job {
     const op_scene *scene;
+    const op_sss_transport *transport;
     op_sss_cache *cache;
     uint64_t seed;
     atomic_int *cancel;
@@ -373,7 +371,6 @@ static void irradiance_task(void *user, int task, int thread)
     (void)thread;
     build_job *job = user;
     sss_shape *ss = &job->cache->shapes[job->task_shape[task]];
-    op_trace_ctx ctx = {job->scene, NULL};
     int first = job->task_first[task], last = first + POINTS_PER_TASK;
     if (last > ss->nsrc)
         last = ss->nsrc;
@@ -386,7 +383,7 @@ static void irradiance_task(void *user, int task, int thread)
             op_rng rng = op_rng_seed(job->seed ^ 0x5355425355524641ull,
                                      ((uint64_t)job->task_shape[task] << 40) | (uint64_t)k,
                                      (uint64_t)s);
-            op_v3 e = op_irradiance(&ctx, q->p, q->ng, q->n, &rng);
+            op_v3 e = job->transport->irradiance(job->scene, q->p, q->ng, q->n, &rng);
             if (isfinite(e.x) && isfinite(e.y) && isfinite(e.z))
                 sum = v3_add(sum, e);
         }
@@ -535,6 +532,7 @@ typedef struct cam_row {
 
 typedef struct cam_job {
     const op_scene *scene;
+    const op_sss_transport *transport;
     uint64_t seed;
     int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
     cam_row *rows;
@@ -559,8 +557,8 @@ static void camera_task(void *user, int task, int thread)
         op_rng rng = op_rng_seed(job->seed ^ 0x43414d4552414d4bull,
                                  (uint64_t)task * (uint64_t)job->gw + (uint64_t)ix, 0);
         op_isect it;
-        if (!op_camera_sss_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it, &dist,
-                               &cosine))
+        if (!job->transport->camera_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it,
+                                        &dist, &cosine))
             continue;
         if (row->n == row->cap) {
             int nc = row->cap ? 2 * row->cap : 64;
@@ -646,6 +644,7 @@ static op_status camera_pass(const op_scene *scene, op_sss_cache *c, const op_ss
     const op_film *film = &scene->film;
     memset(job, 0, sizeof *job);
     job->scene = scene;
+    job->transport = opt->transport;
     job->seed = opt->seed;
     job->ext = (int)ceilf(fmaxf(film->filter_radius - 0.5f, 0.0f));
     job->gw = film->full_width + 2 * job->ext + 1;
@@ -904,6 +903,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     build_job job;
     memset(&job, 0, sizeof job);
     job.scene = scene;
+    job.transport = opt->transport;
     job.cache = c;
     job.seed = opt->seed;
     job.cancel = opt->cancel;
@@ -1022,70 +1022,4 @@ op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
     op_v3 m;
     op_sss_lookup(c, sss, p, n, &m);
     return m;
-}
-
-int op_sss_parse_long_name(const char *name, char *out, size_t n, op_method *method, double *a,
-                           double *b)
-{
-    char buf[512], res[512];
-    if (strlen(name) >= sizeof buf)
-        return 0;
-    strcpy(buf, name);
-    char *tok[64], *save = NULL;
-    int nt = 0;
-    for (char *t = strtok_r(buf, " \t", &save); t && nt < 64; t = strtok_r(NULL, " \t", &save))
-        tok[nt++] = t;
-    int forat = -1;
-    for (int i = 1; i + 1 < nt; i++)
-        if (strcasecmp(tok[i], "for") == 0 && strcasecmp(tok[i + 1], "Rd") == 0) {
-            forat = i;
-            break;
-        }
-    if (forat < 1 || forat + 2 >= nt)
-        return 0;
-    char low[32];
-    size_t ml = strlen(tok[0]);
-    if (ml == 0 || ml >= sizeof low)
-        return 0;
-    for (size_t i = 0; i <= ml; i++)
-        low[i] = (char)tolower((unsigned char)tok[0][i]);
-    op_method m = op_method_from_name(low);
-    if (m == OP_METHOD_COUNT)
-        return 0;
-    double A = 0.0, B = 0.0;
-    size_t k = 0;
-    for (size_t i = 0; i < ml; i++)
-        res[k++] = (char)toupper((unsigned char)tok[0][i]);
-    for (int i = 1; i < forat; i++) {
-        const char *t = tok[i];
-        size_t letters = 0;
-        while (isalpha((unsigned char)t[letters]))
-            letters++;
-        char *end;
-        double v = strtod(t + letters, &end);
-        if (letters == 0 || end == t + letters || *end || !isfinite(v))
-            return 0;
-        if (letters == 3 && strncasecmp(t, "Div", 3) == 0) {
-            A = v;
-        } else if (letters == 3 && strncasecmp(t, "Add", 3) == 0) {
-            B = v;
-        } else {
-            int w = snprintf(res + k, sizeof res - k, "_%c%s", toupper((unsigned char)t[0]), t + 1);
-            if (w < 0 || (size_t)w >= sizeof res - k)
-                return 0;
-            k += (size_t)w;
-        }
-    }
-    const char *nm = tok[forat + 2];
-    for (const char *p = nm; *p; p++)
-        if (!isalnum((unsigned char)*p) && *p != '_' && *p != '-')
-            return 0;
-    int w = snprintf(res + k, sizeof res - k, "_%s", nm);
-    if (w < 0 || (size_t)w >= sizeof res - k || k + (size_t)w >= n)
-        return 0;
-    memcpy(out, res, k + (size_t)w + 1);
-    *method = m;
-    *a = A;
-    *b = B;
-    return 1;
 }
