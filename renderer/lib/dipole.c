@@ -85,6 +85,42 @@ static double rd_within(dip_ch k, double R)
                             exp(-k.sigma_tr * k.zv) - k.zv * exp(-k.sigma_tr * dv) / dv);
 }
 
+double op_sss_dipole_within(const op_sss_dipole *d, int c, double R)
+{
+    dip_ch k = channel(d, c);
+    return k.zr > 0.0 ? rd_within(k, R) : 0.0;
+}
+
+/* With phi(x) = (s + 1/x) e^(-s x)/x^2, each source adds z phi(d), d = sqrt(r^2 + z^2):
+ * phi' = -e^(-s x) (s^2/x^2 + 3 s/x^3 + 3/x^4), phi'' = e^(-s x) (s^3/x^2 + 5 s^2/x^3 +
+ * 12 s/x^4 + 12/x^5), d' = r/d, d'' = z^2/d^3. */
+void op_sss_dipole_rd_derivs(const op_sss_dipole *d, int c, double r, double f[3])
+{
+    dip_ch k = channel(d, c);
+    f[0] = f[1] = f[2] = 0.0;
+    if (!(k.zr > 0.0))
+        return;
+    const double z[2] = {k.zr, k.zv}, s = k.sigma_tr;
+    for (int i = 0; i < 2; i++) {
+        double x = sqrt(r * r + z[i] * z[i]), ix = 1.0 / x, e = exp(-s * x);
+        double ix2 = ix * ix, ix3 = ix2 * ix, ix4 = ix2 * ix2;
+        double phi = (s + ix) * e * ix2;
+        double d1 = -e * (s * s * ix2 + 3.0 * s * ix3 + 3.0 * ix4);
+        double d2 = e * (s * s * s * ix2 + 5.0 * s * s * ix3 + 12.0 * s * ix4 + 12.0 * ix4 * ix);
+        f[0] += z[i] * phi;
+        f[1] += z[i] * d1 * r * ix;
+        f[2] += z[i] * (d2 * r * r * ix2 + d1 * z[i] * z[i] * ix3);
+    }
+    for (int i = 0; i < 3; i++)
+        f[i] *= k.alpha / (4.0 * M_PI);
+}
+
+double op_sss_dipole_length(const op_sss_dipole *d, int c)
+{
+    dip_ch k = channel(d, c);
+    return k.sigma_tr > 0.0 ? 1.0 / k.sigma_tr : INFINITY;
+}
+
 double op_sss_dipole_total(const op_sss_dipole *d, int c)
 {
     dip_ch k = channel(d, c);

@@ -24,6 +24,13 @@ const char *op_sss_dipole_names(void);
 /* Rd(r) of channel c: the diffuse reflectance per unit area at distance r >= 0 from a point of
  * unit incident power. Finite and >= 0 for any medium with sigma_a + sigma_sp > 0. */
 double op_sss_dipole_rd(const op_sss_dipole *d, int c, double r);
+/* Rd(r) of channel c and its first and second derivatives in r, at r >= 0 (closed form):
+ * f[0] = Rd, f[1] = dRd/dr, f[2] = d^2Rd/dr^2. */
+void op_sss_dipole_rd_derivs(const op_sss_dipole *d, int c, double r, double f[3]);
+/* The integral of Rd over the disk of radius R around the point of entry (closed form). */
+double op_sss_dipole_within(const op_sss_dipole *d, int c, double R);
+/* The diffusion length 1/sigma_tr of channel c (infinite without absorption). */
+double op_sss_dipole_length(const op_sss_dipole *d, int c);
 /* The integral of Rd over the plane (closed form), in [0, 1). */
 double op_sss_dipole_total(const op_sss_dipole *d, int c);
 /* The smallest radius within which the integral of Rd reaches (1 - loss) of the total, for

@@ -1,6 +1,9 @@
 /* subsurface.c - irradiance points, exitance gathering and interpolation (see subsurface.h). */
 #include "subsurface.h"
 
+#include "sss_dipole.h"
+#include "sss_tree.h"
+
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,7 +39,11 @@ typedef struct sss_shape {
     sss_grid gather, interp;
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
-    float *table; /* dipole: its kernel row per channel (3 K^2), Rd integrated over each pixel */
+    int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */
+    op_sss_tree tree;        /* hier: the tree over the points */
+    op_sss_dipole_kernel dk; /* hier: the profile it sums */
+    unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
+                                 profile's ball (its normalization is needed) */
     int reached;           /* some camera segment reaches the shape: points are laid */
     unsigned char *bmark;  /* per gather bucket: holds a receiver */
     unsigned char *recv;   /* per point: the view needs its exitance (a receiver) */
@@ -175,53 +182,6 @@ static float wrap(float x, int n)
     return f >= (float)n || f < 0.0f ? 0.0f : f;
 }
 
-/* The dipole as a one-pixel homogeneous material: pixels of side px = max(the smallest mean free
- * path, R / 15), R the radius holding all but 0.1 % of Rd's integral, so the kernel has at most
- * 31 x 31 offsets; each offset's value is Rd integrated over its pixel (midpoint rule, 8 x 8
- * per pixel, 48 x 48 for the 3 x 3 around the peak), the measured materials' convention. */
-static double dipole_pixel(const op_sss_dipole *d, int *half)
-{
-    double R = op_sss_dipole_radius(d, 1e-3), mfp = INFINITY;
-    for (int c = 0; c < 3; c++)
-        mfp = fmin(mfp, 1.0 / (d->sigma_a[c] + d->sigma_sp[c]));
-    double px = fmax(mfp, R / 15.0);
-    *half = (int)ceil(R / px - 0.5);
-    if (*half < 1 || !(px > 0.0) || !isfinite(px))
-        *half = 1;
-    return px;
-}
-
-static op_status dipole_table(sss_shape *ss, op_error *err)
-{
-    const op_sss_dipole *d = &ss->desc->dipole;
-    int half;
-    double px = dipole_pixel(d, &half);
-    int K = 2 * half + 1;
-    ss->width = ss->height = 1;
-    ss->kernel = K;
-    ss->channels = 3;
-    ss->px = ss->py = (float)px;
-    ss->table = malloc(3 * (size_t)K * K * sizeof *ss->table);
-    if (!ss->table)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for the dipole kernel");
-    for (int oy = -half; oy <= half; oy++)
-        for (int ox = -half; ox <= half; ox++) {
-            int n = abs(ox) <= 1 && abs(oy) <= 1 ? 48 : 8;
-            double sum[3] = {0, 0, 0};
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < n; i++) {
-                    double x = (ox - 0.5 + (i + 0.5) / n) * px, y = (oy - 0.5 + (j + 0.5) / n) * px;
-                    double r = sqrt(x * x + y * y);
-                    for (int c = 0; c < 3; c++)
-                        sum[c] += op_sss_dipole_rd(d, c, r);
-                }
-            for (int c = 0; c < 3; c++)
-                ss->table[(size_t)c * K * K + (size_t)(oy + half) * K + (ox + half)] =
-                    (float)(sum[c] * px * px / ((double)n * n));
-        }
-    return OP_OK;
-}
-
 op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
 {
     op_v3 ext = v3_sub(scene->bmax, scene->bmin);
@@ -233,8 +193,7 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         op_sss_desc *d = &scene->sss[sh->sss];
         double px, py, size_x = 0.0, size_y = 0.0;
         if (d->is_dipole) {
-            int half;
-            px = py = dipole_pixel(&d->dipole, &half);
+            px = py = op_sss_dipole_spacing(&d->dipole);
         } else {
             const op_material_info *info = op_material_get_info(d->material);
             size_x = info->size_x_cm;
@@ -279,9 +238,11 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     const op_trimesh *m = &sh->mesh;
     double sx, sy; /* one tile of the material in scene units */
     if (ss->desc->is_dipole) {
-        op_status st = dipole_table(ss, err);
-        if (st)
-            return st;
+        /* a one-pixel homogeneous material of the profile's spacing (op_sss_dipole_spacing) */
+        ss->hier = 1;
+        ss->width = ss->height = ss->kernel = 1;
+        ss->channels = 3;
+        ss->px = ss->py = (float)op_sss_dipole_spacing(&ss->desc->dipole);
         sx = ss->px;
         sy = ss->py;
     } else {
@@ -364,7 +325,11 @@ typedef struct build_job {
     atomic_int nomem; /* a scatter task ran out of memory */
 } build_job;
 
+/* The scatter's accumulators (one per chunk of sources) take at most about MAX_ACC_BYTES
+ * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
+ * summation order does not depend on which points are receivers). */
 enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
+#define MAX_ACC_BYTES (256.0 * 1024 * 1024)
 
 static void irradiance_task(void *user, int task, int thread)
 {
@@ -460,11 +425,8 @@ static void scatter_task(void *user, int task, int thread)
         if (v3_is_black(s->e)) /* also every point that is not a source */
             continue;
         int x = (int)s->fx, y = (int)s->fy;
-        if (ss->table)
-            rows = ss->table;
-        else
-            for (int c = 0; c < ss->channels; c++)
-                op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
+        for (int c = 0; c < ss->channels; c++)
+            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
         const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
                     *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
         double total[3] = {0, 0, 0}, got[3] = {0, 0, 0};
@@ -590,27 +552,51 @@ static void mark_near(sss_shape *ss, op_v3 p, float r)
 }
 
 /* From the receivers marked in recv and what sv (NULL: nothing) already holds: the receivers
- * whose exitance is computed (those sv lacks: rmap), the gather buckets that hold one, and the
- * sources (points whose gather box, the one scatter_task visits, holds such a bucket). Sources
- * sv has the irradiance of get it now; the others are listed in src to be computed. Receivers
- * sv has the exitance of get it now. */
-static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
+ * whose exitance is computed (those sv lacks: rmap, nrecv); receivers sv has the exitance of
+ * get it now. Allocates rmap and src. */
+static op_status select_receivers(sss_shape *ss, const op_sss_saved *sv, op_error *err)
 {
-    const sss_grid *g = &ss->gather;
     ss->rmap = malloc((size_t)ss->n * sizeof *ss->rmap);
     ss->src = malloc((size_t)ss->n * sizeof *ss->src);
-    ss->bmark = calloc((size_t)g->mask + 1, 1);
-    if (!ss->rmap || !ss->src || !ss->bmark)
+    if (!ss->rmap || !ss->src)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
     ss->nrecv = ss->nsrc = 0;
     for (int j = 0; j < ss->n; j++) {
-        const int32_t *cg = g->coord + 3 * j;
         int known = ss->recv[j] && sv && (sv->has[j] & OP_SSS_HAS_M);
         if (known) {
             ss->pts[j].m = v3(sv->m[3 * j], sv->m[3 * j + 1], sv->m[3 * j + 2]);
             ss->reused_recv++;
         }
         ss->rmap[j] = ss->recv[j] && !known ? ss->nrecv++ : -1;
+    }
+    return OP_OK;
+}
+
+/* Point i is a source: it takes its irradiance from sv when sv holds it, else it is listed in
+ * src to be computed (in ascending order when called in ascending i). */
+static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
+{
+    if (sv && (sv->has[i] & OP_SSS_HAS_E)) {
+        ss->pts[i].e = v3(sv->e[3 * i], sv->e[3 * i + 1], sv->e[3 * i + 2]);
+        ss->reused_src++;
+    } else {
+        ss->src[ss->nsrc++] = i;
+    }
+}
+
+/* The scatter's selection (select_receivers, then): the gather buckets that hold a computed
+ * receiver, and the sources: the points whose gather box, the one scatter_task visits, holds
+ * such a bucket. */
+static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
+{
+    const sss_grid *g = &ss->gather;
+    op_status st = select_receivers(ss, sv, err);
+    if (st)
+        return st;
+    if (!(ss->bmark = calloc((size_t)g->mask + 1, 1)))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    for (int j = 0; j < ss->n; j++) {
+        const int32_t *cg = g->coord + 3 * j;
         if (ss->rmap[j] >= 0)
             ss->bmark[cell_hash(cg[0], cg[1], cg[2], g->mask)] = 1;
     }
@@ -622,16 +608,98 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
             for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
                 for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
                     need = ss->bmark[cell_hash(x, y, z, g->mask)];
-        if (!need)
-            continue;
-        if (sv && (sv->has[i] & OP_SSS_HAS_E)) {
-            ss->pts[i].e = v3(sv->e[3 * i], sv->e[3 * i + 1], sv->e[3 * i + 2]);
-            ss->reused_src++;
-        } else {
-            ss->src[ss->nsrc++] = i;
-        }
+        if (need)
+            add_source(ss, sv, i);
     }
     return OP_OK;
+}
+
+/* The hierarchical sum's structures of a laid shape: the tree over its points and the
+ * dipole's profile for points of its area and spacing. */
+static op_status tree_prepare(sss_shape *ss, op_error *err)
+{
+    op_v3 *p = malloc((size_t)ss->n * sizeof *p), *n = malloc((size_t)ss->n * sizeof *n);
+    op_status st = OP_OK;
+    if (!p || !n)
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    for (int i = 0; st == OP_OK && i < ss->n; i++) {
+        p[i] = ss->pts[i].p;
+        n[i] = ss->pts[i].n;
+    }
+    if (st == OP_OK)
+        st = op_sss_tree_build(&ss->tree, p, n, ss->n, err);
+    free(p);
+    free(n);
+    if (st == OP_OK)
+        st = op_sss_dipole_kernel_init(&ss->dk, &ss->desc->dipole, ss->a_i, ss->spacing, err);
+    return st;
+}
+
+typedef struct touch_job {
+    const sss_shape *ss;
+    unsigned char **marks; /* per thread: one byte per tree node */
+    int chunk;
+} touch_job;
+
+static void touch_task(void *user, int task, int thread)
+{
+    touch_job *job = user;
+    const sss_shape *ss = job->ss;
+    int first = task * job->chunk, last = first + job->chunk < ss->n ? first + job->chunk : ss->n;
+    for (int j = first; j < last; j++)
+        if (ss->rmap[j] >= 0)
+            op_sss_tree_touch(&ss->tree, &ss->dk.radial, ss->pts[j].p, ss->pts[j].n,
+                              job->marks[thread]);
+}
+
+/* The hierarchical sum's selection (select_receivers, then): the sources are the points under
+ * the tree nodes the computed receivers' sums use (op_sss_tree_touch), which depend on geometry
+ * only: every node a receiver uses has all its points' irradiance, whatever else is marked. */
+static op_status select_tree(sss_shape *ss, const op_sss_saved *sv, const op_sss_build_options *opt,
+                             op_error *err)
+{
+    op_status st = select_receivers(ss, sv, err);
+    if (st)
+        return st;
+    int threads = op_parallel_threads(opt->threads);
+    touch_job job = {ss, calloc((size_t)threads, sizeof(unsigned char *)), POINTS_PER_TASK};
+    unsigned char *need = calloc((size_t)ss->n, 1);
+    if (!job.marks || !need)
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    for (int t = 0; st == OP_OK && t < threads; t++)
+        if (!(job.marks[t] = calloc((size_t)ss->tree.nnodes, 1)))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    if (st == OP_OK && ss->nrecv > 0)
+        st = op_parallel_for(opt->threads, (ss->n + job.chunk - 1) / job.chunk, touch_task, &job,
+                             opt->cancel, err);
+    for (int t = 0; st == OP_OK && t < threads; t++) {
+        if (t > 0)
+            for (int i = 0; i < ss->tree.nnodes; i++)
+                job.marks[0][i] |= job.marks[t][i];
+        if (t == threads - 1)
+            op_sss_tree_points(&ss->tree, job.marks[0], need);
+    }
+    for (int i = 0; st == OP_OK && i < ss->n; i++)
+        if (need[i])
+            add_source(ss, sv, i);
+    /* the sources whose normalized weight a computed receiver's exact pairs use */
+    if (st == OP_OK && !(ss->near_recv = calloc((size_t)ss->n, 1)))
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    float ball = ss->dk.radial.ball;
+    for (int j = 0; st == OP_OK && j < ss->n; j++) {
+        if (ss->rmap[j] < 0)
+            continue;
+        op_v3 p = ss->pts[j].p;
+        GRID_FOR_EACH(&ss->interp, p, ball, i, {
+            if (v3_len(v3_sub(ss->pts[i].p, p)) <= ball) /* as op_sss_tree_sum tests it */
+                ss->near_recv[i] = 1;
+        });
+    }
+    for (int t = 0; job.marks && t < threads; t++)
+        free(job.marks[t]);
+    free(job.marks);
+    free(need);
+    return st;
 }
 
 /* The camera pass: one segment per pixel corner of the whole film (widened by the filter's
@@ -673,6 +741,92 @@ static op_status irradiance_pass(build_job *job, const op_sss_build_options *opt
     return st;
 }
 
+static void tree_task(void *user, int task, int thread)
+{
+    (void)thread;
+    build_job *job = user;
+    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    int first = task * POINTS_PER_TASK, last = first + POINTS_PER_TASK;
+    if (last > ss->n)
+        last = ss->n;
+    for (int j = first; j < last; j++)
+        if (ss->rmap[j] >= 0)
+            ss->pts[j].m = op_sss_tree_sum(&ss->tree, &ss->dk.radial, ss->pts[j].p, ss->pts[j].n);
+    op_progress_advance(job->prog, (uint64_t)(last - first));
+}
+
+typedef struct weigh_job {
+    const sss_shape *ss;
+    op_v3 *w, *wn;
+} weigh_job;
+
+/* The weights of one task's points: E_i A_i, and for the pairs closer than op_sss_radial's
+ * ball E_i A_i g_i, g_i (per channel, clamped to [1/2, 2]) making the source's near profile
+ * summed over the points within the ball what it is over the plane: each source hands on
+ * exactly its energy whatever the local arrangement of the points (see
+ * docs/subsurface-rendering.md). */
+static void weigh_task(void *user, int task, int thread)
+{
+    (void)thread;
+    weigh_job *job = user;
+    const sss_shape *ss = job->ss;
+    const op_sss_radial *k = &ss->dk.radial;
+    int first = task * POINTS_PER_TASK, last = first + POINTS_PER_TASK;
+    if (last > ss->n)
+        last = ss->n;
+    for (int i = first; i < last; i++) {
+        const sss_point *q = &ss->pts[i];
+        job->w[i] = v3_scale(q->e, ss->a_i);
+        if (v3_is_black(q->e)) {
+            job->wn[i] = v3s(0.0f);
+            continue;
+        }
+        if (!ss->near_recv[i]) {
+            job->wn[i] = job->w[i]; /* never used */
+            continue;
+        }
+        float r2 = k->ball * k->ball;
+        op_v3 got = v3s(0.0f);
+        GRID_FOR_EACH(&ss->interp, q->p, k->ball, j, {
+            op_v3 d = v3_sub(ss->pts[j].p, q->p);
+            float v[3];
+            if (v3_dot(d, d) > r2 || v3_dot(ss->pts[j].n, q->n) <= 0.0f)
+                continue;
+            k->near(k->user, v3_len(d), v);
+            got = v3_add(got, v3(v[0], v[1], v[2]));
+        });
+        got = v3_scale(got, ss->a_i);
+        float g[3], e[3] = {q->e.x, q->e.y, q->e.z}, have[3] = {got.x, got.y, got.z};
+        for (int c = 0; c < 3; c++) {
+            float r = have[c] > 0.0f ? k->ball_total[c] / have[c] : 1.0f;
+            g[c] = (r < 0.5f ? 0.5f : r > 2.0f ? 2.0f : r) * e[c] * ss->a_i;
+        }
+        job->wn[i] = v3(g[0], g[1], g[2]);
+    }
+}
+
+/* The hierarchical stage of shape job->scatter_shape: the tree weighed with E_i A_i g_i (zero
+ * at the points that are not sources), then M at each computed receiver from its own walk of
+ * the tree: the same bits for any thread count. */
+static op_status tree_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
+{
+    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    weigh_job wj = {ss, malloc((size_t)ss->n * sizeof(op_v3)), malloc((size_t)ss->n * sizeof(op_v3))};
+    int ntasks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+    op_status st = OP_OK;
+    if (!wj.w || !wj.wn)
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    if (st == OP_OK)
+        st = op_parallel_for(opt->threads, ntasks, weigh_task, &wj, opt->cancel, err);
+    if (st == OP_OK)
+        st = op_sss_tree_weigh(&ss->tree, wj.w, wj.wn, err);
+    free(wj.w);
+    free(wj.wn);
+    if (st == OP_OK)
+        st = op_parallel_for(opt->threads, ntasks, tree_task, job, opt->cancel, err);
+    return st;
+}
+
 /* The scattering stage: M at the receivers of every shape. Its progress report (job->prog) and
  * per-thread kernel rows (job->rows) live for exactly the duration of this call, whatever it
  * returns; on an error or cancellation the receivers' M is incomplete and the caller drops the
@@ -693,6 +847,11 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
         sss_shape *ss = &c->shapes[s];
         if (ss->nrecv == 0)
             continue;
+        if (ss->hier) {
+            job->scatter_shape = s;
+            st = tree_pass(job, opt, err);
+            continue;
+        }
         int K = ss->kernel;
         for (int i = 0; i < threads && st == OP_OK; i++) {
             free(job->rows[i]);
@@ -702,8 +861,9 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
         /* the chunks are fixed ranges of all the points, whatever the camera needs, so a
          * receiver's sum runs in the same order as in the full computation */
         ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
-        if (ss->nchunks > MAX_CHUNKS)
-            ss->nchunks = MAX_CHUNKS;
+        int most = (int)fmin(MAX_CHUNKS, fmax(1.0, MAX_ACC_BYTES / (12.0 * ss->n)));
+        if (ss->nchunks > most)
+            ss->nchunks = most;
         job->chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
         ss->nchunks = (ss->n + job->chunk - 1) / job->chunk;
         if (st == OP_OK &&
@@ -808,40 +968,99 @@ static double now_s(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
-                             op_sss_cache **out, op_error *err)
+/* The camera-marking phase: which translucent shapes some camera segment reaches (all of them
+ * when opt->everywhere), and the segments' hits (*gh rows in cam->rows, owned by the caller
+ * and freed with cam_free). */
+static op_status mark_reached(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
+                              cam_job *cam, int *gh, op_error *err)
 {
-    double t0 = now_s(), t1 = t0, tc = t0;
-    op_sss_cache *c = calloc(1, sizeof *c);
-    if (!c)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    c->n = scene->nsss;
-    c->shapes = calloc((size_t)(c->n ? c->n : 1), sizeof *c->shapes);
-    if (!c->shapes) {
-        free(c);
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    }
-    op_status st = OP_OK;
-    cam_job cam;
-    memset(&cam, 0, sizeof cam);
-    int gh = 0;
-    if (opt->everywhere) {
-        for (int i = 0; i < c->n; i++)
-            c->shapes[i].reached = 1;
+    memset(cam, 0, sizeof *cam);
+    *gh = 0;
+    if (!opt->everywhere)
+        return camera_pass(scene, c, opt, cam, gh, err);
+    for (int i = 0; i < c->n; i++)
+        c->shapes[i].reached = 1;
+    return OP_OK;
+}
+
+static void cam_free(cam_job *cam, int gh)
+{
+    for (int r = 0; r < gh; r++)
+        free(cam->rows[r].h);
+    free(cam->rows);
+    cam->rows = NULL;
+}
+
+/* The point phase of one reached translucent shape sh (its sss_shape ss, desc set): lays its
+ * points, builds its lookup structures (grids; the tree and profile for the hierarchical sum),
+ * marks its receivers (every point, or those near the camera's hits in cam: pix is the angle
+ * between neighbouring corner rays), and selects what must be computed against the store:
+ * receivers (rmap) and sources (src), taking what the store holds. */
+static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
+                               const op_sss_build_options *opt, const cam_job *cam, int gh,
+                               float pix, op_error *err)
+{
+    op_status st = make_points(scene, sh, ss, err);
+    if (st)
+        return st;
+    int half = ss->kernel / 2;
+    ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
+    if (!ss->hier) {
+        ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
     } else {
-        st = camera_pass(scene, c, opt, &cam, &gh, err);
+        st = tree_prepare(ss, err);
     }
-    tc = now_s();
+    if (st == OP_OK)
+        st = grid_build(&ss->interp, ss->pts, ss->n, scene->bmin, ss->h, err);
+    if (st == OP_OK && !(ss->recv = calloc((size_t)ss->n, 1)))
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    if (st)
+        return st;
+    if (opt->everywhere) {
+        memset(ss->recv, 1, (size_t)ss->n);
+    } else {
+        /* a sample lies within one grid spacing (pix * span) of a traced hit; the points its
+         * interpolation uses lie within h of the sample */
+        for (int r = 0; r < gh; r++)
+            for (int k = 0; k < cam->rows[r].n; k++) {
+                const cam_hit *hh = &cam->rows[r].h[k];
+                if (hh->sss == sh->sss)
+                    mark_near(ss, hh->p, ss->h + pix * hh->span);
+            }
+    }
+    op_sss_saved *sv = NULL;
+    if (opt->store) {
+        st = saved_prepare(opt->store, sh->sss, ss->n, sh->label, err);
+        if (st)
+            return st;
+        sv = &opt->store->shapes[sh->sss];
+    }
+    st = ss->hier ? select_tree(ss, sv, opt, err) : select_points(ss, sv, err);
+    if (st)
+        return st;
+    op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
+           "of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
+           sh->label, ss->n, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
+           ss->nrecv + ss->reused_recv, ss->nsrc + ss->reused_src);
+    if (opt->store)
+        op_log(OP_LOG_DEBUG, "%s: from the pre-pass cache: irradiance at %d, exitance at %d; "
+               "computed: irradiance at %d, exitance at %d", sh->label, ss->reused_src,
+               ss->reused_recv, ss->nsrc, ss->nrecv);
+    return OP_OK;
+}
+
+/* The point phase of every translucent shape (prepare_shape for those reached). */
+static op_status prepare_shapes(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
+                                const cam_job *cam, int gh, op_error *err)
+{
     /* the angle between neighbouring grid rays, bounded over the image plane */
     const op_camera *cm = &scene->camera;
     float pix = 2.0f * fmaxf(cm->tan_x / (float)cm->full_width, cm->tan_y / (float)cm->full_height) *
                 (1.0f + cm->tan_x * cm->tan_x + cm->tan_y * cm->tan_y);
-    long long total = 0;
-    for (int s = 0; s < scene->nshapes && st == OP_OK; s++) {
-        if (opt->cancel && atomic_load(opt->cancel)) {
-            st = op_error_set(err, OP_ERR_CANCELLED, "interrupted");
-            break;
-        }
+    for (int s = 0; s < scene->nshapes; s++) {
+        if (opt->cancel && atomic_load(opt->cancel))
+            return op_error_set(err, OP_ERR_CANCELLED, "interrupted");
         const op_shape_rec *sh = &scene->shapes[s];
         if (sh->sss < 0)
             continue;
@@ -852,54 +1071,62 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
                    "irradiance points", sh->label);
             continue;
         }
-        st = make_points(scene, sh, ss, err);
+        op_status st = prepare_shape(scene, sh, ss, opt, cam, gh, pix, err);
         if (st)
-            break;
-        int half = ss->kernel / 2;
-        ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
-        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
-        if (st == OP_OK)
-            st = grid_build(&ss->interp, ss->pts, ss->n, scene->bmin, ss->h, err);
-        if (st == OP_OK && !(ss->recv = calloc((size_t)ss->n, 1)))
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        if (st)
-            break;
-        if (opt->everywhere) {
-            memset(ss->recv, 1, (size_t)ss->n);
-        } else {
-            /* a sample lies within one grid spacing (pix * span) of a traced hit; the points
-             * its interpolation uses lie within h of the sample */
-            for (int r = 0; r < gh; r++)
-                for (int k = 0; k < cam.rows[r].n; k++) {
-                    const cam_hit *hh = &cam.rows[r].h[k];
-                    if (hh->sss == sh->sss)
-                        mark_near(ss, hh->p, ss->h + pix * hh->span);
-                }
-        }
-        op_sss_saved *sv = NULL;
-        if (opt->store) {
-            st = saved_prepare(opt->store, sh->sss, ss->n, sh->label, err);
-            if (st)
-                break;
-            sv = &opt->store->shapes[sh->sss];
-        }
-        st = select_points(ss, sv, err);
-        if (st)
-            break;
-        total += (ss->nsrc + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
-        op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
-               "of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
-               sh->label, ss->n, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
-               ss->nrecv + ss->reused_recv, ss->nsrc + ss->reused_src);
-        if (opt->store)
-            op_log(OP_LOG_DEBUG, "%s: from the pre-pass cache: irradiance at %d, exitance at %d; "
-                   "computed: irradiance at %d, exitance at %d", sh->label, ss->reused_src,
-                   ss->reused_recv, ss->nsrc, ss->nrecv);
+            return st;
     }
-    for (int r = 0; r < gh; r++)
-        free(cam.rows[r].h);
-    free(cam.rows);
+    return OP_OK;
+}
+
+/* The irradiance phase: E at every shape's listed sources (src), in tasks of POINTS_PER_TASK
+ * points of one shape (job->task_shape/task_first, freed by the caller). */
+static op_status irradiance_phase(build_job *job, const op_sss_build_options *opt, op_error *err)
+{
+    const op_sss_cache *c = job->cache;
+    long long ntasks = 0;
+    uint64_t nsrc = 0;
+    for (int s = 0; s < c->n; s++) {
+        ntasks += (c->shapes[s].nsrc + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+        nsrc += (uint64_t)c->shapes[s].nsrc;
+    }
+    if (ntasks == 0)
+        return OP_OK;
+    if (ntasks > INT32_MAX)
+        return op_error_set(err, OP_ERR_NOMEM, "too many irradiance points");
+    job->task_shape = malloc((size_t)ntasks * sizeof(int));
+    job->task_first = malloc((size_t)ntasks * sizeof(int));
+    if (!job->task_shape || !job->task_first)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    int t = 0;
+    for (int s = 0; s < c->n; s++)
+        for (int k = 0; k < c->shapes[s].nsrc; k += POINTS_PER_TASK) {
+            job->task_shape[t] = s;
+            job->task_first[t++] = k;
+        }
+    return irradiance_pass(job, opt, (int)ntasks, nsrc, err);
+}
+
+op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
+                             op_sss_cache **out, op_error *err)
+{
+    double t0 = now_s();
+    op_sss_cache *c = calloc(1, sizeof *c);
+    if (!c)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    c->n = scene->nsss;
+    c->shapes = calloc((size_t)(c->n ? c->n : 1), sizeof *c->shapes);
+    if (!c->shapes) {
+        free(c);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    cam_job cam;
+    int gh = 0;
+    op_status st = mark_reached(scene, c, opt, &cam, &gh, err);
+    double tc = now_s();
+    if (st == OP_OK)
+        st = prepare_shapes(scene, c, opt, &cam, gh, err);
+    cam_free(&cam, gh);
+    double tp = now_s();
     build_job job;
     memset(&job, 0, sizeof job);
     job.scene = scene;
@@ -907,26 +1134,9 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     job.cache = c;
     job.seed = opt->seed;
     job.cancel = opt->cancel;
-    double tp = now_s();
-    t1 = tp;
-    if (st == OP_OK && total > 0) {
-        job.task_shape = malloc((size_t)total * sizeof(int));
-        job.task_first = malloc((size_t)total * sizeof(int));
-        if (!job.task_shape || !job.task_first)
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        int t = 0;
-        uint64_t nsrc = 0;
-        for (int s = 0; st == OP_OK && s < c->n; s++) {
-            nsrc += (uint64_t)c->shapes[s].nsrc;
-            for (int k = 0; k < c->shapes[s].nsrc; k += POINTS_PER_TASK) {
-                job.task_shape[t] = s;
-                job.task_first[t++] = k;
-            }
-        }
-        if (st == OP_OK)
-            st = irradiance_pass(&job, opt, (int)total, nsrc, err);
-        t1 = now_s();
-    }
+    if (st == OP_OK)
+        st = irradiance_phase(&job, opt, err);
+    double t1 = now_s();
     /* with a store, every irradiance a scatter needs may be known already */
     int scatter = 0;
     for (int s = 0; s < c->n; s++)
@@ -958,7 +1168,9 @@ void op_sss_cache_free(op_sss_cache *c)
     for (int i = 0; i < c->n; i++) {
         sss_shape *ss = &c->shapes[i];
         free(ss->pts);
-        free(ss->table);
+        op_sss_tree_free(&ss->tree);
+        free(ss->near_recv);
+        op_sss_dipole_kernel_free(&ss->dk);
         free(ss->bmark);
         free(ss->recv);
         free(ss->rmap);
