@@ -101,7 +101,7 @@ op_status op_sss_dipole_kernel_init(op_sss_dipole_kernel *k, const op_sss_dipole
         for (int c = 0; c < 3; c++)
             k->tab[3 * i + c] = (float)disk_average(d, c, rho, i * (double)k->step);
     op_sss_radial *q = &k->radial;
-    q->exact = (float)(3.0 * spacing);
+    q->exact = (float)(6.0 * spacing);
     q->reach = 0.0f;
     for (int c = 0; c < 3; c++)
         q->reach = fmaxf(q->reach, (float)channel_radius(d, c, 1e-5));
@@ -120,8 +120,8 @@ op_status op_sss_dipole_kernel_init(op_sss_dipole_kernel *k, const op_sss_dipole
             for (int j = 0; j < 3; j++)
                 k->far[(size_t)9 * i + 3 * c + j] = (float)f[j];
         }
-    /* the near profile's integral over the disk of 3 spacings (trapezoid on the table) */
-    q->ball = (float)(3.0 * spacing);
+    /* the near profile's integral over the disk of 6 spacings (trapezoid on the table) */
+    q->ball = q->exact;
     for (int c = 0; c < 3; c++) {
         double sum = 0.0;
         for (int i = 0; i + 1 < k->ntab && (i + 1) * (double)k->step <= q->ball; i++) {

@@ -150,6 +150,7 @@ void op_sss_tree_free(op_sss_tree *t)
     free(t->n);
     free(t->w);
     free(t->wn);
+    free(t->ga);
     free(t->agg);
     memset(t, 0, sizeof *t);
 }
@@ -214,42 +215,64 @@ void op_sss_tree_points(const op_sss_tree *t, const unsigned char *node_mark,
     }
 }
 
-op_status op_sss_tree_weigh(op_sss_tree *t, const op_v3 *w, const op_v3 *wn, op_error *err)
+op_status op_sss_tree_weigh(op_sss_tree *t, const op_v3 *w, const op_v3 *wn, const op_v3 *ga,
+                            op_error *err)
 {
+    if (!t->ga)
+        t->ga = malloc((size_t)t->npts * sizeof *t->ga);
     if (!t->w)
         t->w = malloc((size_t)t->npts * sizeof *t->w);
     if (!t->wn)
         t->wn = malloc((size_t)t->npts * sizeof *t->wn);
     if (!t->agg)
         t->agg = malloc((size_t)t->nnodes * sizeof *t->agg);
-    if (!t->w || !t->wn || !t->agg)
+    if (!t->w || !t->wn || !t->ga || !t->agg)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface tree");
     for (int i = 0; i < t->npts; i++) {
         t->w[i] = w[t->order[i]];
         t->wn[i] = wn[t->order[i]];
+        t->ga[i] = ga[t->order[i]];
     }
-    for (int i = 0; i < t->nnodes; i++) {
+    /* children come after their parent: in reverse order, a node's children are done before
+     * it. A leaf sums its points about its centre; a parent combines its children's weights,
+     * centroids and covariances (the parallel-axis theorem), in double. */
+    static const int ia[6] = {0, 1, 2, 0, 0, 1}, ib[6] = {0, 1, 2, 1, 2, 2};
+    for (int i = t->nnodes - 1; i >= 0; i--) {
         const op_sss_tree_node *nd = &t->nodes[i];
         op_sss_tree_agg *a = &t->agg[i];
         double s0[3] = {0, 0, 0}, s1[3][3], s2[3][6];
         memset(s1, 0, sizeof s1);
         memset(s2, 0, sizeof s2);
-        for (int k = nd->first; k < nd->first + nd->count; k++) {
-            double x = (double)t->p[k].x - nd->center.x, y = (double)t->p[k].y - nd->center.y,
-                   z = (double)t->p[k].z - nd->center.z;
-            const float wk[3] = {t->w[k].x, t->w[k].y, t->w[k].z};
-            for (int c = 0; c < 3; c++) {
-                double v = wk[c];
-                s0[c] += v;
-                s1[c][0] += v * x;
-                s1[c][1] += v * y;
-                s1[c][2] += v * z;
-                s2[c][0] += v * x * x;
-                s2[c][1] += v * y * y;
-                s2[c][2] += v * z * z;
-                s2[c][3] += v * x * y;
-                s2[c][4] += v * x * z;
-                s2[c][5] += v * y * z;
+        if (nd->child < 0) {
+            for (int k = nd->first; k < nd->first + nd->count; k++) {
+                double x[3] = {(double)t->p[k].x - nd->center.x, (double)t->p[k].y - nd->center.y,
+                               (double)t->p[k].z - nd->center.z};
+                const float wk[3] = {t->w[k].x, t->w[k].y, t->w[k].z};
+                for (int c = 0; c < 3; c++) {
+                    s0[c] += wk[c];
+                    for (int q = 0; q < 3; q++)
+                        s1[c][q] += wk[c] * x[q];
+                    for (int q = 0; q < 6; q++)
+                        s2[c][q] += wk[c] * x[ia[q]] * x[ib[q]];
+                }
+            }
+        } else {
+            for (int h = 0; h < 2; h++) {
+                const op_sss_tree_node *cn = &t->nodes[nd->child + h];
+                const op_sss_tree_agg *ca = &t->agg[nd->child + h];
+                double off[3] = {(double)cn->center.x - nd->center.x,
+                                 (double)cn->center.y - nd->center.y,
+                                 (double)cn->center.z - nd->center.z};
+                for (int c = 0; c < 3; c++) {
+                    double cw = ca->w[c], m[3];
+                    for (int q = 0; q < 3; q++)
+                        m[q] = off[q] + ca->mean[c][q];
+                    s0[c] += cw;
+                    for (int q = 0; q < 3; q++)
+                        s1[c][q] += cw * m[q];
+                    for (int q = 0; q < 6; q++)
+                        s2[c][q] += cw * (ca->cov[c][q] + m[ia[q]] * m[ib[q]]);
+                }
             }
         }
         for (int c = 0; c < 3; c++) {
@@ -260,7 +283,6 @@ op_status op_sss_tree_weigh(op_sss_tree *t, const op_v3 *w, const op_v3 *wn, op_
                     m[q] = s1[c][q] / s0[c];
             for (int q = 0; q < 3; q++)
                 a->mean[c][q] = (float)m[q];
-            static const int ia[6] = {0, 1, 2, 0, 0, 1}, ib[6] = {0, 1, 2, 1, 2, 2};
             for (int q = 0; q < 6; q++)
                 a->cov[c][q] = s0[c] > 0.0 ? (float)(s2[c][q] / s0[c] - m[ia[q]] * m[ib[q]]) : 0.0f;
         }
@@ -299,7 +321,7 @@ static void aggregate(const op_sss_tree *t, const op_sss_radial *k, int i, op_v3
 
 op_v3 op_sss_tree_sum(const op_sss_tree *t, const op_sss_radial *k, op_v3 p, op_v3 n)
 {
-    double m[3] = {0, 0, 0};
+    double m[3] = {0, 0, 0}, near[3] = {0, 0, 0}, norm[3] = {0, 0, 0};
     int stack[STACK], top = 0;
     stack[top++] = 0;
     while (top > 0) {
@@ -312,12 +334,23 @@ op_v3 op_sss_tree_sum(const op_sss_tree *t, const op_sss_radial *k, op_v3 p, op_
             break;
         case LEAF:
             for (int q = nd->first; q < nd->first + nd->count; q++) {
-                op_v3 w = t->w[q];
-                if (v3_is_black(w) || v3_dot(t->n[q], n) <= 0.0f)
+                if (v3_dot(t->n[q], n) <= 0.0f)
                     continue;
                 float v[3], r = v3_len(v3_sub(p, t->p[q]));
-                if (r <= k->ball)
-                    w = t->wn[q];
+                if (r <= k->ball) {
+                    op_v3 w = t->wn[q], g = t->ga[q];
+                    k->near(k->user, r, v);
+                    near[0] += (double)w.x * v[0];
+                    near[1] += (double)w.y * v[1];
+                    near[2] += (double)w.z * v[2];
+                    norm[0] += (double)g.x * v[0];
+                    norm[1] += (double)g.y * v[1];
+                    norm[2] += (double)g.z * v[2];
+                    continue;
+                }
+                op_v3 w = t->w[q];
+                if (v3_is_black(w))
+                    continue;
                 k->near(k->user, r, v);
                 m[0] += (double)w.x * v[0];
                 m[1] += (double)w.y * v[1];
@@ -331,6 +364,10 @@ op_v3 op_sss_tree_sum(const op_sss_tree *t, const op_sss_radial *k, op_v3 p, op_
         default:
             break;
         }
+    }
+    for (int c = 0; c < 3; c++) {
+        double s = norm[c] > 0.0 ? k->ball_total[c] / norm[c] : 1.0;
+        m[c] += near[c] * (s < 0.5 ? 0.5 : s > 2.0 ? 2.0 : s);
     }
     return v3((float)m[0], (float)m[1], (float)m[2]);
 }

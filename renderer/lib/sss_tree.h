@@ -31,9 +31,11 @@ typedef struct op_sss_radial {
     float theta;   /* a node is aggregated only when its radius is at most theta x its distance */
     float size[3]; /* per channel: the largest node radius aggregated while the channel counts */
     float fade[3]; /* per channel: beyond this distance the channel no longer limits the size */
-    /* the energy normalization: each source's near profile summed over the points within
-     * `ball` (at most `exact`) of it, times a point's area, should be ball_total; pairs
-     * closer than ball take the normalized weight (op_sss_tree_weigh's wn) */
+    /* the normalization of the pairs closer than `ball` (at most `exact`): the near profile
+     * summed over the points within ball, times their areas, should be ball_total. Sources
+     * hand on their weight scaled to that (op_sss_tree_weigh's wn = w g), and a receiver's
+     * near part is scaled by ball_total / (its sum of g A near(r)), clamped to [1/2, 2]:
+     * exact for uniform light, each source's energy kept */
     float ball;
     float ball_total[3];
 } op_sss_radial;
@@ -60,7 +62,7 @@ typedef struct op_sss_tree {
     int nnodes, npts;
     int *order;      /* tree order -> point index */
     op_v3 *p, *n;    /* positions and normals in tree order */
-    op_v3 *w, *wn;   /* weights and normalized weights in tree order (op_sss_tree_weigh) */
+    op_v3 *w, *wn, *ga; /* weights w, normalized weights w g and areas g A in tree order */
     op_sss_tree_agg *agg; /* per node (op_sss_tree_weigh) */
 } op_sss_tree;
 
@@ -77,10 +79,11 @@ void op_sss_tree_touch(const op_sss_tree *t, const op_sss_radial *k, op_v3 p, op
 void op_sss_tree_points(const op_sss_tree *t, const unsigned char *node_mark,
                         unsigned char *point_mark);
 
-/* Takes the points' weights w and normalized weights wn (per point index, 3 channels) and
- * computes every node's aggregate (of w); a node's aggregate is exact only when all its
- * points' weights are final. */
-op_status op_sss_tree_weigh(op_sss_tree *t, const op_v3 *w, const op_v3 *wn, op_error *err);
+/* Takes the points' weights w, normalized weights wn and normalized areas ga (per point
+ * index, 3 channels; see op_sss_radial) and computes every node's aggregate (of w); a node's
+ * aggregate is exact only when all its points' weights are final. */
+op_status op_sss_tree_weigh(op_sss_tree *t, const op_v3 *w, const op_v3 *wn, const op_v3 *ga,
+                            op_error *err);
 
 /* The sum at the receiver (p, n), per channel. */
 op_v3 op_sss_tree_sum(const op_sss_tree *t, const op_sss_radial *k, op_v3 p, op_v3 n);

@@ -757,14 +757,14 @@ static void tree_task(void *user, int task, int thread)
 
 typedef struct weigh_job {
     const sss_shape *ss;
-    op_v3 *w, *wn;
+    op_v3 *w, *wn, *ga;
 } weigh_job;
 
-/* The weights of one task's points: E_i A_i, and for the pairs closer than op_sss_radial's
- * ball E_i A_i g_i, g_i (per channel, clamped to [1/2, 2]) making the source's near profile
- * summed over the points within the ball what it is over the plane: each source hands on
- * exactly its energy whatever the local arrangement of the points (see
- * docs/subsurface-rendering.md). */
+/* The weights of one task's points (op_sss_radial's normalization): E_i A_i; and where a
+ * computed receiver lies within the ball, g_i (per channel, clamped to [1/2, 2]) making the
+ * point's near profile summed over the points within the ball what it is over the plane, the
+ * weight E_i A_i g_i and the area A_i g_i its exact pairs use: each source hands on exactly its
+ * energy whatever the local arrangement of the points (see docs/subsurface-rendering.md). */
 static void weigh_task(void *user, int task, int thread)
 {
     (void)thread;
@@ -777,14 +777,10 @@ static void weigh_task(void *user, int task, int thread)
     for (int i = first; i < last; i++) {
         const sss_point *q = &ss->pts[i];
         job->w[i] = v3_scale(q->e, ss->a_i);
-        if (v3_is_black(q->e)) {
-            job->wn[i] = v3s(0.0f);
-            continue;
-        }
-        if (!ss->near_recv[i]) {
-            job->wn[i] = job->w[i]; /* never used */
-            continue;
-        }
+        job->wn[i] = job->w[i];
+        job->ga[i] = v3s(ss->a_i);
+        if (!ss->near_recv[i])
+            continue; /* not used */
         float r2 = k->ball * k->ball;
         op_v3 got = v3s(0.0f);
         GRID_FOR_EACH(&ss->interp, q->p, k->ball, j, {
@@ -796,12 +792,13 @@ static void weigh_task(void *user, int task, int thread)
             got = v3_add(got, v3(v[0], v[1], v[2]));
         });
         got = v3_scale(got, ss->a_i);
-        float g[3], e[3] = {q->e.x, q->e.y, q->e.z}, have[3] = {got.x, got.y, got.z};
+        float g[3], have[3] = {got.x, got.y, got.z};
         for (int c = 0; c < 3; c++) {
             float r = have[c] > 0.0f ? k->ball_total[c] / have[c] : 1.0f;
-            g[c] = (r < 0.5f ? 0.5f : r > 2.0f ? 2.0f : r) * e[c] * ss->a_i;
+            g[c] = (r < 0.5f ? 0.5f : r > 2.0f ? 2.0f : r) * ss->a_i;
         }
-        job->wn[i] = v3(g[0], g[1], g[2]);
+        job->ga[i] = v3(g[0], g[1], g[2]);
+        job->wn[i] = v3_mul(q->e, job->ga[i]);
     }
 }
 
@@ -811,17 +808,19 @@ static void weigh_task(void *user, int task, int thread)
 static op_status tree_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
 {
     sss_shape *ss = &job->cache->shapes[job->scatter_shape];
-    weigh_job wj = {ss, malloc((size_t)ss->n * sizeof(op_v3)), malloc((size_t)ss->n * sizeof(op_v3))};
+    size_t bytes = (size_t)ss->n * sizeof(op_v3);
+    weigh_job wj = {ss, malloc(bytes), malloc(bytes), malloc(bytes)};
     int ntasks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
     op_status st = OP_OK;
-    if (!wj.w || !wj.wn)
+    if (!wj.w || !wj.wn || !wj.ga)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
     if (st == OP_OK)
         st = op_parallel_for(opt->threads, ntasks, weigh_task, &wj, opt->cancel, err);
     if (st == OP_OK)
-        st = op_sss_tree_weigh(&ss->tree, wj.w, wj.wn, err);
+        st = op_sss_tree_weigh(&ss->tree, wj.w, wj.wn, wj.ga, err);
     free(wj.w);
     free(wj.wn);
+    free(wj.ga);
     if (st == OP_OK)
         st = op_parallel_for(opt->threads, ntasks, tree_task, job, opt->cancel, err);
     return st;
