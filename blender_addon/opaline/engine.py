@@ -371,7 +371,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         console."""
         if level == "warning":
             if "irradiance points" in text and "capped at" in text:
-                text += (" [opaline render settings: Max irradiance points, "
+                text += (" [opaline render settings: Irradiance Point Cap, "
                          "scene.opaline.max_sss_points]")
             self._report('WARNING', "opaline-render: " + text)
         elif level != "error":  # errors: in the failure's report, with the exit status
@@ -524,14 +524,13 @@ def drain_wm_reports():
 
 def compatible_panels():
     """The standard property panels whose settings opaline uses (lights, world colour, camera,
-    output format, frame range, colour management, the material preview; the material slots
-    and Surface are the add-on's own panels). One panel per setting: the EEVEE panels, which
+    output format, frame range, colour management; the material slots, Surface and Preview are
+    the add-on's own panels). One panel per setting: the EEVEE panels, which
     exist in every supported version; not Cycles' (their settings are Cycles' own, and they
     share one COMPAT_ENGINES set). The names are the same in Blender 3.4 (BLENDER_EEVEE), 4.2 to
     4.5 (EEVEE Next, BLENDER_EEVEE_NEXT, whose panels kept the EEVEE_ / DATA_PT_EEVEE_ names)
     and 5.x (BLENDER_EEVEE again)."""
     want = {"DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
-            "MATERIAL_PT_preview",
             "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface",
             "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
             "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management"}

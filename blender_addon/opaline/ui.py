@@ -38,15 +38,21 @@ def draw_material_settings(layout, context, mat):
         col.label(text=REPLACES_NOTE, icon='SHADING_RENDERED')
     col.prop(s, "kind")
     if s.kind == 'PRESET':
-        row = col.row()
-        row.template_icon_view(s, "preset_enum", show_labels=True, scale=6.0, scale_popup=5.0)
-        sub = row.column(align=True)
-        sub.operator(OPALINE_OT_preset_search.bl_idname, text="", icon='VIEWZOOM')
-        sub.operator("opaline.presets_refresh", text="", icon='FILE_REFRESH')
         p = presets.find(s.preset, context) if s.preset else None
+        row = col.row()
+        if p is not None and presets.icon(p):
+            row.template_icon(icon_value=presets.icon(p), scale=5.0)
+        sub = row.column(align=True)
+        sub.context_pointer_set("material", mat)
+        sub.popover(OPALINE_PT_preset_chooser.bl_idname,
+                    text=p.label if p is not None else "Choose a preset", icon='MATERIAL')
+        r = sub.row(align=True)
+        r.operator(OPALINE_OT_preset_search.bl_idname, text="Search", icon='VIEWZOOM')
+        r.operator("opaline.presets_refresh", text="", icon='FILE_REFRESH')
         if p is not None:
             box = col.box()
             box.label(text="%s  (%s)" % (p.label, p.name))
+            box.label(text="Category: %s" % p.category, icon='ASSET_MANAGER')
             box.label(text=p.summary(), icon='INFO')
             size = p.size_cm
             if size is not None:
@@ -165,6 +171,102 @@ class OPALINE_PT_surface(bpy.types.Panel):
                 layout.label(text="No output node")
         else:
             layout.prop(mat, "diffuse_color", text="Base Color")
+
+
+class OPALINE_PT_preset_chooser(bpy.types.Panel):
+    """The preset chooser, a popover of the material panel: a filter, then the presets grouped
+    under their categories (the recipes' `category`), each with its thumbnail, name, method,
+    size and error. context.material is the material it sets (the caller's
+    context_pointer_set)."""
+    bl_label = "opaline presets"
+    bl_idname = "OPALINE_PT_preset_chooser"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'HEADER'   # a popover only: never drawn in the editor itself
+    bl_ui_units_x = 34
+    COLUMNS = 4
+
+    def draw(self, context):
+        layout = self.layout
+        mat = getattr(context, "material", None)
+        wm = context.window_manager
+        layout.prop(wm, "opaline_preset_filter", text="", icon='VIEWZOOM')
+        every = presets.current(context)
+        groups = presets.group(every, wm.opaline_preset_filter)
+        if not groups:
+            layout.label(text="No preset matches '%s'" % wm.opaline_preset_filter if every else
+                         "No presets found: build the repository or add a preset folder "
+                         "in the add-on preferences", icon='INFO')
+        chosen = mat.opaline.preset if mat is not None else ""
+        for category, members in groups:
+            box = layout.box()
+            box.label(text=category, icon='ASSET_MANAGER')
+            grid = box.grid_flow(row_major=True, columns=self.COLUMNS, even_columns=True,
+                                 even_rows=True, align=False)
+            for p in members:
+                cell = grid.column(align=True)
+                cell.template_icon(icon_value=presets.icon(p), scale=3.5)
+                op = cell.operator(OPALINE_OT_preset_choose.bl_idname,
+                                   text=presets.display_parts(p.name)[0],
+                                   depress=p.name == chosen)
+                op.preset = p.name
+                op.material = mat.name if mat is not None else ""
+                cell.label(text=p.brief())
+
+
+class OPALINE_OT_preset_choose(bpy.types.Operator):
+    """Use this preset for the material"""
+    bl_idname = "opaline.preset_choose"
+    bl_label = "Choose Preset"
+    bl_options = {'REGISTER', 'UNDO', 'INTERNAL'}
+    preset: StringProperty(name="Preset")
+    material: StringProperty(name="Material", description="The material to set (default: the "
+                                                          "context's)")
+
+    @classmethod
+    def description(cls, context, props):
+        p = presets.find(props.preset, context)
+        return "%s (%s): %s" % (p.name, p.category, p.summary()) if p else props.preset
+
+    def execute(self, context):
+        mat = bpy.data.materials.get(self.material) if self.material else \
+            getattr(context, "material", None)
+        if mat is None:
+            self.report({'ERROR'}, "opaline: no material to set the preset of")
+            return {'CANCELLED'}
+        mat.opaline.preset = self.preset
+        return {'FINISHED'}
+
+
+class OPALINE_PT_material_preview(bpy.types.Panel):
+    """The Material tab's Preview under opaline: the preset's (or material file's) albedo map,
+    which Material Preview lays on the object by its UVs. Blender's own Preview panel renders
+    with the scene's engine, which opaline does not do for previews."""
+    bl_label = "Preview"
+    bl_idname = "MATERIAL_PT_opaline_preview"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "material"
+    COMPAT_ENGINES = {'OPALINE'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+    def draw(self, context):
+        from . import preview
+        layout = self.layout
+        mat = context.material
+        path = preview.albedo_path(mat, context)
+        if path is None:
+            layout.label(text="opaline subsurface is off for this material" if not
+                         mat.opaline.enabled else "No albedo map to show (no preset chosen, "
+                         "or no NAME.png beside the material file)", icon='INFO')
+            return
+        layout.template_icon(icon_value=presets.image_icon(path), scale=7.0)
+        s = mat.opaline
+        what = s.preset if s.kind == 'PRESET' else os.path.basename(path)
+        layout.label(text="Albedo map of %s" % what, icon='IMAGE_DATA')
+        layout.label(text="Material Preview lays it on the object by its UVs")
 
 
 class OPALINE_OT_preset_search(bpy.types.Operator):
@@ -351,8 +453,9 @@ def menu_export(self, context):
     self.layout.operator(OPALINE_OT_export.bl_idname, text="opaline scene (.xml)")
 
 
-classes = (OPALINE_OT_preset_search, OPALINE_OT_uv_unwrap, OPALINE_PT_material,
-           OPALINE_PT_material_engine, OPALINE_PT_surface, OPALINE_PT_render,
+classes = (OPALINE_OT_preset_search, OPALINE_OT_preset_choose, OPALINE_OT_uv_unwrap,
+           OPALINE_PT_preset_chooser, OPALINE_PT_material, OPALINE_PT_material_engine,
+           OPALINE_PT_material_preview, OPALINE_PT_surface, OPALINE_PT_render,
            OPALINE_OT_export)
 
 
