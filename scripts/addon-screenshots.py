@@ -16,6 +16,7 @@ The add-on is taken from OPALINE_SOURCE_DIR/blender_addon; the renderer and the 
 OPALINE_BIN_DIR and OPALINE_PRESETS_DIR (set by the shell script).
 """
 
+import math
 import os
 import sys
 import time
@@ -103,7 +104,7 @@ class Shooter:
     def __init__(self, out):
         self.out = out
         self.problems = []
-        self.stats = []        # render status texts seen (render_stats handler)
+        self.stats = []        # render status texts seen
         self.done = False
         os.makedirs(out, exist_ok=True)
         self.steps = self.run()
@@ -146,6 +147,18 @@ class Shooter:
             crop_scale(path, box, width)
         print("addon-screenshots: saved %s" % path)
 
+    def info_lines(self, info):
+        """The reports the Info editor area `info` shows, one a line (copied through the
+        clipboard, as a user would)."""
+        w = self.window()
+        reg = [r for r in info.regions if r.type == 'WINDOW'][0]
+        with bpy.context.temp_override(window=w, screen=w.screen, area=info, region=reg):
+            bpy.ops.info.select_all(action='SELECT')
+            bpy.ops.info.report_copy()
+            bpy.ops.info.select_all(action='DESELECT')
+        text = bpy.context.window_manager.clipboard
+        return [ln.strip() for ln in text.splitlines() if ln.strip()]
+
     def wait_for(self, cond, timeout, step=0.2):
         t0 = time.monotonic()
         while not cond():
@@ -159,8 +172,7 @@ class Shooter:
     def run(self):
         enable_addon()
         import opaline.engine as E
-        bpy.context.preferences.view.render_display_type = 'NEW_WINDOW'
-        bpy.app.handlers.render_stats.append(lambda s, *a: self.stats.append(s))
+        bpy.context.preferences.view.render_display_type = 'WINDOW'
         w = self.window()
         yield 1.0
         # The viewport split: Material Preview on the left, the Material tab on the right.
@@ -171,15 +183,21 @@ class Shooter:
         left, right = sorted([a for a in w.screen.areas if a.type == 'VIEW_3D'],
                              key=lambda a: a.x)[:2]
         right.type = 'PROPERTIES'
+        yield 0.5   # its tabs exist once it has been drawn
         right.spaces[0].context = 'MATERIAL'
         sp = left.spaces[0]
         sp.shading.type = 'MATERIAL'
         sp.overlay.show_overlays = False
-        sp.region_3d.view_perspective = 'CAMERA'
+        r3d = sp.region_3d
+        r3d.view_perspective = 'PERSP'
+        r3d.view_location = (0.9, 0.3, 0.8)
+        r3d.view_distance = 5.5
+        from mathutils import Euler
+        r3d.view_rotation = Euler((math.radians(68), 0.0, math.radians(48))).to_quaternion()
         for a in w.screen.areas:
             if a.type == 'PROPERTIES' and a != right:
                 a.spaces[0].context = 'RENDER'
-        yield 6.0   # Material Preview compiles EEVEE's shaders (software GL: seconds)
+        yield 15.0   # Material Preview compiles EEVEE's shaders (software GL: seconds)
         top = max(a.y + a.height for a in (left, right))
         bottom = min(a.y for a in (left, right))
         self.shot("material", box=(left.x, bottom, right.x + right.width - left.x, top - bottom),
@@ -206,7 +224,9 @@ class Shooter:
         got = {"prepass": False, "tiles": False}
         t0 = time.monotonic()
         while bpy.app.is_job_running('RENDER') and time.monotonic() - t0 < 300:
-            last = self.stats[-1] if self.stats else ""
+            last = E.last_status[0]
+            if not self.stats or self.stats[-1] != last:
+                self.stats.append(last)
             rw = [x for x in bpy.context.window_manager.windows if x != w]
             if rw and not got["prepass"] and "Subsurface pre-pass: irradiance" in last:
                 yield 0.3
@@ -221,7 +241,7 @@ class Shooter:
         for k, v in got.items():
             if not v:
                 self.problems.append("no screenshot of the render's %s (status texts seen: %s)"
-                                     % (k, "; ".join(sorted(set(self.stats))[-6:])))
+                                     % (k, "; ".join(self.stats[-6:])))
         if bpy.app.is_job_running('RENDER'):
             self.problems.append("the F12 render did not end within 300 s")
         warned = [m for k, m in E.last_reports if k == 'WARNING']
@@ -238,19 +258,26 @@ class Shooter:
         failed = [m for k, m in E.last_reports if k == 'ERROR']
         yield 2.0   # the reports' timer runs every 0.5 s
 
-        # The Info editor: every report once.
+        # The Info editor: every report once. F12's operator moves its reports there when
+        # it sees the render has ended, on its next event: the mouse moves meanwhile.
         info = self.area('VIEW_3D') or left
         info.type = 'INFO'
         yield 0.5
-        reg = [r for r in info.regions if r.type == 'WINDOW'][0]
-        with bpy.context.temp_override(window=w, screen=w.screen, area=info, region=reg):
-            bpy.ops.info.select_all(action='SELECT')
-            bpy.ops.info.report_copy()
-            bpy.ops.info.select_all(action='DESELECT')
-        text = bpy.context.window_manager.clipboard
+        expected = [m.splitlines()[0] for m in warned + failed]
+        t0 = time.monotonic()
+        while True:
+            lines = self.info_lines(info)
+            if all(any(e in ln for ln in lines) for e in expected) or \
+                    time.monotonic() - t0 > 20:
+                break
+            w.cursor_warp(200 + int(20 * (time.monotonic() - t0)) % 400, 300)
+            yield 0.5
+        print("addon-screenshots: the Info editor had every report after %.1f s"
+              % (time.monotonic() - t0))
+        yield 2.0   # and nothing more arrives later
+        lines = self.info_lines(info)
         with open(os.path.join(self.out, "info.txt"), "w") as f:
-            f.write(text)
-        lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+            f.write("\n".join(lines) + "\n")
         if not warned:
             self.problems.append("the successful F12 gave no warning (expected the no-UV and "
                                  "the irradiance point cap warnings)")
@@ -258,10 +285,9 @@ class Shooter:
             self.problems.append("no 'capped at' warning from the renderer: %s" % warned)
         if len(failed) != 1:
             self.problems.append("the failing F12 gave %d errors: %s" % (len(failed), failed))
-        for m in warned + failed:
-            first = m.splitlines()[0]
-            n = sum(1 for ln in lines if ln.startswith(first) or first in ln)
-            print("addon-screenshots: Info editor holds %d x %s" % (n, first))
+        for first in expected:
+            n = sum(1 for ln in lines if first in ln)
+            print("addon-screenshots: the Info editor holds %d x %s" % (n, first))
             if n != 1:
                 self.problems.append("the Info editor holds %d copies of '%s'" % (n, first))
         yield 1.0

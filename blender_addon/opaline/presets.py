@@ -83,19 +83,17 @@ class Preset:
             return None
 
     def brief(self):
-        """The chooser's second line: method and parameters, size in MB, error
-        ("TUCKER T16 P4, 3.0 MB, 4.39 %")."""
-        parts = [display_parts(self.name)[1] or self.method.upper()]
+        """The chooser's two lines under the name: method and parameters; size in MB and error
+        ("TUCKER T16 P4", "3.0 MB, 4.39 %")."""
         n = self.file_bytes()
-        if n is not None:
-            parts.append(megabytes(n))
+        parts = [megabytes(n)] if n is not None else []
         if "relative_rmse" in self.report:
             parts.append("%.2f %%" % (100.0 * float(self.report["relative_rmse"])))
-        return ", ".join(parts)
+        return display_parts(self.name)[1] or self.method.upper(), ", ".join(parts)
 
-    def summary(self):
-        """One line for the panel and tool tips: method, terms, size in MB, error, the
-        sample's physical size."""
+    def summary_lines(self):
+        """Two lines for the panel: method, terms, size in MB; the error and the sample's
+        physical size."""
         r = self.report
         parts = [self.method.upper()]
         if "terms" in r:
@@ -106,13 +104,17 @@ class Preset:
         if "compression_ratio" in r:
             parts.append("%.0fx smaller" % float(r["compression_ratio"]))
         if "relative_rmse" in r:
-            parts.append("error %.2f %% (rel. RMSE)" % (100.0 * float(r["relative_rmse"])))
+            err = "error %.2f %% (rel. RMSE)" % (100.0 * float(r["relative_rmse"]))
         elif "rmse" in r:
-            parts.append("error %.3g (RMSE)" % float(r["rmse"]))
+            err = "error %.3g (RMSE)" % float(r["rmse"])
         else:
-            parts.append("error unknown (no report)")
-        parts.append(physical_size_text(self.size_cm))
-        return ", ".join(parts)
+            err = "error unknown (no report)"
+        return ", ".join(parts), "%s, %s" % (err, physical_size_text(self.size_cm))
+
+    def summary(self):
+        """One line for tool tips and the search: method, terms, size in MB, error, the
+        sample's physical size."""
+        return ", ".join(self.summary_lines())
 
 
 def megabytes(n):

@@ -53,7 +53,9 @@ def draw_material_settings(layout, context, mat):
             box = col.box()
             box.label(text="%s  (%s)" % (p.label, p.name))
             box.label(text="Category: %s" % p.category, icon='ASSET_MANAGER')
-            box.label(text=p.summary(), icon='INFO')
+            first, second = p.summary_lines()
+            box.label(text=first, icon='INFO')
+            box.label(text=second, icon='BLANK1')
             size = p.size_cm
             if size is not None:
                 box.label(text="Covers %.3g x %.3g cm of the surface at Physical scale %g" % (
@@ -210,7 +212,8 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
                                    depress=p.name == chosen)
                 op.preset = p.name
                 op.material = mat.name if mat is not None else ""
-                cell.label(text=p.brief())
+                for line in p.brief():
+                    cell.label(text=line)
 
 
 class OPALINE_OT_preset_choose(bpy.types.Operator):
