@@ -29,7 +29,7 @@ sys.path.insert(0, os.path.join(SRC, "blender_addon"))
 JADE = "TUCKER_T16_P4_Jade"
 WAX = "SVD_S10_LayeredWax"
 MISSING = "NoSuchPreset_ForTheErrorReport"
-POINT_CAP = 3000
+POINT_CAP = 50000   # the sphere needs ~87000 for one per material pixel: a warning
 
 
 def enable_addon():
@@ -47,6 +47,7 @@ def setup(path):
     sc.render.resolution_x, sc.render.resolution_y = 480, 320
     sc.render.resolution_percentage = 100
     sc.opaline.samples = 16
+    sc.opaline.irr_samples = 64   # a pre-pass long enough to be seen
     sc.opaline.max_sss_points = POINT_CAP
     sc.world = bpy.data.worlds.new("World")
     sc.world.color = (0.05, 0.05, 0.06)
@@ -56,33 +57,35 @@ def setup(path):
         m.use_nodes = True
         m.opaline.enabled = True
         m.opaline.preset = preset
-        m.opaline.scale = 3.0
+        m.opaline.scale = 1.0
         return m
 
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0,
-                                         location=(0.0, 0.0, 1.0))
+    # Objects of a few cm, as the material samples are (5 to 25 cm).
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=0.1,
+                                         location=(0.0, 0.0, 0.1))
     sphere = bpy.context.object
     sphere.name = "Jade sphere"
     bpy.ops.object.shade_smooth()
     sphere.data.materials.append(material("Jade", JADE))
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(2.0, 0.8, 0.5))
+    bpy.ops.mesh.primitive_cube_add(size=0.1, location=(0.2, 0.08, 0.05))
     cube = bpy.context.object
     cube.name = "Wax cube"
     while cube.data.uv_layers:
         cube.data.uv_layers.remove(cube.data.uv_layers[0])
     cube.data.materials.append(material("Wax", WAX))
-    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
     floor = bpy.context.object
     floor.name = "Floor"
     fm = bpy.data.materials.new("Floor")
     fm.diffuse_color = (0.5, 0.5, 0.5, 1.0)
     floor.data.materials.append(fm)
-    bpy.ops.object.light_add(type='AREA', location=(2.0, -2.0, 4.0))
+    bpy.ops.object.light_add(type='AREA', location=(0.2, -0.2, 0.4))
     light = bpy.context.object
-    light.data.energy = 600.0
-    light.data.size = 2.0
-    bpy.ops.object.camera_add(location=(5.2, -5.2, 3.4))
+    light.data.energy = 2.0
+    light.data.size = 0.2
+    bpy.ops.object.camera_add(location=(0.52, -0.52, 0.34))
     cam = bpy.context.object
+    cam.data.clip_start = 0.01
     track = cam.constraints.new('TRACK_TO')
     track.target = sphere
     track.track_axis = 'TRACK_NEGATIVE_Z'
@@ -172,7 +175,7 @@ class Shooter:
     def run(self):
         enable_addon()
         import opaline.engine as E
-        bpy.context.preferences.view.render_display_type = 'WINDOW'
+        bpy.context.preferences.view.render_display_type = 'SCREEN'
         w = self.window()
         yield 1.0
         # The viewport split: Material Preview on the left, the Material tab on the right.
@@ -190,8 +193,8 @@ class Shooter:
         sp.overlay.show_overlays = False
         r3d = sp.region_3d
         r3d.view_perspective = 'PERSP'
-        r3d.view_location = (0.9, 0.3, 0.8)
-        r3d.view_distance = 5.5
+        r3d.view_location = (0.09, 0.03, 0.08)
+        r3d.view_distance = 0.55
         from mathutils import Euler
         r3d.view_rotation = Euler((math.radians(68), 0.0, math.radians(48))).to_quaternion()
         for a in w.screen.areas:
@@ -223,21 +226,32 @@ class Shooter:
         yield 0.5
         got = {"prepass": False, "tiles": False}
         t0 = time.monotonic()
+        zoomed = False
         while bpy.app.is_job_running('RENDER') and time.monotonic() - t0 < 300:
             last = E.last_status[0]
             if not self.stats or self.stats[-1] != last:
                 self.stats.append(last)
-            rw = [x for x in bpy.context.window_manager.windows if x != w]
-            if rw and not got["prepass"] and "Subsurface pre-pass: irradiance" in last:
-                yield 0.3
-                self.shot("render-prepass", window=rw[0])
-                got["prepass"] = True
-            elif rw and not got["tiles"] and "Path tracing" in last and \
-                    " 0/" not in last and "tiles" in last:
-                yield 0.3
-                self.shot("render-tiles", window=rw[0])
+            image = self.area('IMAGE_EDITOR')
+            if image is not None and not zoomed:
+                reg = [r for r in image.regions if r.type == 'WINDOW'][0]
+                with bpy.context.temp_override(window=w, screen=w.screen, area=image,
+                                               region=reg):
+                    bpy.ops.image.view_zoom_ratio(ratio=2.0)
+                zoomed = True
+            # The pre-pass: at once, and again once a stage is a third done (when the
+            # machine is slow enough to see it).
+            pct = last.rsplit(" ", 2)[-2] if last.endswith(" %") else "0"
+            if "Subsurface pre-pass: " in last and (
+                    not got["prepass"] or (got["prepass"] == 1 and int(pct) >= 30)):
+                yield 0.2
+                self.shot("render-prepass", width=900)
+                got["prepass"] = 2 if int(pct) >= 30 else 1
+            elif not got["tiles"] and "Path tracing" in last and " 0/" not in last and \
+                    "tiles" in last and int(last.split("Path tracing ")[1].split()[0]) >= 60:
+                yield 0.2
+                self.shot("render-tiles", width=900)
                 got["tiles"] = True
-            yield 0.1
+            yield 0.05
         for k, v in got.items():
             if not v:
                 self.problems.append("no screenshot of the render's %s (status texts seen: %s)"
@@ -248,19 +262,22 @@ class Shooter:
         yield 1.5
 
         # A failing F12: a preset that does not exist.
-        rw = [x for x in bpy.context.window_manager.windows if x != w]
         bpy.data.materials["Wax"].opaline.preset = MISSING
-        win = rw[0] if rw else w
-        with bpy.context.temp_override(window=win, screen=win.screen, area=win.screen.areas[0]):
+        image = self.area('IMAGE_EDITOR')
+        with bpy.context.temp_override(window=w, screen=w.screen, area=image):
             bpy.ops.render.render('INVOKE_DEFAULT')
         yield 0.5
         yield from self.wait_for(lambda: not bpy.app.is_job_running('RENDER'), 60)
+        yield 1.0
+        image = self.area('IMAGE_EDITOR')
+        with bpy.context.temp_override(window=w, screen=w.screen, area=image):
+            bpy.ops.render.view_cancel()   # back to the layout (Esc)
+        yield 1.0
         failed = [m for k, m in E.last_reports if k == 'ERROR']
-        yield 2.0   # the reports' timer runs every 0.5 s
 
         # The Info editor: every report once. F12's operator moves its reports there when
         # it sees the render has ended, on its next event: the mouse moves meanwhile.
-        info = self.area('VIEW_3D') or left
+        info = self.area('VIEW_3D')
         info.type = 'INFO'
         yield 0.5
         expected = [m.splitlines()[0] for m in warned + failed]

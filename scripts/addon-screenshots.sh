@@ -31,9 +31,12 @@ driver=$ROOT/scripts/addon-screenshots.py
 
 blender --background --factory-startup --python-exit-code 1 --python "$driver" -- setup "$T/scene.blend" \
   > "$T/setup.log" 2>&1 || { cat "$T/setup.log" >&2; echo "addon-screenshots: the scene could not be made" >&2; exit 1; }
+# The add-on enabled before the file loads (its engine is the scene's), from this checkout.
+mkdir -p "$T/scripts/addons"
+ln -s "$ROOT/blender_addon/opaline" "$T/scripts/addons/opaline"
 # -a: a free display number; the window fills the 1280 x 800 screen.
-timeout 600 xvfb-run -a -s "-screen 0 1280x800x24" \
-  blender --factory-startup "$T/scene.blend" --python "$driver" -- shoot "$T/shots" \
+BLENDER_USER_SCRIPTS=$T/scripts timeout 600 xvfb-run -a -s "-screen 0 1280x800x24" \
+  blender --factory-startup --addons opaline "$T/scene.blend" --python "$driver" -- shoot "$T/shots" \
   > "$T/shoot.log" 2>&1 || true
 grep -E "^addon-screenshots:|Error|Traceback" "$T/shoot.log" || true
 if [ ! -f "$T/shots/result.txt" ]; then

@@ -12,6 +12,7 @@ from .errors import OpalineError
 
 
 REPLACES_NOTE = "Replaces the Surface shader for opaline renders"
+CHOOSER_COLUMNS = 4   # presets per row in the chooser (the four chessboards fill one)
 
 
 def objects_without_uvs(mat, objects):
@@ -185,7 +186,6 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'HEADER'   # a popover only: never drawn in the editor itself
     bl_ui_units_x = 34
-    COLUMNS = 4
 
     def draw(self, context):
         layout = self.layout
@@ -202,7 +202,7 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
         for category, members in groups:
             box = layout.box()
             box.label(text=category, icon='ASSET_MANAGER')
-            grid = box.grid_flow(row_major=True, columns=self.COLUMNS, even_columns=True,
+            grid = box.grid_flow(row_major=True, columns=CHOOSER_COLUMNS, even_columns=True,
                                  even_rows=True, align=False)
             for p in members:
                 cell = grid.column(align=True)
