@@ -1,7 +1,7 @@
 # The install layout and the Blender add-on packages.
 #
 # `cmake --install BUILD --prefix P` writes
-#   P/bin/opaline-render, P/bin/opaline-factor                       (renderer/, factorize/)
+#   P/bin/opaline-render, P/bin/opaline-factor                       (renderer/cli/, factorize/cli/)
 #   P/share/opaline/presets/NAME.opm, NAME.png, NAME.json, NAME.recipe (presets/)
 #   P/share/opaline/blender_addon/opaline/                            the add-on's source folder
 #   P/share/opaline/blender_addon/opaline-blender-addon.zip           Blender 3.4 to 4.1
