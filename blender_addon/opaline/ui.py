@@ -179,8 +179,9 @@ class OPALINE_PT_surface(bpy.types.Panel):
 class OPALINE_PT_preset_chooser(bpy.types.Panel):
     """The preset chooser, a popover of the material panel: a filter, then the presets grouped
     under their categories (the recipes' `category`), each with its thumbnail, name, method,
-    size and error. context.material is the material it sets (the caller's
-    context_pointer_set)."""
+    size and error, and a button setting the material's preset_enum (highlighted when chosen;
+    its tool tip is the enum item's summary). context.material is the material it sets (the
+    caller's context_pointer_set)."""
     bl_label = "opaline presets"
     bl_idname = "OPALINE_PT_preset_chooser"
     bl_space_type = 'PROPERTIES'
@@ -198,7 +199,6 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
             layout.label(text="No preset matches '%s'" % wm.opaline_preset_filter if every else
                          "No presets found: build the repository or add a preset folder "
                          "in the add-on preferences", icon='INFO')
-        chosen = mat.opaline.preset if mat is not None else ""
         for category, members in groups:
             box = layout.box()
             box.label(text=category, icon='ASSET_MANAGER')
@@ -207,37 +207,13 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
             for p in members:
                 cell = grid.column(align=True)
                 cell.template_icon(icon_value=presets.icon(p), scale=3.5)
-                op = cell.operator(OPALINE_OT_preset_choose.bl_idname,
-                                   text=presets.display_parts(p.name)[0],
-                                   depress=p.name == chosen)
-                op.preset = p.name
-                op.material = mat.name if mat is not None else ""
+                name = presets.display_parts(p.name)[0]
+                if mat is not None:
+                    cell.prop_enum(mat.opaline, "preset_enum", p.name, text=name)
+                else:
+                    cell.label(text=name)
                 for line in p.brief():
                     cell.label(text=line)
-
-
-class OPALINE_OT_preset_choose(bpy.types.Operator):
-    """Use this preset for the material"""
-    bl_idname = "opaline.preset_choose"
-    bl_label = "Choose Preset"
-    bl_options = {'REGISTER', 'UNDO', 'INTERNAL'}
-    preset: StringProperty(name="Preset")
-    material: StringProperty(name="Material", description="The material to set (default: the "
-                                                          "context's)")
-
-    @classmethod
-    def description(cls, context, props):
-        p = presets.find(props.preset, context)
-        return "%s (%s): %s" % (p.name, p.category, p.summary()) if p else props.preset
-
-    def execute(self, context):
-        mat = bpy.data.materials.get(self.material) if self.material else \
-            getattr(context, "material", None)
-        if mat is None:
-            self.report({'ERROR'}, "opaline: no material to set the preset of")
-            return {'CANCELLED'}
-        mat.opaline.preset = self.preset
-        return {'FINISHED'}
 
 
 class OPALINE_PT_material_preview(bpy.types.Panel):
@@ -456,7 +432,7 @@ def menu_export(self, context):
     self.layout.operator(OPALINE_OT_export.bl_idname, text="opaline scene (.xml)")
 
 
-classes = (OPALINE_OT_preset_search, OPALINE_OT_preset_choose, OPALINE_OT_uv_unwrap,
+classes = (OPALINE_OT_preset_search, OPALINE_OT_uv_unwrap,
            OPALINE_PT_preset_chooser, OPALINE_PT_material, OPALINE_PT_material_engine,
            OPALINE_PT_material_preview, OPALINE_PT_surface, OPALINE_PT_render,
            OPALINE_OT_export)

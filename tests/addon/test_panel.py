@@ -450,20 +450,14 @@ class TestPresetCategories(Base):
         mat.opaline.enabled = True
         wm = bpy.context.window_manager
         wm.opaline_preset_filter = "chessboard"   # only the test's presets
-        drawn = {"icons": [], "chosen": []}
+        drawn = {"icons": [], "buttons": []}
 
         class Layout(Rec):
             def template_icon(self, icon_value=0, **kw):
                 drawn["icons"].append(icon_value)
 
-            def operator(self, idname, **kw):
-                self.log["ops"].append((idname, kw.get("text"), kw.get("depress")))
-
-                class Props:
-                    pass
-                p = Props()
-                drawn["chosen"].append(p)
-                return p
+            def prop_enum(self, data, prop, value, text="", **kw):
+                drawn["buttons"].append((data.id_data.name, prop, value, text))
 
         class Self:
             layout = Layout()
@@ -473,9 +467,12 @@ class TestPresetCategories(Base):
         self.assertIn("opaline_preset_filter", log["props"])
         for c in ("A first group", "Reference (Kurt et al. plugin)", P.OTHER):
             self.assertIn(c, log["labels"])
-        self.assertEqual([(o[1], o[2]) for o in log["ops"]],
-                         [("Chessboard4x4", True), ("Chessboard4x4", False),
-                          ("Chessboard4x4", False)])
+        # Each button sets this material's preset_enum to its preset (Blender highlights the
+        # chosen one): the groups' order, the material's name as the text.
+        self.assertEqual(drawn["buttons"],
+                         [("m", "preset_enum", "SVD_S20_Chessboard4x4", "Chessboard4x4"),
+                          ("m", "preset_enum", "TUCKER_T15_P7_Chessboard4x4", "Chessboard4x4"),
+                          ("m", "preset_enum", "SVD_S10_Chessboard4x4", "Chessboard4x4")])
         self.assertIn("TUCKER T15 P7", log["labels"])
         self.assertIn("11.5 MB, 1.85 %", log["labels"])
         # A thumbnail each (icon ids are 0 in the background: the thumbnails are loaded).
@@ -483,11 +480,7 @@ class TestPresetCategories(Base):
         self.assertEqual(sorted(os.path.basename(k) for k in P._PREVIEWS.keys()
                                 if k.startswith(folder)),
                          ["SVD_S10_Chessboard4x4.png", "TUCKER_T15_P7_Chessboard4x4.png"])
-        # Its buttons set the preset of the material they were drawn for.
-        op = drawn["chosen"][1]
-        self.assertEqual((op.preset, op.material), ("TUCKER_T15_P7_Chessboard4x4", "m"))
-        self.assertEqual(bpy.ops.opaline.preset_choose(preset=op.preset, material=op.material),
-                         {'FINISHED'})
+        mat.opaline.preset_enum = "TUCKER_T15_P7_Chessboard4x4"
         self.assertEqual(mat.opaline.preset, "TUCKER_T15_P7_Chessboard4x4")
         # Nothing matches: it says so.
         wm.opaline_preset_filter = "no such words"
