@@ -141,12 +141,9 @@ class OPALINE_PT_material_engine(bpy.types.Panel):
         draw_material_settings(box, context, mat)
 
 
-class OPALINE_PT_surface(bpy.types.Panel):
-    """The material's Surface under opaline: the nodes of its Cycles output (the one opaline's
-    exporter reads), not the EEVEE output the preview nodes add; says when opaline subsurface
-    replaces it."""
-    bl_label = "Surface"
-    bl_idname = "MATERIAL_PT_opaline_surface"
+class MaterialPanel:
+    """Where the add-on's own Material tab panels under the opaline engine show: with a
+    material."""
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'WINDOW'
     bl_context = "material"
@@ -155,6 +152,14 @@ class OPALINE_PT_surface(bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+
+class OPALINE_PT_surface(MaterialPanel, bpy.types.Panel):
+    """The material's Surface under opaline: the nodes of its Cycles output (the one opaline's
+    exporter reads), not the EEVEE output the preview nodes add; says when opaline subsurface
+    replaces it."""
+    bl_label = "Surface"
+    bl_idname = "MATERIAL_PT_opaline_surface"
 
     def draw(self, context):
         layout = self.layout
@@ -216,20 +221,12 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
                     cell.label(text=line)
 
 
-class OPALINE_PT_material_preview(bpy.types.Panel):
+class OPALINE_PT_material_preview(MaterialPanel, bpy.types.Panel):
     """The Material tab's Preview under opaline: the preset's (or material file's) albedo map,
     which Material Preview lays on the object by its UVs. Blender's own Preview panel renders
     with the scene's engine, which opaline does not do for previews."""
     bl_label = "Preview"
     bl_idname = "MATERIAL_PT_opaline_preview"
-    bl_space_type = 'PROPERTIES'
-    bl_region_type = 'WINDOW'
-    bl_context = "material"
-    COMPAT_ENGINES = {'OPALINE'}
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES and context.material is not None
 
     def draw(self, context):
         from . import preview
