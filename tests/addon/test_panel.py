@@ -509,8 +509,8 @@ class TestPreviewPanel(Base):
         self.assertFalse(panel.poll(ctx))
         ctx.engine = 'OPALINE'
         # One Preview panel under opaline: Blender's renders nothing without an engine preview.
-        self.assertNotIn('OPALINE', getattr(bpy.types.MATERIAL_PT_preview, "COMPAT_ENGINES",
-                                            set()))
+        blender_preview = getattr(bpy.types, "MATERIAL_PT_preview", None)
+        self.assertNotIn('OPALINE', getattr(blender_preview, "COMPAT_ENGINES", None) or set())
         drawn = []
 
         class Layout(Rec):
