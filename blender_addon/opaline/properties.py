@@ -115,8 +115,13 @@ classes = (OPALINE_PG_material, OPALINE_PG_scene)
 def register_props():
     bpy.types.Material.opaline = PointerProperty(type=OPALINE_PG_material)
     bpy.types.Scene.opaline = PointerProperty(type=OPALINE_PG_scene)
+    bpy.types.WindowManager.opaline_preset_filter = StringProperty(
+        name="Filter", options={'TEXTEDIT_UPDATE'},
+        description="Show the presets whose category, name, method, size or error contain "
+                    "these words")
 
 
 def unregister_props():
     del bpy.types.Material.opaline
     del bpy.types.Scene.opaline
+    del bpy.types.WindowManager.opaline_preset_filter
