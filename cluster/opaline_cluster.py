@@ -689,7 +689,8 @@ def main(argv):
     s.add_argument("--partition")
     s.add_argument("--account")
     s.add_argument("--sbatch-arg", action="append", help="more sbatch arguments (repeatable)")
-    s.add_argument("--sbatch", default="sbatch", help="the sbatch program")
+    s.add_argument("--sbatch", default=os.environ.get("OPALINE_SBATCH", "sbatch"),
+                   help="the sbatch program (default: $OPALINE_SBATCH, else sbatch)")
     s.add_argument("--max-array", type=int, default=1000, help="most tasks in one job array")
     s.add_argument("--renderer", help="opaline-render on the nodes (default: beside this "
                    "program, else on PATH)")
