@@ -1,7 +1,7 @@
 # The install layout and the Blender add-on packages.
 #
 # `cmake --install BUILD --prefix P` writes
-#   P/bin/opaline-render, P/bin/opaline-factor                       (renderer/, factorize/)
+#   P/bin/opaline-render, P/bin/opaline-factor                       (renderer/cli/, factorize/cli/)
 #   P/bin/opaline-cluster                                            (cluster/, SLURM front end)
 #   P/share/opaline/presets/NAME.opm, NAME.png, NAME.json             (presets/)
 #   P/share/opaline/blender_addon/opaline/                            the add-on's source folder

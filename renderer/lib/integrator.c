@@ -102,6 +102,49 @@ static int mask_passes(const op_bsdf *mask, op_path_sampler *ps)
     return op_path_random(ps) >= p;
 }
 
+/* A ray walked through masked surfaces: the segment org + t dir, t in (tmin, tmax); dist is the
+ * length walked before org, passes the masked surfaces passed so far. */
+typedef struct ray_walk {
+    op_v3 org, dir;
+    float tmin, tmax, dist;
+    int passes;
+} ray_walk;
+
+static ray_walk walk_start(op_v3 org, op_v3 dir, float tmin, float tmax)
+{
+    return (ray_walk){org, dir, tmin, tmax, 0.0f, 0};
+}
+
+static int walk_intersect(const op_scene *s, const ray_walk *w, op_ray_hit *hit)
+{
+    return op_accel_intersect(s->accel, w->org, w->dir, w->tmin, w->tmax, hit);
+}
+
+/* Moves the walk past the surface it hit at p (geometric normal ng) at distance t, in the same
+ * direction. Returns 0, the walk over, once more than OP_MAX_PASSES surfaces were passed. */
+static int walk_past(ray_walk *w, op_v3 p, op_v3 ng, float t)
+{
+    if (++w->passes > OP_MAX_PASSES)
+        return 0;
+    w->dist += t;
+    w->org = op_offset_origin(p, ng, w->dir);
+    w->tmin = 0.0f;
+    if (!isinf(w->tmax))
+        w->tmax -= t;
+    return 1;
+}
+
+/* The radiance area emitter e of shape sh emits from the front (winding) side of triangle prim
+ * towards wo; *nw gets the triangle's unnormalized winding normal. */
+static op_v3 area_emission(const op_shape_rec *sh, const op_emitter *e, int prim, op_v3 wo,
+                           op_v3 *nw)
+{
+    op_v3 a, b, c;
+    op_trimesh_tri(&sh->mesh, prim, &a, &b, &c);
+    *nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
+    return op_emitter_area_le(e, *nw, wo);
+}
+
 /* Transmittance of the segment org + t dir, t in (0, tmax): 0 when an opaque surface lies on
  * it, else the product of 1 - opacity over the masked surfaces it crosses (exact, no sampling).
  */
@@ -111,9 +154,10 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
         return op_accel_occluded(s->accel, org, dir, 0.0f, tmax) ? v3s(0.0f) : v3s(1.0f);
     op_v3 T = v3s(1.0f);
     op_v3 end = v3_add(org, v3_scale(dir, isinf(tmax) ? 0.0f : tmax));
-    for (int k = 0; k < OP_MAX_PASSES; k++) {
+    ray_walk w = walk_start(org, dir, 0.0f, tmax);
+    for (;;) {
         op_ray_hit hit;
-        if (!op_accel_intersect(s->accel, org, dir, 0.0f, tmax, &hit))
+        if (!walk_intersect(s, &w, &hit))
             return T;
         const op_bsdf *mask = shape_mask(s, hit.shape);
         if (!mask)
@@ -121,15 +165,16 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
         T = v3_mul(T, op_bsdf_transmittance(mask));
         if (v3_is_black(T))
             return T;
-        op_v3 p = v3_add(org, v3_scale(dir, hit.t));
-        org = op_offset_origin(p, v3_norm(hit.ng), dir);
+        op_v3 p = v3_add(w.org, v3_scale(dir, hit.t));
+        if (!walk_past(&w, p, v3_norm(hit.ng), hit.t))
+            return v3s(0.0f);
         if (!isinf(tmax)) {
-            tmax = v3_dot(v3_sub(end, org), dir);
-            if (tmax <= 0.0f)
+            /* measured from the fixed end, so offsets do not accumulate */
+            w.tmax = v3_dot(v3_sub(end, w.org), dir);
+            if (w.tmax <= 0.0f)
                 return T;
         }
     }
-    return v3s(0.0f);
 }
 
 /* How many of op_bsdf_sample_dir's u1, u2, u3 a path should draw for bsdf: the lobe choice u3
@@ -191,6 +236,29 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
     return n_light == 1 ? sum : v3_scale(sum, 1.0f / (float)n_light);
 }
 
+/* What a path meets at it, coming from direction wi_world (pointing away from the surface): a
+ * translucent shape with cached exitance ends the path, returning NULL with *m its exitance M
+ * on the lit side (black seen from behind), of which M / pi leaves towards wi_world (the
+ * measured Rd already holds the boundary); any other surface returns the BSDF to shade with, a
+ * translucent shape without exitance there being the diffuse stand-in of its mean albedo (built
+ * in *proxy). */
+static const op_bsdf *surface_at(const op_trace_ctx *ctx, const op_isect *it, op_v3 wi_world,
+                                 op_bsdf *proxy, op_v3 *m)
+{
+    const op_scene *s = ctx->scene;
+    const op_shape_rec *sh = &s->shapes[it->shape];
+    if (sh->sss < 0)
+        return op_bsdf_at(&s->bsdfs[sh->bsdf], it->u, it->v, proxy);
+    if (ctx->sss && op_sss_lookup(ctx->sss, sh->sss, it->p, it->ns, m)) {
+        if (v3_dot(wi_world, it->ng) <= 0.0f)
+            *m = v3s(0.0f);
+        return NULL;
+    }
+    op_bsdf_default(proxy);
+    proxy->reflectance = s->sss[sh->sss].albedo_mean;
+    return proxy;
+}
+
 /* The path-tracing loop. With start != NULL the path begins at that surface with bsdf
  * start_bsdf seen from direction wi (world, pointing away from the surface). A ray that passes
  * through a masked surface goes on in the same direction without counting a bounce; dist_acc
@@ -204,8 +272,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
     int max_depth = ig->type == OP_INT_DIRECT ? 2 : ig->max_depth;
     op_v3 L = v3s(0.0f), beta = v3s(1.0f);
     float prev_pdf = 0.0f;
-    int prev_delta = 1, depth = 0, at_start = start != NULL, passes = 0;
-    float dist_acc = 0.0f;
+    int prev_delta = 1, depth = 0, at_start = start != NULL;
+    ray_walk w = walk_start(org, dir, tmin, tmax);
     if (alpha)
         *alpha = 0.0f;
     op_isect it;
@@ -220,44 +288,36 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             wi_world = it.ns;
         } else {
             op_ray_hit hit;
-            if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit)) {
+            op_v3 d = w.dir;
+            if (!walk_intersect(s, &w, &hit)) {
                 if (s->env >= 0 && !(depth == 0 && ig->hide_emitters && !start)) {
                     const op_emitter *e = &s->emitters[s->env];
-                    op_v3 le = op_emitter_env_le(e, dir);
-                    float w = 1.0f;
+                    op_v3 le = op_emitter_env_le(e, d);
+                    float mis = 1.0f;
                     if (!prev_delta && !env_bsdf_only(e, 1))
-                        w = op_mis(prev_pdf, op_emitter_env_pdf(e, dir));
-                    L = v3_add(L, v3_scale(v3_mul(beta, le), w));
+                        mis = op_mis(prev_pdf, op_emitter_env_pdf(e, d));
+                    L = v3_add(L, v3_scale(v3_mul(beta, le), mis));
                 }
                 break;
             }
-            op_isect_from_hit(s, &hit, org, dir, &it);
-            wi_world = v3_neg(dir);
+            op_isect_from_hit(s, &hit, w.org, d, &it);
+            wi_world = v3_neg(d);
             const op_shape_rec *sh = &s->shapes[it.shape];
             const op_emitter *e = sh->emitter >= 0 ? &s->emitters[sh->emitter] : NULL;
             if (e && !(depth == 0 && !start && (ig->hide_emitters || e->camera_hidden))) {
-                /* emission leaves the front (winding) side */
-                op_v3 a, b, c;
-                op_trimesh_tri(&sh->mesh, it.prim, &a, &b, &c);
-                op_v3 nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
-                op_v3 le = op_emitter_area_le(e, nw, wi_world);
+                op_v3 nw, le = area_emission(sh, e, it.prim, wi_world, &nw);
                 if (!v3_is_black(le)) {
-                    float w = 1.0f;
+                    float mis = 1.0f;
                     if (!prev_delta)
-                        w = op_mis(prev_pdf, op_emitter_area_pdf(e, nw, dir, dist_acc + hit.t));
-                    L = v3_add(L, v3_scale(v3_mul(beta, le), w));
+                        mis = op_mis(prev_pdf, op_emitter_area_pdf(e, nw, d, w.dist + hit.t));
+                    L = v3_add(L, v3_scale(v3_mul(beta, le), mis));
                 }
             }
             const op_bsdf *mask = shape_mask(s, it.shape);
             if (mask && mask_passes(mask, ps)) {
                 beta = v3_mul(beta, op_bsdf_pass_weight(mask));
-                if (v3_is_black(beta) || ++passes > OP_MAX_PASSES)
+                if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
                     break;
-                dist_acc += hit.t;
-                org = op_offset_origin(it.p, it.ng, dir);
-                tmin = 0.0f;
-                if (!isinf(tmax))
-                    tmax -= hit.t;
                 continue;
             }
             if (mask)
@@ -266,19 +326,10 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                 *alpha = 1.0f;
             if (max_depth >= 0 && depth + 2 > max_depth)
                 break;
-            if (sh->sss >= 0) {
-                op_v3 m;
-                if (ctx->sss && op_sss_lookup(ctx->sss, sh->sss, it.p, it.ns, &m)) {
-                    /* the measured Rd already holds the boundary: L_o = M / pi */
-                    if (v3_dot(wi_world, it.ng) > 0.0f)
-                        L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
-                    break;
-                }
-                op_bsdf_default(&proxy);
-                proxy.reflectance = s->sss[sh->sss].albedo_mean;
-                bsdf = &proxy;
-            } else {
-                bsdf = op_bsdf_at(&s->bsdfs[sh->bsdf], it.u, it.v, &proxy);
+            op_v3 m;
+            if (!(bsdf = surface_at(ctx, &it, wi_world, &proxy, &m))) {
+                L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
+                break;
             }
         }
         op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
@@ -297,8 +348,6 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             break;
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
-        dist_acc = 0.0f;
-        passes = 0;
         depth++;
         if (depth >= ig->rr_depth) {
             float q = fminf(v3_max(beta), 0.95f);
@@ -308,10 +357,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                 break;
             beta = v3_scale(beta, 1.0f / q);
         }
-        org = op_offset_origin(it.p, it.ng, wo);
-        dir = wo;
-        tmin = 0.0f;
-        tmax = INFINITY;
+        w = walk_start(op_offset_origin(it.p, it.ng, wo), wo, 0.0f, INFINITY);
     }
     return L;
 }
@@ -324,34 +370,30 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
                                   int delta, int n_light, int n_bsdf, op_path_sampler *ps)
 {
     op_v3 L = v3s(0.0f), T = v3s(1.0f);
-    op_v3 org = op_offset_origin(it->p, it->ng, dir);
-    float dist = 0.0f;
-    for (int k = 0; k <= OP_MAX_PASSES; k++) {
+    ray_walk w = walk_start(op_offset_origin(it->p, it->ng, dir), dir, 0.0f, INFINITY);
+    for (;;) {
         op_ray_hit hit;
-        if (!op_accel_intersect(s->accel, org, dir, 0.0f, INFINITY, &hit)) {
+        if (!walk_intersect(s, &w, &hit)) {
             if (s->env >= 0) {
                 const op_emitter *e = &s->emitters[s->env];
-                float w = delta || env_bsdf_only(e, n_bsdf)
-                              ? 1.0f
-                              : op_mis((float)n_bsdf * pdf,
-                                       (float)n_light * op_emitter_env_pdf(e, dir));
-                L = v3_add(L, v3_scale(v3_mul(T, op_emitter_env_le(e, dir)), w));
+                float mis = delta || env_bsdf_only(e, n_bsdf)
+                                ? 1.0f
+                                : op_mis((float)n_bsdf * pdf,
+                                         (float)n_light * op_emitter_env_pdf(e, dir));
+                L = v3_add(L, v3_scale(v3_mul(T, op_emitter_env_le(e, dir)), mis));
             }
             return L;
         }
         const op_shape_rec *sh = &s->shapes[hit.shape];
-        op_v3 p = v3_add(org, v3_scale(dir, hit.t));
         if (sh->emitter >= 0) {
             const op_emitter *e = &s->emitters[sh->emitter];
-            op_v3 a, b, c;
-            op_trimesh_tri(&sh->mesh, hit.prim, &a, &b, &c);
-            op_v3 nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
-            op_v3 le = op_emitter_area_le(e, nw, v3_neg(dir));
+            op_v3 nw, le = area_emission(sh, e, hit.prim, v3_neg(dir), &nw);
             if (!v3_is_black(le)) {
-                float w = delta ? 1.0f : op_mis((float)n_bsdf * pdf,
-                                                (float)n_light *
-                                                    op_emitter_area_pdf(e, nw, dir, dist + hit.t));
-                L = v3_add(L, v3_scale(v3_mul(T, le), w));
+                float mis = delta ? 1.0f
+                                  : op_mis((float)n_bsdf * pdf,
+                                           (float)n_light *
+                                               op_emitter_area_pdf(e, nw, dir, w.dist + hit.t));
+                L = v3_add(L, v3_scale(v3_mul(T, le), mis));
             }
         }
         const op_bsdf *mask = shape_mask(s, hit.shape);
@@ -360,10 +402,10 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
         T = v3_mul(T, op_bsdf_pass_weight(mask));
         if (v3_is_black(T))
             return L;
-        dist += hit.t;
-        org = op_offset_origin(p, v3_norm(hit.ng), dir);
+        op_v3 p = v3_add(w.org, v3_scale(dir, hit.t));
+        if (!walk_past(&w, p, v3_norm(hit.ng), hit.t))
+            return L;
     }
-    return L;
 }
 
 /* Mitsuba's `direct` integrator: emission seen along the camera ray (through masked surfaces),
@@ -378,33 +420,26 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
     op_v3 L = v3s(0.0f), beta = v3s(1.0f);
     op_isect it;
     *alpha = 0.0f;
-    for (int passes = 0;; passes++) {
+    ray_walk w = walk_start(org, dir, tmin, tmax);
+    for (;;) {
         op_ray_hit hit;
-        if (passes > OP_MAX_PASSES)
-            return L;
-        if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit)) {
+        if (!walk_intersect(s, &w, &hit)) {
             if (s->env >= 0 && !ig->hide_emitters)
                 L = v3_add(L, v3_mul(beta, op_emitter_env_le(&s->emitters[s->env], dir)));
             return L;
         }
-        op_isect_from_hit(s, &hit, org, dir, &it);
+        op_isect_from_hit(s, &hit, w.org, dir, &it);
         const op_shape_rec *sh = &s->shapes[it.shape];
         if (sh->emitter >= 0 && !ig->hide_emitters && !s->emitters[sh->emitter].camera_hidden) {
-            op_v3 a, b, c;
-            op_trimesh_tri(&sh->mesh, it.prim, &a, &b, &c);
-            op_v3 nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
-            op_v3 le = op_emitter_area_le(&s->emitters[sh->emitter], nw, v3_neg(dir));
-            L = v3_add(L, v3_mul(beta, le));
+            op_v3 nw;
+            L = v3_add(L, v3_mul(beta, area_emission(sh, &s->emitters[sh->emitter], it.prim,
+                                                     v3_neg(dir), &nw)));
         }
         const op_bsdf *mask = shape_mask(s, it.shape);
         if (mask && mask_passes(mask, ps)) {
             beta = v3_mul(beta, op_bsdf_pass_weight(mask));
-            if (v3_is_black(beta))
+            if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
                 return L;
-            org = op_offset_origin(it.p, it.ng, dir);
-            tmin = 0.0f;
-            if (!isinf(tmax))
-                tmax -= hit.t;
             continue;
         }
         if (mask)
@@ -412,22 +447,11 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
         break;
     }
     *alpha = 1.0f;
-    const op_shape_rec *sh = &s->shapes[it.shape];
-    const op_bsdf *bsdf;
     op_bsdf proxy;
-    if (sh->sss >= 0) {
-        op_v3 m;
-        if (ctx->sss && op_sss_lookup(ctx->sss, sh->sss, it.p, it.ns, &m)) {
-            if (v3_dot(v3_neg(dir), it.ng) > 0.0f)
-                L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
-            return L;
-        }
-        op_bsdf_default(&proxy);
-        proxy.reflectance = s->sss[sh->sss].albedo_mean;
-        bsdf = &proxy;
-    } else {
-        bsdf = op_bsdf_at(&s->bsdfs[sh->bsdf], it.u, it.v, &proxy);
-    }
+    op_v3 m;
+    const op_bsdf *bsdf = surface_at(ctx, &it, v3_neg(dir), &proxy, &m);
+    if (!bsdf)
+        return v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
     int nl = ig->emitter_samples, nb = ig->bsdf_samples;
     op_v3 wi_l = op_frame_to_local(&it.frame, v3_neg(dir));
     if (nl > 0 && !op_bsdf_is_smooth_only(bsdf))
@@ -460,17 +484,16 @@ static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmi
     op_ray_hit hit;
     op_isect it;
     *alpha = 0.0f;
-    for (int k = 0;; k++) {
-        if (k > OP_MAX_PASSES || !op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit))
+    ray_walk w = walk_start(org, dir, tmin, tmax);
+    for (;;) {
+        if (!walk_intersect(s, &w, &hit))
             return v3s(0.0f);
-        op_isect_from_hit(s, &hit, org, dir, &it);
+        op_isect_from_hit(s, &hit, w.org, dir, &it);
         const op_bsdf *mask = shape_mask(s, it.shape);
         if (!mask || !mask_passes(mask, ps))
             break;
-        org = op_offset_origin(it.p, it.ng, dir);
-        tmin = 0.0f;
-        if (!isinf(tmax))
-            tmax -= hit.t;
+        if (!walk_past(&w, it.p, it.ng, hit.t))
+            return v3s(0.0f);
     }
     *alpha = 1.0f;
     const op_shape_rec *sh = &s->shapes[it.shape];
@@ -503,35 +526,31 @@ int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float
     const op_integrator *ig = &s->integrator;
     int max_depth = ig->type == OP_INT_DIRECT ? 2 : ig->max_depth;
     float len = 0.0f;
-    int passes = 0;
+    ray_walk w = walk_start(org, dir, tmin, tmax);
     for (int depth = 0;;) {
         op_ray_hit hit;
-        if (!op_accel_intersect(s->accel, org, dir, tmin, tmax, &hit))
+        if (!walk_intersect(s, &w, &hit))
             return 0;
-        op_isect_from_hit(s, &hit, org, dir, it);
+        op_isect_from_hit(s, &hit, w.org, w.dir, it);
         len += hit.t;
         const op_shape_rec *sh = &s->shapes[it->shape];
         const op_bsdf *mask = shape_mask(s, it->shape);
         if (mask && op_bsdf_opacity_prob(mask) < 1.0f) {
-            if (++passes > OP_MAX_PASSES)
+            if (!walk_past(&w, it->p, it->ng, hit.t))
                 return 0;
-            org = op_offset_origin(it->p, it->ng, dir);
-            tmin = 0.0f;
-            if (!isinf(tmax))
-                tmax -= hit.t;
             continue;
         }
         if (max_depth >= 0 && depth + 2 > max_depth)
             return 0;
         if (sh->sss >= 0) {
             *dist = len;
-            *cosine = fabsf(v3_dot(dir, it->ng));
+            *cosine = fabsf(v3_dot(w.dir, it->ng));
             return 1;
         }
         const op_bsdf *bsdf = &s->bsdfs[sh->bsdf];
         if (!op_bsdf_is_smooth_only(bsdf) || depth >= max_bounces)
             return 0;
-        op_v3 wi_l = op_frame_to_local(&it->frame, v3_neg(dir));
+        op_v3 wi_l = op_frame_to_local(&it->frame, v3_neg(w.dir));
         float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
         op_bsdf_sample bs;
         if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
@@ -540,11 +559,7 @@ int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float
         if ((v3_dot(wo, it->ng) > 0.0f) != (bs.wo.z > 0.0f))
             return 0;
         depth++;
-        passes = 0;
-        org = op_offset_origin(it->p, it->ng, wo);
-        dir = wo;
-        tmin = 0.0f;
-        tmax = INFINITY;
+        w = walk_start(op_offset_origin(it->p, it->ng, wo), wo, 0.0f, INFINITY);
     }
 }
 

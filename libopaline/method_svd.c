@@ -1,4 +1,4 @@
-/* op_method_svd.c - the log-transformed truncated SVD of Onel, Kurt and Ozturk.
+/* method_svd.c - the log-transformed truncated SVD of Onel, Kurt and Ozturk.
  *
  * Per channel c (tag suffix R, G, B or Y), with T = info.terms and n = K*K columns:
  *   "U.c"     rows x T float32, row-major: the left singular vectors scaled by the values
@@ -9,7 +9,7 @@
  *             by the factorizer so the albedo map needs no summation
  * Rd(row, col) = max * (A * exp(U[row] . V[j]) - A * B), clamped at 0, where
  * j = (col - shift) mod n. docs/formats.md is the specification. */
-#include "op_material_internal.h"
+#include "material_internal.h"
 
 #include <float.h>
 #include <math.h>

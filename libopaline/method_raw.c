@@ -1,10 +1,10 @@
-/* op_method_raw.c - the unfactored dataset: one float32 K*K kernel per incident pixel and
+/* method_raw.c - the unfactored dataset: one float32 K*K kernel per incident pixel and
  * channel, sections "RD.R", "RD.G", "RD.B" (or "RD.Y"). The renderer's reference.
  *
  * Every value must be finite and >= 0, and every row (the light leaving through the whole
  * kernel for one incident pixel: that pixel's albedo) must sum to at most
  * OP_MATERIAL_MAX_ALBEDO; docs/formats.md explains the tolerance. */
-#include "op_material_internal.h"
+#include "material_internal.h"
 
 #include <float.h>
 #include <math.h>

@@ -1,4 +1,4 @@
-/* op_log.c - the one logger: leveled lines on stderr, with text from files made harmless. */
+/* log.c - the one logger: leveled lines on stderr, with text from files made harmless. */
 #include "opaline.h"
 
 #include <stdarg.h>

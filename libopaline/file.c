@@ -1,4 +1,4 @@
-/* op_file.c - the one way opaline opens an input file: its type checked before anything is
+/* file.c - the one way opaline opens an input file: its type checked before anything is
  * read, whole-file reads with a size limit, and read-only mappings whose faults (the file
  * truncated while mapped) end the process with a message instead of a bare SIGBUS.
  *

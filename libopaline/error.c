@@ -1,4 +1,4 @@
-/* op_error.c - the one error-reporting path: a status plus a message naming what failed. */
+/* error.c - the one error-reporting path: a status plus a message naming what failed. */
 #include "opaline.h"
 
 #include <stdarg.h>

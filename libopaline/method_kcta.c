@@ -1,4 +1,4 @@
-/* op_method_kcta.c - K-clustered tensor approximation (Tsai and Shih 2012) of each channel's
+/* method_kcta.c - K-clustered tensor approximation (Tsai and Shih 2012) of each channel's
  * preprocessed matrix, clustered along the rows.
  *
  * With C = info.clusters, T = info.terms (rank per cluster), n = K*K columns:
@@ -12,7 +12,7 @@
  *   "ALBEDO"   optional, channels x rows float32 (row sums of the reconstruction)
  * Rd(row, col) = max * max(0, sum_k KCOEF[row][k] . BASIS[KIDX[row][k]][j]), with
  * j = (col - shift) mod n. docs/formats.md is the specification. */
-#include "op_material_internal.h"
+#include "material_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-/* op_progress.c - the one progress reporter: a bar with ETA on a terminal, plain lines
+/* progress.c - the one progress reporter: a bar with ETA on a terminal, plain lines
  * elsewhere, or a caller's callback (the Blender add-on and tests use that). */
 #include "opaline.h"
 

@@ -1,4 +1,4 @@
-/* op_material_file.c - the one module that reads and writes ".opm" material files.
+/* material_file.c - the one module that reads and writes ".opm" material files.
  *
  * Layout (all integers little-endian; docs/formats.md is the specification):
  *   header, 64 bytes: magic "OPALINEM", u32 version, u32 section count, u64 file size,
@@ -6,7 +6,7 @@
  *   sections, each starting at a multiple of 64 bytes
  *   section table: per section tag[8], u64 offset, u64 size, u32 CRC-32, u32 reserved (0)
  * Section "META" is UTF-8 text, one "key=value" per line, describing the material. */
-#include "op_material_internal.h"
+#include "material_internal.h"
 
 #include <errno.h>
 #include <math.h>
@@ -15,7 +15,7 @@
 #include <zlib.h>
 
 #if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
-#error "opaline maps little-endian float sections directly; port op_material_file.c first"
+#error "opaline maps little-endian float sections directly; port material_file.c first"
 #endif
 
 #define OPM_MAGIC "OPALINEM"

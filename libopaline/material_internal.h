@@ -1,4 +1,4 @@
-/* op_material_internal.h - what the material container shares with the method modules. */
+/* material_internal.h - what the material container shares with the method modules. */
 #ifndef OP_MATERIAL_INTERNAL_H
 #define OP_MATERIAL_INTERNAL_H
 
@@ -38,10 +38,6 @@ struct op_material {
 #define OP_MATERIAL_ABSURD_ALBEDO 1e6
 
 /* Helpers for method modules. */
-int64_t op_material_rows(const op_material *m);
-int op_material_cols(const op_material *m);
-/* The tag of a per-channel section: prefix + "R"/"G"/"B", or + "Y" for one channel. */
-void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_info *info, int c);
 /* Finds a section that must hold exactly `bytes` bytes; *out is set only on success. */
 op_status op_material_sized_section(const op_material *m, const char *tag, uint64_t bytes,
                                     const void **out, op_error *err);
@@ -74,14 +70,7 @@ op_status op_method_keep_state(op_material *m, void *state, op_status st);
 /* A destroy() for methods whose state is one block from malloc. */
 void op_method_free_state(op_material *m);
 
-/* The checksum stored for a section (verified when the file was opened), or 0 when absent. */
-uint32_t op_material_section_crc(const op_material *m, const char *tag);
 
-/* Opens a file's container and META only (header, section table, checksums, dimensions) without
- * the method's checks: sections may be read with op_material_section, but eval, eval_row and
- * albedo must not be called. The factorizer reads datasets this way, so that NaN or negative
- * noise in a dataset gets its own clear report. Close with op_material_close. */
-op_status op_material_open_container(const char *path, op_material **out, op_error *err);
 
 extern const op_method_ops op_method_raw_ops;
 extern const op_method_ops op_method_svd_ops;

@@ -163,7 +163,7 @@ static void channel_mean(const float *const *ch, int nch, uint64_t count, float 
     }
 }
 
-/* The stored (float32) series at t in the evaluator's float arithmetic (op_method_tucker.c). */
+/* The stored (float32) series at t in the evaluator's float arithmetic (libopaline/method_tucker.c). */
 static float chebyshev_eval_float(const float *beta, int degree, float t)
 {
     float b1 = 0.0f, b2 = 0.0f;
@@ -193,7 +193,7 @@ static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res
         const float *u = res->u + r * T;
         float lo = INFINITY, hi = -INFINITY;
         for (int j = 0; j < n; j++) {
-            /* The same float arithmetic as the evaluation in op_method_tucker.c. */
+            /* The same float arithmetic as the evaluation in libopaline/method_tucker.c. */
             const float *v = res->v + (size_t)j * T;
             float dot = 0.0f;
             for (int k = 0; k < T; k++)

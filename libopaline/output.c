@@ -1,4 +1,4 @@
-/* op_output.c - crash-safe output files, and the removal of their temporary files when the
+/* output.c - crash-safe output files, and the removal of their temporary files when the
  * process is interrupted.
  *
  * An output is written to a temporary file "<dest>.tmp-opaline-<pid>-XXXXXX" beside the file it

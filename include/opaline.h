@@ -274,6 +274,19 @@ op_status op_material_albedo_map(const op_material *m, float *out, op_error *err
 /* A named section's bytes (e.g. "RD.R" of a raw material), or NULL when absent. Sections are
  * aligned to 64 bytes in the file and in memory. */
 const void *op_material_section(const op_material *m, const char *tag, uint64_t *bytes);
+/* The checksum stored for a section (verified when the file was opened), or 0 when absent. */
+uint32_t op_material_section_crc(const op_material *m, const char *tag);
+/* The tag of a per-channel section: prefix + "R"/"G"/"B", or + "Y" for one channel. */
+void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_info *info, int c);
+/* Rows (incident pixels, width * height) and columns (kernel offsets, K * K) of a material. */
+int64_t op_material_rows(const op_material *m);
+int op_material_cols(const op_material *m);
+
+/* Opens a file's container and META only (header, section table, checksums, dimensions) without
+ * the method's checks: sections may be read with op_material_section, but eval, eval_row and
+ * albedo must not be called. The factorizer reads datasets this way, so that NaN or negative
+ * noise in a dataset gets its own clear report. Close with op_material_close. */
+op_status op_material_open_container(const char *path, op_material **out, op_error *err);
 
 /* Writing: open, add each section once, commit. Section tags are 1 to 8 printable characters;
  * "META" is written by the library from info. The file is an op_output: it appears whole at

@@ -1,4 +1,4 @@
-/* op_parallel.c - a parallel for over POSIX threads (see opaline.h). */
+/* parallel.c - a parallel for over POSIX threads (see opaline.h). */
 #include "opaline.h"
 
 #include <pthread.h>

@@ -1,4 +1,4 @@
-/* op_method_nmf.c - the non-negative matrix factorization baseline of Peers et al. 2006: a
+/* method_nmf.c - the non-negative matrix factorization baseline of Peers et al. 2006: a
  * homogeneous approximation (radial profile times row albedo) times a non-negative
  * factorization of the remainder.
  *
@@ -10,7 +10,7 @@
  *   "ALBEDO"   optional, channels x rows float32 (row sums of the reconstruction)
  * Rd(row, col) = SCALE[row] * PROF[col] * (W[row] . H[col]); never negative by construction.
  * docs/formats.md is the specification. */
-#include "op_material_internal.h"
+#include "material_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-/* op_image.c - linear float images and their files: PNG (libpng, 8-bit sRGB), OpenEXR (the
+/* image.c - linear float images and their files: PNG (libpng, 8-bit sRGB), OpenEXR (the
  * OpenEXRCore C API), and portable float maps. Every file is written through op_output, so a
  * failed write leaves nothing behind. */
 #include "opaline.h"

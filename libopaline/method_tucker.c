@@ -1,4 +1,4 @@
-/* op_method_tucker.c - Tucker factorization of the channel mean with per-row polynomial colour
+/* method_tucker.c - Tucker factorization of the channel mean with per-row polynomial colour
  * regression (Kurt, Ozturk and Peers 2013).
  *
  * With T = info.terms, P = info.degree, n = K*K columns, C = info.channels:
@@ -9,7 +9,7 @@
  *   "ALBEDO" optional, C x rows float32: the row sums of the reconstruction
  * Rd_c(row, col) = max * sum_p BETA[c][row][p] T_p((U[row] . V[j] - center) * scale),
  * clamped at 0, with j = (col - shift) mod n. docs/formats.md is the specification. */
-#include "op_material_internal.h"
+#include "material_internal.h"
 
 #include <float.h>
 #include <math.h>

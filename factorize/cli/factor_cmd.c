@@ -9,7 +9,6 @@
 #include "rsvd.h"
 #include "tucker.h"
 
-#include "op_material_internal.h"
 
 #include <errno.h>
 #include <math.h>
