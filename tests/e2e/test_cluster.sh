@@ -21,13 +21,7 @@ source "$SRC/tests/e2e/e2e_support.sh"
 T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/cluster.XXXXXX")
 chmod 755 "$T"
 # Processes of this test: every one names $T in its command line (daemons, tasks, renders).
-ours() {
-  local p
-  for p in /proc/[0-9]*; do
-    [ "${p#/proc/}" = $$ ] && continue
-    tr '\0' ' ' < "$p/cmdline" 2>/dev/null | grep -qF "$T/" && echo "${p#/proc/}"
-  done
-}
+ours() { pgrep -f -- "$T/"; }
 cleanup() {
   if [ -n "${SLURM_CONF:-}" ] && [ -f "$SLURM_CONF" ]; then
     local ids
