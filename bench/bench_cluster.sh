@@ -21,12 +21,6 @@ chmod 755 "$D"
 trap 'ids=$(squeue -h -o %A 2>/dev/null | sort -u); [ -n "$ids" ] && scancel $ids; sleep 1;
       local_cluster_stop "$D/slurm"; rm -rf "$D"' EXIT
 trap 'exit 130' INT TERM
-read -r CPORT DPORT < <(python3 -c '
-import socket
-s = [socket.socket() for _ in range(2)]
-for x in s: x.bind(("127.0.0.1", 0))
-print(*[x.getsockname()[1] for x in s])')
-export OPALINE_SLURMCTLD_PORT=$CPORT OPALINE_SLURMD_PORT=$DPORT
 local_cluster_start "$D/slurm"
 rc=$?
 [ $rc = 77 ] && { echo "(the benchmark needs a local SLURM cluster)"; exit 0; }

@@ -5,6 +5,7 @@
 #   local_cluster_start DIR   starts munged, slurmctld and slurmd with state, logs, pids, the
 #                             munge key and socket under DIR; exports SLURM_CONF; waits until
 #                             the node is idle. Returns 77 (with a message) where it cannot.
+#                             Ports: two free ones, or $OPALINE_SLURMCTLD_PORT, $OPALINE_SLURMD_PORT.
 #   local_cluster_stop DIR    stops them by the pids they wrote (never by name) and waits.
 
 local_cluster_start() {
@@ -28,7 +29,13 @@ local_cluster_start() {
     --seed-file="$d/munge/seed" --num-threads=2 2>"$d/munge/start.err" || {
       echo "local cluster: munged did not start:"; cat "$d/munge/start.err"; return 1; }
   h=$(hostname -s)
-  local mem
+  local mem cport dport
+  # two free ports (another cluster of the kind may run beside this one), unless given
+  read -r cport dport < <(python3 -c '
+import socket
+s = [socket.socket() for _ in range(2)]
+for x in s: x.bind(("", 0))
+print(*[x.getsockname()[1] for x in s])')
   mem=$(awk '/MemTotal/ {print int($2 / 1024 / 2)}' /proc/meminfo)
   cat > "$d/slurm.conf" <<CONF
 ClusterName=opaline
@@ -41,8 +48,8 @@ TaskPlugin=task/none
 SchedulerType=sched/backfill
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
-SlurmctldPort=${OPALINE_SLURMCTLD_PORT:-16817}
-SlurmdPort=${OPALINE_SLURMD_PORT:-16818}
+SlurmctldPort=${OPALINE_SLURMCTLD_PORT:-$cport}
+SlurmdPort=${OPALINE_SLURMD_PORT:-$dport}
 StateSaveLocation=$d/state
 SlurmdSpoolDir=$d/spool
 SlurmctldPidFile=$d/slurmctld.pid

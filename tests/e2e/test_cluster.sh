@@ -48,13 +48,6 @@ fail() {
   exit 1
 }
 
-# Free ports for this cluster's two daemons.
-read -r CPORT DPORT < <(python3 -c '
-import socket
-s = [socket.socket() for _ in range(2)]
-for x in s: x.bind(("127.0.0.1", 0))
-print(*[x.getsockname()[1] for x in s])')
-export OPALINE_SLURMCTLD_PORT=$CPORT OPALINE_SLURMD_PORT=$DPORT
 local_cluster_start "$T/slurm"
 rc=$?
 [ $rc = 77 ] && exit 77
