@@ -119,7 +119,7 @@ fi
   fail "status: $("$C" status "$T/out_anim")"
 echo "ok: animation (3 frames, translucent) and tiled still (bit-identical) in $(( $(date +%s) - t0 )) s"
 
-# 4. Re-submission: nothing new; then only the damaged frame and the deleted tile.
+# 4. Re-submission: nothing new; then only the damaged frame and the damaged tile.
 "$C" submit "$T"/anim/shot_000?.xml -o "$T/out_anim" --threads 1 >"$T/sub4" 2>"$T/err" ||
   fail "re-submit exited $?"
 grep -q "nothing to render: all 3 frames are complete" "$T/sub4" || fail "re-submit: $(cat "$T/sub4")"
@@ -129,19 +129,25 @@ before=$(stat -c %Y "$T/out_anim/shot_0001.exr")
 "$C" submit "$T"/anim/shot_000?.xml -o "$T/out_anim" --threads 1 >"$T/sub5" 2>"$T/err" ||
   fail "re-submit (damaged) exited $?"
 grep -q "3 frames (2 complete already), 1 render task" "$T/sub5" || fail "re-submit: $(cat "$T/sub5")"
-rm "$T/out_still/.cluster/tiles/still/tile_002.exr"
+TILE2=$T/out_still/.cluster/tiles/still/tile_002.exr
+head -c 300 "$TILE2" > "$T/cut" && cat "$T/cut" > "$TILE2"   # present, but cut short
 "$R" -q "$T/still.xml" --merge-tiles "$T/out_still/.cluster/tiles/still/tiles.txt" \
     -o "$T/m.exr" 2>"$T/err"
 [ $? = 2 ] || fail "merge of incomplete tiles did not exit 2"
-grep -q "1 of 4 tiles missing or invalid.*tile_002.exr: no such file" "$T/err" ||
+grep -q "1 of 4 tiles missing or invalid.*tile_002.exr: " "$T/err" ||
   fail "merge's message: $(cat "$T/err")"
 [ -e "$T/m.exr" ] && fail "an incomplete merge wrote its output"
+rm "$TILE2"
+"$R" -q "$T/still.xml" --merge-tiles "$T/out_still/.cluster/tiles/still/tiles.txt" \
+    -o "$T/m.exr" 2>"$T/err"
+grep -q "tile_002.exr: no such file" "$T/err" || fail "merge's message: $(cat "$T/err")"
+head -c 300 "$T/cut" > "$TILE2"
 rm "$T/out_still/still.png"
 "$C" submit "$T/still.xml" -o "$T/out_still" --tiles 4 --threads 1 >"$T/sub6" 2>"$T/err" ||
   fail "re-submit (tile) exited $?"
 grep -q "1 render task, merge job" "$T/sub6" || fail "re-submit (tile): $(cat "$T/sub6")"
 wait_until 60 complete "$T/out_anim" 3 || fail "the damaged frame was not rendered again"
-wait_until 60 complete "$T/out_still" 1 || fail "the deleted tile was not rendered again"
+wait_until 60 complete "$T/out_still" 1 || fail "the damaged tile was not rendered again"
 [ "$(stat -c %Y "$T/out_anim/shot_0001.exr")" = "$before" ] || fail "a complete frame was rendered again"
 cmp "$T/still_single.png" "$T/out_still/still.png" || fail "re-merged PNG differs"
 echo "ok: re-submissions in $(( $(date +%s) - t0 )) s"
