@@ -300,7 +300,7 @@ def plan_frame(out, scene, est, a, renderer, cache_ok):
     outs = [{"path": os.path.join(out, "%s.%s" % (stem, fmt)), "w": w, "h": h}
             for fmt in a.formats]
     oargs = sum((["-o", o["path"]] for o in outs), [])
-    thr = ["-t", str(a.threads)]
+    thr = ["-t", str(a.threads), "--partial", "none"]  # a cancelled task leaves nothing
     if a.tiles <= 1:
         return {"name": stem, "outputs": outs, "prepass": None, "merge": None,
                 "render": [{"name": stem, "kind": "frame", "outputs": outs,
