@@ -364,9 +364,9 @@ def sbatch(a, out, name, taskfile, indices, deps, cpus, mem):
     for x in a.sbatch_arg or []:
         cmd += shlex.split(x)
     cmd += [script, out, taskfile]
-    if a.dry_run:
+    if a.dry_run:  # the job id a later job depends on, as a placeholder
         print(" ".join(shlex.quote(c) for c in cmd))
-        return None
+        return "JOB_" + name.upper()
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         raise Failed("sbatch refused the %s job: %s" % (name, r.stderr.strip()))
@@ -398,12 +398,12 @@ def cmd_submit(a):
                       "see: export with Collect Materials, give --shared DIR, or "
                       "--allow-outside-shared")
     cache_ok = renderer_has(renderer, "--sss-cache")
-    if a.tiles > 1 and not cache_ok:
-        say("warning: %s has no --sss-cache: each tile runs the subsurface pre-pass of its "
-            "own crop" % renderer)
     extra = (["-s", str(a.spp)] if a.spp else []) + sum((["-D", d] for d in a.define or []), [])
     ests = [estimate(renderer, s, extra) for s in scenes]
     mem = a.mem or int(math.ceil((max(e["memory_mb"] for e in ests) * 1.25 + 64) / 64) * 64)
+    if a.tiles > 1 and not cache_ok and any(e["translucent"] for e in ests):
+        say("warning: %s has no --sss-cache: each tile runs the subsurface pre-pass of its "
+            "own crop, and a few pixels may differ from the single render" % renderer)
     for d in ("logs", "times", "pids", "failed", "tiles"):
         os.makedirs(os.path.join(out, WORK, d), exist_ok=True)
     frames = []
@@ -468,8 +468,8 @@ def cmd_submit(a):
         sub["jobs"][name] = jid
         if jid:
             deps = [jid]
-    st["submissions"].append(sub)
     if not a.dry_run:
+        st["submissions"].append(sub)
         write_json(os.path.join(out, STATE), st)
     if a.local:
         print("rendered %d frames here (%d were complete)" % (len(frames) - n_done, n_done))
