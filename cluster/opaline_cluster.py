@@ -548,7 +548,7 @@ def run_task(out, taskfile, index):
         say("%s: attempt %d failed (%s)" % (name, attempt, what))
         if stop["sig"]:
             say("%s: cancelled (signal %d): not retried" % (name, stop["sig"]))
-            return 128 + stop["sig"]
+            return 130
         if rc == 2:
             break  # bad input: the same again would fail the same way
     os.makedirs(os.path.dirname(failmark), exist_ok=True)
