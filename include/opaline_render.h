@@ -109,6 +109,10 @@ typedef struct op_render_options {
     op_tile_fn tile;         /* may be NULL */
     void *tile_user;
     atomic_int *cancel;      /* when non-NULL and set non-zero, rendering stops soon */
+    const char *sss_cache;   /* NULL, or the subsurface pre-pass cache file: reused where its
+                                key matches, (re)written when the pre-pass computed anything
+                                (docs/subsurface-rendering.md, "Pre-pass cache") */
+    int sss_cache_only;      /* with sss_cache: the pre-pass only (no camera pass, no image) */
 } op_render_options;
 
 /* The defaults: every field zero or NULL. */
@@ -131,6 +135,7 @@ typedef struct op_render_stats {
     long long sss_points;    /* irradiance points laid, on the translucent shapes the camera reaches */
     long long sss_sources;   /* points whose irradiance was computed */
     long long sss_receivers; /* points whose exitance was computed */
+    long long sss_sources_reused, sss_receivers_reused; /* taken from the pre-pass cache */
     int sss_shapes_reached;  /* translucent shapes some camera segment reaches */
     double sss_seconds;      /* the pre-pass's wall time */
     double render_seconds;   /* the camera pass's wall time (after the pre-pass) */

@@ -1,4 +1,5 @@
-/* material_file.c - the one module that reads and writes ".opm" material files.
+/* material_file.c - the one module that reads and writes the ".opm" container: header, section
+ * table, checksums, META; the methods are material.c's.
  *
  * Layout (all integers little-endian; docs/formats.md is the specification):
  *   header, 64 bytes: magic "OPALINEM", u32 version, u32 section count, u64 file size,
@@ -57,18 +58,6 @@ op_method op_method_from_name(const char *name)
         if (strcmp(name, method_names[i]) == 0)
             return (op_method)i;
     return OP_METHOD_COUNT;
-}
-
-static const op_method_ops *method_ops(op_method m)
-{
-    switch (m) {
-    case OP_METHOD_RAW: return &op_method_raw_ops;
-    case OP_METHOD_SVD: return &op_method_svd_ops;
-    case OP_METHOD_TUCKER: return &op_method_tucker_ops;
-    case OP_METHOD_KCTA: return &op_method_kcta_ops;
-    case OP_METHOD_NMF: return &op_method_nmf_ops;
-    default: return NULL;
-    }
 }
 
 /* ------------------------------------------------------------ little-endian helpers */
@@ -145,135 +134,6 @@ const void *op_material_section(const op_material *m, const char *tag, uint64_t 
         }
     }
     return NULL;
-}
-
-op_status op_material_sized_section(const op_material *m, const char *tag, uint64_t bytes,
-                                    const void **out, op_error *err)
-{
-    uint64_t have = 0;
-    const void *p = op_material_section(m, tag, &have);
-    if (!p)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", m->path, tag);
-    if (have != bytes)
-        return op_error_set(err, OP_ERR_FORMAT,
-                            "%s: section '%s' holds %llu bytes, expected %llu", m->path, tag,
-                            (unsigned long long)have, (unsigned long long)bytes);
-    *out = p;
-    return OP_OK;
-}
-
-op_status op_material_float_section(const op_material *m, const char *tag, uint64_t count,
-                                    int nonneg, const float **out, op_error *err)
-{
-    const void *p = NULL;
-    op_status st = op_material_sized_section(m, tag, count * sizeof(float), &p, err);
-    if (st != OP_OK)
-        return st;
-    const float *v = p;
-    for (uint64_t i = 0; i < count; i++) {
-        if (!isfinite(v[i]) || (nonneg && v[i] < 0.0f))
-            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' value %llu is %g", m->path,
-                                tag, (unsigned long long)i, (double)v[i]);
-    }
-    *out = v;
-    return OP_OK;
-}
-
-op_status op_material_check_albedo(const op_material *m, const char *tag, const float *v,
-                                   uint64_t count, op_error *err)
-{
-    uint64_t rows = (uint64_t)op_material_rows(m), w = (uint64_t)m->info.width;
-    uint64_t first_high = count;
-    for (uint64_t i = 0; i < count; i++) {
-        if (v[i] <= OP_MATERIAL_MAX_ALBEDO)
-            continue;
-        if (first_high == count)
-            first_high = i;
-        if (v[i] > OP_MATERIAL_ABSURD_ALBEDO) {
-            first_high = i;
-            break;
-        }
-    }
-    if (first_high == count)
-        return OP_OK;
-    uint64_t i = first_high, r = i % rows;
-    char channel[32] = "", where[192];
-    if (count > rows) /* channels x rows */
-        snprintf(channel, sizeof channel, "channel %llu, ", (unsigned long long)(i / rows));
-    snprintf(where, sizeof where, "section '%s' value %llu (%srow %llu: incident pixel x %llu, "
-             "y %llu) is %g", tag, (unsigned long long)i, channel, (unsigned long long)r,
-             (unsigned long long)(r % w), (unsigned long long)(r / w), (double)v[i]);
-    if (v[i] > OP_MATERIAL_ABSURD_ALBEDO)
-        return op_error_set(err, OP_ERR_FORMAT, "%s: %s, but an albedo cannot exceed 1 (a "
-                            "factored material is refused above %g): physically impossible "
-                            "data", m->path, where, OP_MATERIAL_ABSURD_ALBEDO);
-    op_log(OP_LOG_WARN, "%s: %s, but an albedo cannot exceed 1: the material will render too "
-           "bright there (a poor approximation, or data that was not physical)", m->path, where);
-    return OP_OK;
-}
-
-op_status op_material_channel_floats(const op_material *m, const char *prefix, int c,
-                                     uint64_t count, int nonneg, const float **out,
-                                     op_error *err)
-{
-    char tag[16];
-    op_channel_tag(tag, sizeof tag, prefix, &m->info, c);
-    return op_material_float_section(m, tag, count, nonneg, out, err);
-}
-
-op_status op_material_shift_sections(const op_material *m, int c, const uint32_t **shift,
-                                     const float **max, op_error *err)
-{
-    char tag[16];
-    int64_t rows = op_material_rows(m);
-    int cols = op_material_cols(m);
-    const void *p = NULL;
-    if (c < 0)
-        snprintf(tag, sizeof tag, "SHIFT");
-    else
-        op_channel_tag(tag, sizeof tag, "SHIFT.", &m->info, c);
-    op_status st = op_material_sized_section(m, tag, (uint64_t)rows * sizeof(uint32_t), &p, err);
-    if (st != OP_OK)
-        return st;
-    const uint32_t *sh = p;
-    for (int64_t r = 0; r < rows; r++)
-        if (sh[r] >= (uint32_t)cols)
-            return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' row %lld shifts by %u >= %d",
-                                m->path, tag, (long long)r, sh[r], cols);
-    *shift = sh;
-    if (c < 0)
-        snprintf(tag, sizeof tag, "MAX");
-    else
-        op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
-    const float *mx = NULL;
-    st = op_material_float_section(m, tag, (uint64_t)rows, 1, &mx, err);
-    if (st == OP_OK && (st = op_material_check_albedo(m, tag, mx, (uint64_t)rows, err)) == OP_OK)
-        *max = mx;
-    return st;
-}
-
-void op_column_abs_max(const float *v, int n, int T, double *out)
-{
-    for (int t = 0; t < T; t++)
-        out[t] = 0;
-    for (int j = 0; j < n; j++)
-        for (int t = 0; t < T; t++)
-            out[t] = fmax(out[t], fabs(v[(size_t)j * T + t]));
-}
-
-op_status op_method_keep_state(op_material *m, void *state, op_status st)
-{
-    if (st == OP_OK)
-        m->state = state;
-    else
-        free(state);
-    return st;
-}
-
-void op_method_free_state(op_material *m)
-{
-    free(m->state);
-    m->state = NULL;
 }
 
 /* ------------------------------------------------------------ META text */
@@ -513,7 +373,16 @@ static op_status check_container(op_material *m, op_error *err)
     return OP_OK;
 }
 
-static op_status open_file(const char *path, int with_method, op_material **out, op_error *err)
+/* Frees what op_material_open_container made; the method's state must be gone already. */
+void op_material_release(op_material *m)
+{
+    if (!m)
+        return;
+    op_file_unmap(&m->file);
+    free(m);
+}
+
+op_status op_material_open_container(const char *path, op_material **out, op_error *err)
 {
     *out = NULL;
     op_material *m = calloc(1, sizeof *m);
@@ -534,48 +403,12 @@ static op_status open_file(const char *path, int with_method, op_material **out,
         st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'META' is missing", path);
     if (st == OP_OK)
         st = parse_meta(path, meta, meta_n, &m->info, err);
-    if (st == OP_OK && !with_method) {
-        *out = m;
-        return OP_OK;
-    }
-    if (st == OP_OK && !(m->ops = method_ops(m->info.method)))
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: method '%s' is not supported by this build",
-                          path, op_method_name(m->info.method));
-    if (st == OP_OK && (st = m->ops->prepare(m, err)) != OP_OK)
-        m->ops = NULL; /* prepare cleans up after itself on failure */
-    /* Factorizers store the row sums of their reconstruction, so the albedo map is a copy. */
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL)) {
-        uint64_t n = (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels;
-        st = op_material_float_section(m, "ALBEDO", n, 1, &m->albedo, err);
-        if (st == OP_OK)
-            st = op_material_check_albedo(m, "ALBEDO", m->albedo, n, err);
-    }
     if (st != OP_OK) {
-        op_material_close(m);
+        op_material_release(m);
         return st;
     }
     *out = m;
     return OP_OK;
-}
-
-op_status op_material_open(const char *path, op_material **out, op_error *err)
-{
-    return open_file(path, 1, out, err);
-}
-
-op_status op_material_open_container(const char *path, op_material **out, op_error *err)
-{
-    return open_file(path, 0, out, err);
-}
-
-void op_material_close(op_material *m)
-{
-    if (!m)
-        return;
-    if (m->ops && m->ops->destroy)
-        m->ops->destroy(m);
-    op_file_unmap(&m->file);
-    free(m);
 }
 
 const op_material_info *op_material_get_info(const op_material *m)
@@ -586,44 +419,6 @@ const op_material_info *op_material_get_info(const op_material *m)
 uint64_t op_material_file_size(const op_material *m)
 {
     return m->size;
-}
-
-float op_material_eval(const op_material *m, int channel, int x, int y, int dx, int dy)
-{
-    int h = m->info.kernel / 2;
-    if (dx < -h || dx > h || dy < -h || dy > h)
-        return 0.0f;
-    int64_t row = (int64_t)y * m->info.width + x;
-    return m->ops->eval(m, channel, row, (dy + h) * m->info.kernel + (dx + h));
-}
-
-void op_material_eval_row(const op_material *m, int channel, int x, int y, float *out)
-{
-    m->ops->eval_row(m, channel, (int64_t)y * m->info.width + x, out);
-}
-
-op_status op_material_albedo_map(const op_material *m, float *out, op_error *err)
-{
-    int64_t rows = op_material_rows(m);
-    if (m->albedo) {
-        memcpy(out, m->albedo, (size_t)rows * (size_t)m->info.channels * sizeof *out);
-        return OP_OK;
-    }
-    int cols = op_material_cols(m);
-    float *row = malloc((size_t)cols * sizeof *row);
-    if (!row)
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
-    for (int c = 0; c < m->info.channels; c++) {
-        for (int64_t r = 0; r < rows; r++) {
-            m->ops->eval_row(m, c, r, row);
-            double s = 0;
-            for (int j = 0; j < cols; j++)
-                s += row[j];
-            out[c * rows + r] = (float)s;
-        }
-    }
-    free(row);
-    return OP_OK;
 }
 
 /* ------------------------------------------------------------ writing */

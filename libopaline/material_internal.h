@@ -72,6 +72,9 @@ void op_method_free_state(op_material *m);
 
 
 
+/* Frees a material whose method state is gone (or was never made): its mapping and itself. */
+void op_material_release(op_material *m);
+
 extern const op_method_ops op_method_raw_ops;
 extern const op_method_ops op_method_svd_ops;
 extern const op_method_ops op_method_tucker_ops;

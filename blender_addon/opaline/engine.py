@@ -1,6 +1,8 @@
 """The "opaline" render engine: F12 exports the scene to this Blender session's folder (kept
 between renders, so unchanged meshes are not rewritten), runs opaline-render in a subprocess
-with --stream (only the Render Region when there is one), shows every stage's progress, draws
+with --stream (only the Render Region when there is one; with --sss-cache in that folder, so
+that a render where only the camera moved reuses the subsurface pre-pass), shows every stage's
+progress, draws
 tiles into the Render Result as they finish, stops the renderer on cancel (SIGINT, then
 SIGKILL), and reports the renderer's warnings and failures through RenderEngine.report (the
 Info editor and the status bar) instead of tracebacks.
@@ -33,6 +35,7 @@ LOG_LEVELS = ("error", "warning", "info", "debug")
 TILE = 32  # opaline-render's tile side
 # The reports of the last F12 (type, message), newest last: what the Info editor got.
 last_reports = []
+last_log = []  # the last F12's renderer LOG records, (level, text): what its pre-pass cache did
 last_export = None  # the ExportResult of the last F12
 _HDR = struct.Struct("<4sIQ")
 MAX_PAYLOAD = 1 << 34
@@ -162,6 +165,7 @@ def render_region(render):
 
 SESSION_PREFIX = "opaline-blender-"
 KEEP_MARKER = "KEEP"  # in a session folder: "Keep exported files" was on; never removed
+SSS_CACHE_NAME = "prepass.sssc"  # in a session folder: opaline-render --sss-cache
 _session = {"dir": None, "keep": False}
 
 
@@ -314,6 +318,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         from . import preferences, presets
         from .export import scene as scene_export
         del last_reports[:]
+        del last_log[:]
         scene = depsgraph.scene
         full_w, full_h, cx, cy, width, height = render_region(scene.render)
         probe = self.begin_result(0, 0, full_w, full_h)  # clamped to Blender's result
@@ -349,6 +354,12 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             cmd += ["--limit", "sss-max-points=%d" % max_points]
         if (cx, cy, width, height) != (0, 0, full_w, full_h):
             cmd += ["--crop", "%d,%d,%d,%d" % (cx, cy, width, height)]
+        with open(xml, encoding="utf-8") as f:
+            prepass = "<subsurface" in f.read()
+        if prepass:
+            # the subsurface pre-pass's results, reused by the next F12 or animation frame
+            # while only the camera (or nothing) changed (docs/subsurface-rendering.md)
+            cmd += ["--sss-cache", os.path.join(tmp, SSS_CACHE_NAME)]
         cmd.append(xml)
         env = dict(os.environ)
         env["OPALINE_PARENT_PID"] = str(os.getpid())
@@ -357,8 +368,6 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                               if preferences.get(bpy.context) else [])], renderer)
         env["OPALINE_PRESETS_PATH"] = ":".join(
             [p for p in env.get("OPALINE_PRESETS_PATH", "").split(":") if p] + folders)
-        with open(xml, encoding="utf-8") as f:
-            prepass = "<subsurface" in f.read()
         progress = Progress(prepass, scene_export.render_samples(
             scene.original if hasattr(scene, "original") else scene)[0],
             ((width + TILE - 1) // TILE) * ((height + TILE - 1) // TILE))
@@ -376,6 +385,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             self._report('WARNING', "opaline-render: " + text)
         elif level != "error":  # errors: in the failure's report, with the exit status
             print("opaline-render: %s: %s" % (level, text), file=sys.stderr)
+        last_log.append((level, text))
 
     def _run(self, cmd, env, out_path, width, height, progress):
         self.update_stats("", "opaline: loading the scene")

@@ -56,6 +56,12 @@ static void usage(FILE *f)
             "                 kernel, sss-points, sss-max-points; see docs/limits.md);\n"
             "                 repeatable\n"
             "  --crop X,Y,W,H render only the WxH pixels at X,Y (top-left origin) of the film\n"
+            "  --sss-cache FILE  reuse the subsurface pre-pass's results saved in FILE where\n"
+            "                 its key (everything they depend on; not the camera, film or\n"
+            "                 crop) matches; FILE is (re)written when anything new was\n"
+            "                 computed. A FILE that is not such a cache is refused (exit 2)\n"
+            "  --sss-cache-only  with --sss-cache: the pre-pass for the whole film only (no\n"
+            "                 image, no -o), to be reused by later --crop tile renders"
             "  --stream       write the tile stream to stdout; the render stops (exit 130)\n"
             "                 when the parent process goes away\n"
             "  --stream-log   with --stream, every log line also goes into the stream\n"
@@ -357,7 +363,8 @@ int main(int argc, char **argv)
     op_scene_define defines[MAX_DEFINES];
     char *define_buf[MAX_DEFINES];
     int ndefines = 0;
-    const char *scene_path = NULL;
+    const char *scene_path = NULL, *sss_cache = NULL;
+    int sss_cache_only = 0;
     op_scene_limits limits;
     op_scene_limits_init(&limits);
     int bad = 0;
@@ -366,7 +373,7 @@ int main(int argc, char **argv)
         int need = strcmp(a, "-o") == 0 || strcmp(a, "-t") == 0 || strcmp(a, "-s") == 0 ||
                    strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0 ||
                    strcmp(a, "--partial") == 0 || strcmp(a, "--crop") == 0 ||
-                   strcmp(a, "--merge-tiles") == 0;
+                   strcmp(a, "--merge-tiles") == 0 || strcmp(a, "--sss-cache") == 0;
         if (need && i + 1 >= argc) {
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             bad = 1;
@@ -420,6 +427,14 @@ int main(int argc, char **argv)
                 bad = 1;
             }
             has_crop = 1;
+        } else if (strcmp(a, "--sss-cache") == 0) {
+            sss_cache = argv[++i];
+            if (!*sss_cache) {
+                op_log(OP_LOG_ERROR, "--sss-cache needs a file name");
+                bad = 1;
+            }
+        } else if (strcmp(a, "--sss-cache-only") == 0) {
+            sss_cache_only = 1;
         } else if (strcmp(a, "--check") == 0) {
             check = 1;
         } else if (strcmp(a, "--estimate") == 0) {
@@ -469,6 +484,14 @@ int main(int argc, char **argv)
     }
     if (!bad && merge_list && (has_crop || stream_mode)) {
         op_log(OP_LOG_ERROR, "--merge-tiles assembles the whole film: not with --crop or --stream");
+        bad = 1;
+    }
+    if (!bad && sss_cache_only && !sss_cache) {
+        op_log(OP_LOG_ERROR, "--sss-cache-only needs --sss-cache FILE");
+        bad = 1;
+    }
+    if (!bad && sss_cache_only && (noutputs > 0 || stream_mode)) {
+        op_log(OP_LOG_ERROR, "--sss-cache-only renders no image: it takes no -o or --stream");
         bad = 1;
     }
     if (bad) {
@@ -543,7 +566,7 @@ int main(int argc, char **argv)
         return 0;
     }
     char default_out[2048];
-    if (noutputs == 0 && !stream_mode) {
+    if (noutputs == 0 && !stream_mode && !sss_cache_only) {
         default_output(scene_path, &info, default_out, sizeof default_out);
         outputs[noutputs++] = default_out;
     }
@@ -564,6 +587,8 @@ int main(int argc, char **argv)
     opt.threads = threads;
     opt.spp = spp;
     opt.cancel = &g_cancel;
+    opt.sss_cache = sss_cache;
+    opt.sss_cache_only = sss_cache_only;
     if (stream_mode) {
         opt.tile = on_tile;
         opt.tile_user = &s;
@@ -595,7 +620,10 @@ int main(int argc, char **argv)
         op_log(OP_LOG_ERROR, "%s", err.message);
         code = op_exit_code(st);
     }
-    if (st == OP_OK || st == OP_ERR_CANCELLED) {
+    if (sss_cache_only) {
+        if (st == OP_OK)
+            op_log(OP_LOG_INFO, "pre-pass cache %s: done (--sss-cache-only: no image)", sss_cache);
+    } else if (st == OP_OK || st == OP_ERR_CANCELLED) {
         const op_image *img = op_renderer_image(r);
         if (rs.tiles_done == rs.tiles) {
             code = write_images(scene, img, outputs, noutputs, code);

@@ -12,32 +12,15 @@
 #ifndef OP_INTEGRATOR_H
 #define OP_INTEGRATOR_H
 
-#include "render_scene.h"
+#include "isect.h"
 #include "rrng.h"
 #include "sampler.h"
-
-typedef struct op_sss_cache op_sss_cache;
+#include "subsurface.h"
 
 typedef struct op_trace_ctx {
     const op_scene *scene;
     const op_sss_cache *sss; /* NULL during the irradiance pass */
 } op_trace_ctx;
-
-/* A surface point found by a ray. */
-typedef struct op_isect {
-    op_v3 p;
-    op_v3 ng;      /* unit geometric normal, on the side of the shading normal */
-    op_v3 ns;      /* unit shading normal */
-    float u, v;    /* texture coordinates (0 when the mesh has none) */
-    int shape, prim;
-    op_frame frame;/* shading frame around ns */
-} op_isect;
-
-/* Fills it from a hit of the ray org + t dir. */
-void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, op_v3 dir,
-                       op_isect *it);
-/* A ray origin just off the surface at p on the side that direction w leaves toward. */
-op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w);
 
 /* Radiance along the ray (org, dir) with t in (tmin, tmax), its random numbers drawn from ps
  * in the dimension layout of sampler.h; *alpha gets 1 when the ray hit geometry, 0 when it
@@ -53,7 +36,10 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
 int op_camera_sss_hit(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
                       int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
 /* One-sample estimate of the irradiance at surface point p (normals ng, ns): pi times the
- * radiance a white Lambertian surface would reflect there, with direct and indirect light. */
-op_v3 op_irradiance(const op_trace_ctx *ctx, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
+ * radiance a white Lambertian surface would reflect there, with direct and indirect light
+ * (translucent shapes acting as their diffuse stand-ins). */
+op_v3 op_irradiance(const op_scene *scene, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
+/* The light transport the subsurface pre-pass asks for: op_irradiance and op_camera_sss_hit. */
+extern const op_sss_transport op_path_transport;
 
 #endif

@@ -1,7 +1,6 @@
-/* mesh.c - mesh helpers shared by the loaders and the scene builder. */
-#include "mesh_internal.h"
+/* mesh.c - mesh helpers shared by the loaders and the scene builder; it calls no loader. */
+#include "mesh.h"
 
-#include <ctype.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,21 +14,6 @@ void op_mesh_free(op_mesh *m)
     free(m->uvs);
     free(m->indices);
     memset(m, 0, sizeof *m);
-}
-
-op_status op_mesh_load(const char *path, op_mesh *out, op_error *err)
-{
-    memset(out, 0, sizeof *out);
-    const char *dot = strrchr(path, '.');
-    char ext[8] = {0};
-    if (dot && strlen(dot + 1) < sizeof ext)
-        for (size_t i = 0; dot[1 + i]; i++)
-            ext[i] = (char)tolower((unsigned char)dot[1 + i]);
-    if (strcmp(ext, "obj") == 0)
-        return op_mesh_load_obj(path, out, err);
-    if (strcmp(ext, "ply") == 0)
-        return op_mesh_load_ply(path, out, err);
-    return op_error_set(err, OP_ERR_INPUT, "%s: unknown mesh format (expected .obj or .ply)", path);
 }
 
 void op_mesh_flip_v(op_mesh *m)

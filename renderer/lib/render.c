@@ -11,6 +11,7 @@
 #include "rgbe.h"
 #include "scene_build.h"
 #include "scene_color.h"
+#include "sss_cache.h"
 #include "subsurface.h"
 
 op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
@@ -45,6 +46,8 @@ op_status op_scene_load_limited(const char *path, const op_scene_define *defines
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
     st = op_scene_build(root, path, limits, s, err);
+    if (st == OP_OK && s->nsss > 0)
+        op_sss_desc_hash(root, s->desc_hash);
     op_desc_free(root);
     if (st) {
         op_scene_release(s);
@@ -210,6 +213,60 @@ static void render_tile(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)w * (uint64_t)h);
 }
 
+static double seconds_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The subsurface pre-pass, through the cache file when opt names one: its results are reused
+ * where the key matches, and the file is (re)written, before the camera pass, when the pre-pass
+ * computed anything or the file was missing or stale. */
+static op_status prepass(const op_scene *s, const op_render_options *opt,
+                         op_sss_build_options *so, op_sss_cache **sss, op_error *err)
+{
+    if (!opt->sss_cache)
+        return op_sss_cache_build(s, so, sss, err);
+    unsigned char key[OP_SSS_KEY_BYTES];
+    op_sss_store store;
+    op_sss_file_state state;
+    double t0 = seconds_now();
+    op_status st = op_sss_key(s, opt->seed, key, err);
+    if (st)
+        return st;
+    double t1 = seconds_now();
+    if ((st = op_sss_store_load(opt->sss_cache, key, s->nsss, &store, &state, err)))
+        return st;
+    double t2 = seconds_now();
+    so->store = &store;
+    st = op_sss_cache_build(s, so, sss, err);
+    if (st == OP_ERR_FORMAT) /* the store does not fit the scene (saved_prepare) */
+        op_error_prefix(err, "--sss-cache %s: ", opt->sss_cache);
+    if (st == OP_OK) {
+        long long fresh = store.new_e + store.new_m;
+        if (state == OP_SSS_FILE_VALID)
+            op_log(OP_LOG_INFO, "pre-pass cache %s: reused %lld sources / %lld receivers, "
+                   "computed %lld new (%lld sources, %lld receivers); key %.3f s, read %.3f s",
+                   opt->sss_cache, store.reused_e, store.reused_m, fresh, store.new_e,
+                   store.new_m, t1 - t0, t2 - t1);
+        if (fresh > 0 || state != OP_SSS_FILE_VALID) {
+            double t3 = seconds_now();
+            st = op_sss_store_save(opt->sss_cache, key, &store, err);
+            if (st == OP_OK)
+                op_log(OP_LOG_INFO, "pre-pass cache %s: written (%lld new sources, %lld new "
+                       "receivers; %.3f s)", opt->sss_cache, store.new_e, store.new_m,
+                       seconds_now() - t3);
+        }
+        if (st) {
+            op_sss_cache_free(*sss);
+            *sss = NULL;
+        }
+    }
+    op_sss_store_free(&store);
+    return st;
+}
+
 op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
 {
     const op_render_options *opt = &r->opt;
@@ -238,8 +295,8 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     int it = s->integrator.type;
     if (s->nsss > 0 && (it == OP_INT_PATH || it == OP_INT_DIRECT)) {
         op_sss_build_options so = {opt->threads, opt->seed, opt->cancel, opt->progress,
-                                   opt->progress_user, 0};
-        st = op_sss_cache_build(s, &so, &sss, err);
+                                   opt->progress_user, 0, NULL, &op_path_transport};
+        st = prepass(s, opt, &so, &sss, err);
         if (st)
             return st;
         op_sss_stats ss;
@@ -247,9 +304,19 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
         r->stats.sss_points = ss.points;
         r->stats.sss_sources = ss.sources;
         r->stats.sss_receivers = ss.receivers;
+        r->stats.sss_sources_reused = ss.sources_reused;
+        r->stats.sss_receivers_reused = ss.receivers_reused;
         r->stats.sss_shapes_reached = ss.shapes_reached;
         r->stats.sss_seconds = ss.seconds;
         job.ctx.sss = sss;
+    } else if (opt->sss_cache) {
+        op_log(OP_LOG_INFO, "pre-pass cache %s: not used (%s)", opt->sss_cache,
+               s->nsss > 0 ? "this integrator has no subsurface pre-pass"
+                           : "the scene has no translucent shapes");
+    }
+    if (opt->sss_cache_only) {
+        op_sss_cache_free(sss);
+        return OP_OK;
     }
     int threads = op_parallel_threads(opt->threads);
     job.scratch = calloc((size_t)threads, sizeof *job.scratch);

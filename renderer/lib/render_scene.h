@@ -73,7 +73,9 @@ struct op_scene {
     op_sss_desc *sss;
     int nsss;
     op_material **materials;
+    char **material_paths; /* the file each material was opened from */
     int nmaterials;
+    unsigned char desc_hash[16]; /* op_sss_desc_hash of the description (translucent scenes) */
     op_tex_cache *textures; /* the images the bsdfs' textures point into */
     op_accel *accel;
     op_v3 bmin, bmax; /* world bounds of the geometry */

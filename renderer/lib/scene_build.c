@@ -1,6 +1,7 @@
 /* scene_build.c - the scene builder (see scene_build.h). */
 #include "scene_build.h"
 
+#include "material_name.h"
 #include "subsurface.h"
 
 #include <errno.h>
@@ -393,7 +394,7 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     char preset[256];
     double log_a = 0.0, log_b = 0.0;
     op_method long_method = OP_METHOD_COUNT;
-    int is_long = op_sss_parse_long_name(name, preset, sizeof preset, &long_method, &log_a, &log_b);
+    int is_long = op_parse_long_material_name(name, preset, sizeof preset, &long_method, &log_a, &log_b);
     char path[4096];
     op_status st = op_resolve_material(is_long ? preset : name, b->dir, path, sizeof path, err);
     if (st == OP_OK)
@@ -858,9 +859,7 @@ op_status op_scene_build(op_node *root, const char *path, const op_scene_limits 
     snprintf(b.dir, sizeof b.dir, "%s", dirname(tmp));
     free(tmp);
     op_status st = build_all(&b, root, err);
-    for (int i = 0; i < s->nmaterials; i++)
-        free(b.mat_paths[i]);
-    free(b.mat_paths);
+    s->material_paths = b.mat_paths; /* the pre-pass cache's key reads them */
     for (int i = 0; i < b.nfiles; i++)
         free(b.file_keys[i]);
     free(b.file_keys);
@@ -887,9 +886,12 @@ void op_scene_release(op_scene *s)
         op_emitter_free(&s->emitters[i]);
     free(s->emitters);
     free(s->sss);
-    for (int i = 0; i < s->nmaterials; i++)
+    for (int i = 0; i < s->nmaterials; i++) {
         op_material_close(s->materials[i]);
+        free(s->material_paths[i]);
+    }
     free(s->materials);
+    free(s->material_paths);
     op_tex_cache_free(s->textures);
     op_accel_free(s->accel);
     free(s->path);

@@ -1,12 +1,9 @@
 /* subsurface.c - irradiance points, exitance gathering and interpolation (see subsurface.h). */
 #include "subsurface.h"
 
-#include <ctype.h>
 #include <float.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <time.h>
 
 
@@ -42,10 +39,13 @@ typedef struct sss_shape {
     float *table; /* dipole: its kernel row per channel (3 K^2), Rd integrated over each pixel */
     int reached;           /* some camera segment reaches the shape: points are laid */
     unsigned char *bmark;  /* per gather bucket: holds a receiver */
-    unsigned char *recv;   /* per point: its exitance is computed (a receiver) */
-    int32_t *rmap;         /* per point: its index among the receivers, or -1 */
-    int *src;              /* the points whose irradiance is computed (sources), ascending */
-    int nsrc, nrecv;
+    unsigned char *recv;   /* per point: the view needs its exitance (a receiver) */
+    int32_t *rmap;         /* per point: its index among the receivers whose exitance is
+                              computed (those the store lacks), or -1 */
+    int *src;              /* the sources whose irradiance is computed (those the store
+                              lacks), ascending */
+    int nsrc, nrecv;       /* how many are computed */
+    int reused_src, reused_recv; /* the sources and receivers of this view taken from the store */
 } sss_shape;
 
 struct op_sss_cache {
@@ -351,6 +351,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
 
 typedef struct build_job {
     const op_scene *scene;
+    const op_sss_transport *transport;
     op_sss_cache *cache;
     uint64_t seed;
     atomic_int *cancel;
@@ -370,7 +371,6 @@ static void irradiance_task(void *user, int task, int thread)
     (void)thread;
     build_job *job = user;
     sss_shape *ss = &job->cache->shapes[job->task_shape[task]];
-    op_trace_ctx ctx = {job->scene, NULL};
     int first = job->task_first[task], last = first + POINTS_PER_TASK;
     if (last > ss->nsrc)
         last = ss->nsrc;
@@ -383,7 +383,7 @@ static void irradiance_task(void *user, int task, int thread)
             op_rng rng = op_rng_seed(job->seed ^ 0x5355425355524641ull,
                                      ((uint64_t)job->task_shape[task] << 40) | (uint64_t)k,
                                      (uint64_t)s);
-            op_v3 e = op_irradiance(&ctx, q->p, q->ng, q->n, &rng);
+            op_v3 e = job->transport->irradiance(job->scene, q->p, q->ng, q->n, &rng);
             if (isfinite(e.x) && isfinite(e.y) && isfinite(e.z))
                 sum = v3_add(sum, e);
         }
@@ -532,6 +532,7 @@ typedef struct cam_row {
 
 typedef struct cam_job {
     const op_scene *scene;
+    const op_sss_transport *transport;
     uint64_t seed;
     int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
     cam_row *rows;
@@ -547,17 +548,17 @@ static void camera_task(void *user, int task, int thread)
     cam_job *job = user;
     const op_scene *s = job->scene;
     cam_row *row = &job->rows[task];
-    float fy = (float)(s->film.crop_y - job->ext + task);
+    float fy = (float)(task - job->ext);
     for (int ix = 0; ix < job->gw; ix++) {
-        float fx = (float)(s->film.crop_x - job->ext + ix);
+        float fx = (float)(ix - job->ext);
         op_v3 org, dir;
         float tmin, tmax, dist, cosine;
         op_camera_ray(&s->camera, fx, fy, &org, &dir, &tmin, &tmax);
         op_rng rng = op_rng_seed(job->seed ^ 0x43414d4552414d4bull,
                                  (uint64_t)task * (uint64_t)job->gw + (uint64_t)ix, 0);
         op_isect it;
-        if (!op_camera_sss_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it, &dist,
-                               &cosine))
+        if (!job->transport->camera_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it,
+                                        &dist, &cosine))
             continue;
         if (row->n == row->cap) {
             int nc = row->cap ? 2 * row->cap : 64;
@@ -588,9 +589,12 @@ static void mark_near(sss_shape *ss, op_v3 p, float r)
     });
 }
 
-/* From the receivers marked in recv: their indices, the gather buckets that hold one, and the
- * sources (points whose gather box, the one scatter_task visits, holds such a bucket). */
-static op_status select_points(sss_shape *ss, op_error *err)
+/* From the receivers marked in recv and what sv (NULL: nothing) already holds: the receivers
+ * whose exitance is computed (those sv lacks: rmap), the gather buckets that hold one, and the
+ * sources (points whose gather box, the one scatter_task visits, holds such a bucket). Sources
+ * sv has the irradiance of get it now; the others are listed in src to be computed. Receivers
+ * sv has the exitance of get it now. */
+static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
 {
     const sss_grid *g = &ss->gather;
     ss->rmap = malloc((size_t)ss->n * sizeof *ss->rmap);
@@ -601,8 +605,13 @@ static op_status select_points(sss_shape *ss, op_error *err)
     ss->nrecv = ss->nsrc = 0;
     for (int j = 0; j < ss->n; j++) {
         const int32_t *cg = g->coord + 3 * j;
-        ss->rmap[j] = ss->recv[j] ? ss->nrecv++ : -1;
-        if (ss->recv[j])
+        int known = ss->recv[j] && sv && (sv->has[j] & OP_SSS_HAS_M);
+        if (known) {
+            ss->pts[j].m = v3(sv->m[3 * j], sv->m[3 * j + 1], sv->m[3 * j + 2]);
+            ss->reused_recv++;
+        }
+        ss->rmap[j] = ss->recv[j] && !known ? ss->nrecv++ : -1;
+        if (ss->rmap[j] >= 0)
             ss->bmark[cell_hash(cg[0], cg[1], cg[2], g->mask)] = 1;
     }
     for (int i = 0; i < ss->n; i++) {
@@ -613,25 +622,33 @@ static op_status select_points(sss_shape *ss, op_error *err)
             for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
                 for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
                     need = ss->bmark[cell_hash(x, y, z, g->mask)];
-        if (need)
+        if (!need)
+            continue;
+        if (sv && (sv->has[i] & OP_SSS_HAS_E)) {
+            ss->pts[i].e = v3(sv->e[3 * i], sv->e[3 * i + 1], sv->e[3 * i + 2]);
+            ss->reused_src++;
+        } else {
             ss->src[ss->nsrc++] = i;
+        }
     }
     return OP_OK;
 }
 
-/* The camera pass: one segment per pixel corner of the film (widened by the filter's reach), so
- * that every sample position lies within one grid spacing of a traced ray. Fills *rows (gh rows
- * of hits) and marks the translucent shapes reached. */
+/* The camera pass: one segment per pixel corner of the whole film (widened by the filter's
+ * reach; a crop window does not narrow it, so that a cropped render's pixels are exactly the
+ * full render's), so that every sample position lies within one grid spacing of a traced ray.
+ * Fills *rows (gh rows of hits) and marks the translucent shapes reached. */
 static op_status camera_pass(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
                              cam_job *job, int *gh, op_error *err)
 {
     const op_film *film = &scene->film;
     memset(job, 0, sizeof *job);
     job->scene = scene;
+    job->transport = opt->transport;
     job->seed = opt->seed;
     job->ext = (int)ceilf(fmaxf(film->filter_radius - 0.5f, 0.0f));
-    job->gw = film->width + 2 * job->ext + 1;
-    *gh = film->height + 2 * job->ext + 1;
+    job->gw = film->full_width + 2 * job->ext + 1;
+    *gh = film->full_height + 2 * job->ext + 1;
     job->rows = calloc((size_t)*gh, sizeof *job->rows);
     if (!job->rows)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -669,12 +686,12 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
     op_status st = OP_OK;
     uint64_t npts = 0; /* scatter_task runs over all the points of the shapes it scatters */
     for (int s = 0; s < c->n; s++)
-        if (c->shapes[s].nrecv > 0 && c->shapes[s].nsrc > 0)
+        if (c->shapes[s].nrecv > 0)
             npts += (uint64_t)c->shapes[s].n;
     job->prog = op_progress_begin("subsurface", npts, opt->progress, opt->progress_user);
     for (int s = 0; st == OP_OK && s < c->n; s++) {
         sss_shape *ss = &c->shapes[s];
-        if (ss->nrecv == 0 || ss->nsrc == 0)
+        if (ss->nrecv == 0)
             continue;
         int K = ss->kernel;
         for (int i = 0; i < threads && st == OP_OK; i++) {
@@ -720,6 +737,68 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
     free(job->rows);
     job->rows = NULL;
     return st;
+}
+
+/* Makes the store's entry for subsurface index sss ready for a shape of n points: allocated
+ * (empty) when it has none. Entries of the same key always have the shape's point count; one
+ * that does not is refused (a damaged file that kept its checksum, or a key collision). */
+static op_status saved_prepare(op_sss_store *store, int sss, int n, const char *label,
+                               op_error *err)
+{
+    if (sss >= store->nshapes)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d translucent "
+                            "shapes, the scene has more", label, store->nshapes);
+    op_sss_saved *sv = &store->shapes[sss];
+    if (sv->n == n)
+        return OP_OK;
+    if (sv->n != 0)
+        return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d irradiance "
+                            "points for this shape, the scene lays %d", label, sv->n, n);
+    sv->has = calloc((size_t)n, 1);
+    sv->e = calloc(3 * (size_t)n, sizeof *sv->e);
+    sv->m = calloc(3 * (size_t)n, sizeof *sv->m);
+    if (!sv->has || !sv->e || !sv->m) {
+        free(sv->has);
+        free(sv->e);
+        free(sv->m);
+        sv->has = NULL;
+        sv->e = sv->m = NULL;
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for the pre-pass cache");
+    }
+    sv->n = n;
+    return OP_OK;
+}
+
+/* Adds what a finished build computed to the store (every shape whose points were laid has its
+ * entry, from saved_prepare) and counts it. */
+static void store_update(op_sss_store *store, const op_sss_cache *c)
+{
+    for (int s = 0; s < c->n; s++) {
+        const sss_shape *ss = &c->shapes[s];
+        if (!ss->pts)
+            continue;
+        op_sss_saved *sv = &store->shapes[s];
+        for (int k = 0; k < ss->nsrc; k++) {
+            int i = ss->src[k];
+            float *e = sv->e + 3 * (size_t)i;
+            e[0] = ss->pts[i].e.x;
+            e[1] = ss->pts[i].e.y;
+            e[2] = ss->pts[i].e.z;
+            sv->has[i] |= OP_SSS_HAS_E;
+        }
+        for (int j = 0; j < ss->n; j++)
+            if (ss->rmap[j] >= 0) {
+                float *m = sv->m + 3 * (size_t)j;
+                m[0] = ss->pts[j].m.x;
+                m[1] = ss->pts[j].m.y;
+                m[2] = ss->pts[j].m.z;
+                sv->has[j] |= OP_SSS_HAS_M;
+            }
+        store->reused_e += ss->reused_src;
+        store->reused_m += ss->reused_recv;
+        store->new_e += ss->nsrc;
+        store->new_m += ss->nrecv;
+    }
 }
 
 static double now_s(void)
@@ -798,14 +877,25 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
                         mark_near(ss, hh->p, ss->h + pix * hh->span);
                 }
         }
-        st = select_points(ss, err);
+        op_sss_saved *sv = NULL;
+        if (opt->store) {
+            st = saved_prepare(opt->store, sh->sss, ss->n, sh->label, err);
+            if (st)
+                break;
+            sv = &opt->store->shapes[sh->sss];
+        }
+        st = select_points(ss, sv, err);
         if (st)
             break;
         total += (ss->nsrc + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
         op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
                "of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
                sh->label, ss->n, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
-               ss->nrecv, ss->nsrc);
+               ss->nrecv + ss->reused_recv, ss->nsrc + ss->reused_src);
+        if (opt->store)
+            op_log(OP_LOG_DEBUG, "%s: from the pre-pass cache: irradiance at %d, exitance at %d; "
+                   "computed: irradiance at %d, exitance at %d", sh->label, ss->reused_src,
+                   ss->reused_recv, ss->nsrc, ss->nrecv);
     }
     for (int r = 0; r < gh; r++)
         free(cam.rows[r].h);
@@ -813,6 +903,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     build_job job;
     memset(&job, 0, sizeof job);
     job.scene = scene;
+    job.transport = opt->transport;
     job.cache = c;
     job.seed = opt->seed;
     job.cancel = opt->cancel;
@@ -835,9 +926,13 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         if (st == OP_OK)
             st = irradiance_pass(&job, opt, (int)total, nsrc, err);
         t1 = now_s();
-        if (st == OP_OK)
-            st = scatter_pass(&job, opt, err);
     }
+    /* with a store, every irradiance a scatter needs may be known already */
+    int scatter = 0;
+    for (int s = 0; s < c->n; s++)
+        scatter |= c->shapes[s].nrecv > 0;
+    if (st == OP_OK && scatter)
+        st = scatter_pass(&job, opt, err);
     free(job.task_shape);
     free(job.task_first);
     double te = now_s();
@@ -850,6 +945,8 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         op_sss_cache_free(c);
         return st;
     }
+    if (opt->store)
+        store_update(opt->store, c);
     *out = c;
     return OP_OK;
 }
@@ -886,6 +983,8 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
         st->points += c->shapes[i].n;
         st->sources += c->shapes[i].nsrc;
         st->receivers += c->shapes[i].nrecv;
+        st->sources_reused += c->shapes[i].reused_src;
+        st->receivers_reused += c->shapes[i].reused_recv;
         st->shapes_reached += c->shapes[i].reached;
     }
     st->seconds = c->seconds;
@@ -923,70 +1022,4 @@ op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
     op_v3 m;
     op_sss_lookup(c, sss, p, n, &m);
     return m;
-}
-
-int op_sss_parse_long_name(const char *name, char *out, size_t n, op_method *method, double *a,
-                           double *b)
-{
-    char buf[512], res[512];
-    if (strlen(name) >= sizeof buf)
-        return 0;
-    strcpy(buf, name);
-    char *tok[64], *save = NULL;
-    int nt = 0;
-    for (char *t = strtok_r(buf, " \t", &save); t && nt < 64; t = strtok_r(NULL, " \t", &save))
-        tok[nt++] = t;
-    int forat = -1;
-    for (int i = 1; i + 1 < nt; i++)
-        if (strcasecmp(tok[i], "for") == 0 && strcasecmp(tok[i + 1], "Rd") == 0) {
-            forat = i;
-            break;
-        }
-    if (forat < 1 || forat + 2 >= nt)
-        return 0;
-    char low[32];
-    size_t ml = strlen(tok[0]);
-    if (ml == 0 || ml >= sizeof low)
-        return 0;
-    for (size_t i = 0; i <= ml; i++)
-        low[i] = (char)tolower((unsigned char)tok[0][i]);
-    op_method m = op_method_from_name(low);
-    if (m == OP_METHOD_COUNT)
-        return 0;
-    double A = 0.0, B = 0.0;
-    size_t k = 0;
-    for (size_t i = 0; i < ml; i++)
-        res[k++] = (char)toupper((unsigned char)tok[0][i]);
-    for (int i = 1; i < forat; i++) {
-        const char *t = tok[i];
-        size_t letters = 0;
-        while (isalpha((unsigned char)t[letters]))
-            letters++;
-        char *end;
-        double v = strtod(t + letters, &end);
-        if (letters == 0 || end == t + letters || *end || !isfinite(v))
-            return 0;
-        if (letters == 3 && strncasecmp(t, "Div", 3) == 0) {
-            A = v;
-        } else if (letters == 3 && strncasecmp(t, "Add", 3) == 0) {
-            B = v;
-        } else {
-            int w = snprintf(res + k, sizeof res - k, "_%c%s", toupper((unsigned char)t[0]), t + 1);
-            if (w < 0 || (size_t)w >= sizeof res - k)
-                return 0;
-            k += (size_t)w;
-        }
-    }
-    const char *nm = tok[forat + 2];
-    for (const char *p = nm; *p; p++)
-        if (!isalnum((unsigned char)*p) && *p != '_' && *p != '-')
-            return 0;
-    int w = snprintf(res + k, sizeof res - k, "_%s", nm);
-    if (w < 0 || (size_t)w >= sizeof res - k || k + (size_t)w >= n)
-        return 0;
-    memcpy(out, res, k + (size_t)w + 1);
-    *method = m;
-    *a = A;
-    *b = B;
-    return 1;
 }

@@ -7,7 +7,8 @@
  * The camera pass interpolates M between the points near a hit; the radiance leaving is M / pi.
  *
  * The work follows what the camera needs: a first pass traces one camera segment (through masks
- * and smooth bounces) per pixel corner and marks as receivers the points within the
+ * and smooth bounces) per pixel corner of the whole film (a crop window does not narrow it, so
+ * a cropped render's pixels are the full render's) and marks as receivers the points within the
  * interpolation radius plus a pixel footprint of each translucent hit. Points are laid only on
  * shapes that some camera segment reaches, exitance is computed only at the marked points
  * (receivers), irradiance only at the points whose kernel footprint holds a receiver
@@ -21,7 +22,45 @@
 #ifndef OP_SUBSURFACE_H
 #define OP_SUBSURFACE_H
 
-#include "integrator.h"
+#include <stdatomic.h>
+
+#include "isect.h"
+#include "rrng.h"
+
+typedef struct op_sss_cache op_sss_cache;
+
+/* The light transport the pre-pass needs, supplied by its caller (render.c passes the path
+ * tracer's, integrator.h's op_path_transport): the pre-pass lays points, marks and sums, and
+ * traces nothing itself. irradiance: a one-sample estimate of pi times the radiance a white
+ * Lambertian at (p, ng, ns) reflects. camera_hit: follows a camera ray's segment as the path
+ * tracer would and says whether (and where, how far, at what cosine) it ends on a translucent
+ * shape whose exitance the path tracer would use. Both draw only from rng. */
+typedef struct op_sss_transport {
+    op_v3 (*irradiance)(const op_scene *scene, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
+    int (*camera_hit)(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
+                      int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
+} op_sss_transport;
+
+/* What earlier pre-passes of the same key (sss_cache.h) computed for one translucent shape:
+ * per point whether its irradiance E (OP_SSS_HAS_E) and its exitance M (OP_SSS_HAS_M) are
+ * known, and their values (3 floats per point, meaningful where flagged). n is the shape's
+ * point count, 0 when nothing is known (then has, e and m are NULL). */
+typedef struct op_sss_saved {
+    int n;
+    unsigned char *has;
+    float *e, *m;
+} op_sss_saved;
+
+enum { OP_SSS_HAS_E = 1, OP_SSS_HAS_M = 2 };
+
+/* The saved results of every translucent shape (index = subsurface index). A build given a
+ * store reuses what it holds and adds what it computed; the counts say what it did. */
+typedef struct op_sss_store {
+    int nshapes;
+    op_sss_saved *shapes;
+    long long reused_e, reused_m; /* sources and receivers of this view taken from the store */
+    long long new_e, new_m;       /* irradiance and exitance values computed and added */
+} op_sss_store;
 
 typedef struct op_sss_build_options {
     int threads;
@@ -30,6 +69,8 @@ typedef struct op_sss_build_options {
     op_progress_fn progress;
     void *progress_user;
     int everywhere; /* 1: every point of every translucent shape, no camera pass */
+    op_sss_store *store; /* NULL, or results to reuse, extended with what the build computes */
+    const op_sss_transport *transport; /* required */
 } op_sss_build_options;
 
 /* What a build computed, summed over the translucent shapes. */
@@ -37,6 +78,7 @@ typedef struct op_sss_stats {
     long long points;    /* irradiance points laid (on shapes a camera segment reaches) */
     long long sources;   /* points whose irradiance was computed */
     long long receivers; /* points whose exitance was computed */
+    long long sources_reused, receivers_reused; /* taken from the store instead */
     int shapes_reached;  /* translucent shapes a camera segment reaches */
     double seconds;      /* the build's wall time */
 } op_sss_stats;
@@ -63,14 +105,5 @@ op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n);
 /* How many irradiance points a translucent shape got (for tests and logs). */
 int op_sss_cache_points(const op_sss_cache *c, int sss);
 void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st);
-
-/* The long material names of the Blender/Mitsuba plugin (Onel, Kurt, Ozturk), e.g.
- * "SVD S10 Div100 Add1 for Rd Chess4x4 v1(277x277x39x39)": "<METHOD> <params> for Rd <Name> ...",
- * where each param is letters followed by a number. Returns 1 when name has that form, writing
- * the preset name (METHOD, the params other than Div and Add, and Name joined by '_', e.g.
- * "SVD_S10_Chess4x4", "TUCKER_T15_P7_Chess4x4") to out, the method to *method, and Div (A) and
- * Add (B) to *a and *b (0 when absent); returns 0 otherwise (out untouched). */
-int op_sss_parse_long_name(const char *name, char *out, size_t n, op_method *method, double *a,
-                           double *b);
 
 #endif

@@ -53,6 +53,11 @@ int op_tex_cache_count(const op_tex_cache *c)
     return c ? c->n : 0;
 }
 
+const op_image *op_tex_cache_image(const op_tex_cache *c, int i)
+{
+    return &c->entries[i]->img;
+}
+
 /* Turns the stored values of a just-read file into linear RGB in [0, 1] (3 channels, alpha
  * dropped, grey replicated): sRGB-decoded when srgb, raised to gamma otherwise. Returns the
  * count of values that were out of range or not finite (clamped). */

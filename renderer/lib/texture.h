@@ -42,6 +42,8 @@ op_tex_cache *op_tex_cache_new(long long max_pixels); /* images over max_pixels 
 void op_tex_cache_free(op_tex_cache *c);
 /* How many images the cache holds (how many files were read). */
 int op_tex_cache_count(const op_tex_cache *c);
+/* Image i (0 <= i < count), in the order the files were first read. */
+const op_image *op_tex_cache_image(const op_tex_cache *c, int i);
 
 /* Builds t from a <texture> node (marking it and its parameters used), reading the image of a
  * bitmap through cache. Errors name the scene file, line and the image file. */

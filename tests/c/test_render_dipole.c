@@ -11,7 +11,7 @@
 #include "dipole_reference.h"
 #include "opaline_render.h"
 #include "render_scene.h"
-#include "subsurface.h"
+#include "integrator.h"
 #include "test_support.h"
 
 /* Skin1 from Jensen et al. 2001 (1/mm), eta 1.3, written out here independently of dipole.c. */
@@ -80,7 +80,7 @@ static void slab_exitance(const char *path, double inner, double out[3])
     op_scene *scene = NULL;
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1};
+    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
     op_sss_cache *cache = NULL;
     st = op_sss_cache_build(scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);

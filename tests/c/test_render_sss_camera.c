@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "opaline_render.h"
-#include "subsurface.h"
+#include "integrator.h"
 #include "test_support.h"
 
 /* Writes to path a raw material of 16 x 16 pixels, kernel 5, 1 x 1 cm: a normalized Gaussian
@@ -154,7 +154,8 @@ static void test_partly_seen_plane(void **state)
     op_scene *scene = NULL;
     op_status s = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(s, err);
-    op_sss_build_options full = {2, 0, NULL, NULL, NULL, 1}, cam = {2, 0, NULL, NULL, NULL, 0};
+    op_sss_build_options full = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
+    op_sss_build_options cam = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
     op_sss_cache *cf = NULL, *cc = NULL;
     s = op_sss_cache_build(scene, &full, &cf, &err);
     OP_ASSERT_OK(s, err);

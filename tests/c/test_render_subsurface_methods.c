@@ -14,7 +14,8 @@
 #include "commands.h"
 #include "opaline_render.h"
 #include "render_scene.h"
-#include "subsurface.h"
+#include "integrator.h"
+#include "material_name.h"
 #include "test_support.h"
 
 static char dir[1024];      /* the scene folder: materials are found there by preset name */
@@ -110,19 +111,19 @@ static void test_long_names(void **state)
     char out[256];
     op_method m;
     double a, b;
-    assert_true(op_sss_parse_long_name("SVD S10 Div100 Add1 for Rd Chess4x4 v1(277x277x39x39)",
+    assert_true(op_parse_long_material_name("SVD S10 Div100 Add1 for Rd Chess4x4 v1(277x277x39x39)",
                                        out, sizeof out, &m, &a, &b));
     assert_string_equal(out, "SVD_S10_Chess4x4");
     assert_int_equal(m, OP_METHOD_SVD);
     assert_true(a == 100.0 && b == 1.0);
-    assert_true(op_sss_parse_long_name("TUCKER T15 P7 for Rd Chess4x4 v1(277x277x29x29)", out,
+    assert_true(op_parse_long_material_name("TUCKER T15 P7 for Rd Chess4x4 v1(277x277x29x29)", out,
                                        sizeof out, &m, &a, &b));
     assert_string_equal(out, "TUCKER_T15_P7_Chess4x4");
     assert_int_equal(m, OP_METHOD_TUCKER);
     assert_true(a == 0.0 && b == 0.0);
-    assert_false(op_sss_parse_long_name("SVD_S10_Chess4x4", out, sizeof out, &m, &a, &b));
-    assert_false(op_sss_parse_long_name("FOO S10 for Rd Chess4x4", out, sizeof out, &m, &a, &b));
-    assert_false(op_sss_parse_long_name("SVD S10 Div100 Add1 for Rd", out, sizeof out, &m, &a, &b));
+    assert_false(op_parse_long_material_name("SVD_S10_Chess4x4", out, sizeof out, &m, &a, &b));
+    assert_false(op_parse_long_material_name("FOO S10 for Rd Chess4x4", out, sizeof out, &m, &a, &b));
+    assert_false(op_parse_long_material_name("SVD S10 Div100 Add1 for Rd", out, sizeof out, &m, &a, &b));
 
     op_error err = {0};
     op_status st = try_load(scene_file("l1.xml", rect, "svd",
@@ -196,7 +197,7 @@ static void tile_exitance(const char *path, double out[3])
     op_scene *scene = NULL;
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1};
+    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
     op_sss_cache *cache = NULL;
     st = op_sss_cache_build(scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);

@@ -38,6 +38,20 @@ XML
       "$BIN/opaline-render" -q -o "$corpus/image.$ext" "$work/scene.xml"
     done
     ;;
+  sss_cache)
+    cat > "$work/scene.xml" <<'XML'
+<scene version="0.6.0">
+  <sensor type="perspective"><transform name="toWorld"><lookat origin="0, -4, 1" target="0, 0, 0.5" up="0, 0, 1"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="1"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>
+  <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+  <shape type="sphere"><point name="center" x="0" y="0" z="0.5"/><float name="radius" value="0.5"/>
+    <subsurface type="dipole"><integer name="maxPoints" value="40"/><integer name="irrSamples" value="1"/></subsurface></shape>
+</scene>
+XML
+    "$BIN/opaline-render" -q -t 1 --sss-cache "$corpus/cache.sssc" --sss-cache-only "$work/scene.xml" 2>/dev/null
+    { printf '\001'; tail -c +65 "$corpus/cache.sssc"; } > "$corpus/body"
+    ;;
 esac
 
 inputs=("$corpus")
