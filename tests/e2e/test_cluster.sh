@@ -163,9 +163,11 @@ read -r pid attempt < "$T/out_slow/.cluster/pids/slow"
 kill -9 "$pid" || fail "the render had finished before it could be killed"
 [ -e "$T/out_slow/slow.exr" ] && fail "a killed render left an output"
 wait_until 90 complete "$T/out_slow" 1 || fail "the killed task was not retried: $("$C" status -v "$T/out_slow")"
-grep -q "slow: attempt 1 failed (killed by signal 9)" "$T"/out_slow/.cluster/logs/*.log ||
-  fail "the log does not say the first attempt was killed"
-grep -q '"attempt": 2' "$T/out_slow/.cluster/times/slow.json" || fail "not done by attempt 2"
+killed_logged() { grep -q "slow: attempt 1 failed (killed by signal 9)" "$T"/out_slow/.cluster/logs/*.log; }
+wait_until 10 killed_logged || fail "the log does not say the first attempt was killed"
+# the task records its timing just after the renderer has put the outputs in place
+wait_until 10 grep -q '"attempt": 2' "$T/out_slow/.cluster/times/slow.json" ||
+  fail "not done by attempt 2"
 echo "ok: killed task retried in $(( $(date +%s) - t0 )) s"
 
 # 6. A scene naming a file outside the shared folder is refused before anything is submitted.
