@@ -10,7 +10,9 @@
 #
 # Groups: core (build, run, add-on tests), fuzz (clang's libFuzzer, left out when
 # OPALINE_FUZZ_SECONDS=0), platforms (debootstrap, for the Debian 13 / sid test runs; left out
-# when OPALINE_PLATFORMS=none), bench, screenshots (Xvfb; only scripts/addon-screenshots.sh
+# when OPALINE_PLATFORMS=none), cluster (SLURM and munge, for the one-node cluster of
+# tests/e2e/test_cluster.sh; left out when OPALINE_CLUSTER=none; no daemon is enabled: the test
+# starts its own in a temp folder), bench, screenshots (Xvfb; only scripts/addon-screenshots.sh
 # installs it).
 set -euo pipefail
 
@@ -21,9 +23,11 @@ group() {
                python3 ;;
     fuzz) echo clang libclang-rt-dev ;;
     platforms) echo debootstrap ;;
+    cluster) echo slurm-wlm munge ;;
     bench) echo python3-numpy python3-sklearn python3-matplotlib embree-tools ;;
     screenshots) echo xvfb ;;
-    *) echo "install-deps.sh: unknown group '$1' (core, fuzz, platforms, bench, screenshots)" >&2
+    *) echo "install-deps.sh: unknown group '$1' (core, fuzz, platforms, cluster, bench," \
+            "screenshots)" >&2
        return 2 ;;
   esac
 }
@@ -36,6 +40,7 @@ fi
 packages=($(group core))
 [ "${OPALINE_FUZZ_SECONDS:-30}" = 0 ] || packages+=($(group fuzz))
 [ "${OPALINE_PLATFORMS:-}" = none ] || packages+=($(group platforms))
+[ "${OPALINE_CLUSTER:-}" = none ] || packages+=($(group cluster))
 [ "${1:-}" = --bench ] && packages+=($(group bench))
 [ "${1:-}" = --screenshots ] && packages+=($(group screenshots))
 
