@@ -311,6 +311,27 @@ uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
 /* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */
 uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b);
 
+/* ---------------------------------------------------------------- scattering media */
+/* The one table of named scattering media, shared by the dataset generator and the renderer's
+ * dipole (libopaline/media.c; sources in docs/datasets.md). Coefficients are the reduced
+ * scattering sigma_s' and absorption sigma_a per R, G, B in 1/mm (phase function g = 0 after
+ * reduction); eta is the medium's index of refraction relative to the outside (air). */
+typedef struct op_medium {
+    const char *name;  /* canonical spelling, e.g. "Marble" */
+    double sigma_s[3]; /* reduced scattering coefficient, 1/mm */
+    double sigma_a[3]; /* absorption coefficient, 1/mm */
+    double eta;        /* relative index of refraction, > 1 */
+    const char *source; /* where the values come from */
+} op_medium;
+
+/* The medium called `name` (case-insensitive), or NULL when there is none (or name is NULL). */
+const op_medium *op_medium_lookup(const char *name);
+/* The i-th medium of the table (0 <= i < op_medium_count()), else NULL. */
+const op_medium *op_medium_at(int i);
+int op_medium_count(void);
+/* The media's names, ", "-separated, in table order (for messages; a static string). */
+const char *op_medium_names(void);
+
 const char *op_version(void);
 
 #ifdef __cplusplus
