@@ -34,8 +34,38 @@ const char *op_version(void)
     return OPALINE_VERSION_STRING;
 }
 
+/* Buffers from 64 MiB on are checksummed in 16 MiB blocks on every core, combined in order. */
+enum { CRC_BLOCK = 16 << 20, CRC_MAX_BLOCKS = 1 << 16 };
+typedef struct crc_job {
+    const unsigned char *data;
+    size_t n, block;
+    uint32_t *parts;
+} crc_job;
+
+static void crc_task(void *user, int task, int thread)
+{
+    const crc_job *j = user;
+    size_t at = (size_t)task * j->block, len = j->n - at < j->block ? j->n - at : j->block;
+    (void)thread;
+    j->parts[task] = (uint32_t)crc32_z(0, j->data + at, len);
+}
+
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n)
 {
+    crc_job j = {data, n, CRC_BLOCK, NULL};
+    while (n / j.block >= CRC_MAX_BLOCKS)
+        j.block *= 2;
+    int tasks = (int)((n + j.block - 1) / j.block);
+    if (n >= 4 * (size_t)CRC_BLOCK && (j.parts = malloc((size_t)tasks * sizeof *j.parts)) &&
+        op_parallel_for(0, tasks, crc_task, &j, NULL, NULL) == OP_OK) {
+        for (int t = 0; t < tasks; t++) {
+            size_t len = n - (size_t)t * j.block < j.block ? n - (size_t)t * j.block : j.block;
+            crc = op_crc32_combine(crc, j.parts[t], len);
+        }
+        free(j.parts);
+        return crc;
+    }
+    free(j.parts);
     return (uint32_t)crc32_z(crc, data, n);
 }
 
@@ -250,6 +280,16 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
     if (st == OP_OK && (st = op_material_check_albedo(m, tag, mx, (uint64_t)rows, err)) == OP_OK)
         *max = mx;
     return st;
+}
+
+float *op_transpose(const float *v, int n, int T)
+{
+    float *vt = malloc((size_t)n * (size_t)T * sizeof *vt + 1);
+    if (vt)
+        for (int j = 0; j < n; j++)
+            for (int t = 0; t < T; t++)
+                vt[(size_t)t * n + j] = v[(size_t)j * T + t];
+    return vt;
 }
 
 void op_column_abs_max(const float *v, int n, int T, double *out)
