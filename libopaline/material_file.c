@@ -508,6 +508,21 @@ static op_status check_entry(const op_material *m, uint32_t i, const unsigned ch
     return OP_OK;
 }
 
+/* The CRC-32 of a section; streaming, in pieces of 64 MiB released once read. */
+static uint32_t section_crc(const op_material *m, const unsigned char *p, uint64_t size)
+{
+    if (!m->streaming)
+        return op_crc32(0, p, (size_t)size);
+    const uint64_t piece = (uint64_t)64 << 20;
+    uint32_t crc = 0;
+    for (uint64_t at = 0; at < size; at += piece) {
+        size_t n = (size_t)(size - at < piece ? size - at : piece);
+        crc = op_crc32(crc, p + at, n);
+        op_file_release(&m->file, p + at, n);
+    }
+    return crc;
+}
+
 static op_status check_container(op_material *m, op_error *err)
 {
     const unsigned char *b = m->base;
@@ -545,7 +560,7 @@ static op_status check_container(op_material *m, op_error *err)
         if (st != OP_OK)
             return st;
         uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
-        if (!checksum_ok(get_u32(e + 24), op_crc32(0, b + off, size)))
+        if (!checksum_ok(get_u32(e + 24), section_crc(m, b + off, size)))
             return op_error_set(err, OP_ERR_FORMAT,
                                 "%s: section '%.8s' checksum mismatch (corrupt file)", path,
                                 (const char *)e);
@@ -553,12 +568,14 @@ static op_status check_container(op_material *m, op_error *err)
     return OP_OK;
 }
 
-static op_status open_file(const char *path, int with_method, op_material **out, op_error *err)
+static op_status open_file(const char *path, int with_method, int streaming, op_material **out,
+                           op_error *err)
 {
     *out = NULL;
     op_material *m = calloc(1, sizeof *m);
     if (!m)
         return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    m->streaming = streaming;
     snprintf(m->path, sizeof m->path, "%s", path);
     op_status st = op_file_map(path, &m->file, err);
     if (st != OP_OK) {
@@ -600,12 +617,22 @@ static op_status open_file(const char *path, int with_method, op_material **out,
 
 op_status op_material_open(const char *path, op_material **out, op_error *err)
 {
-    return open_file(path, 1, out, err);
+    return open_file(path, 1, 0, out, err);
 }
 
 op_status op_material_open_container(const char *path, op_material **out, op_error *err)
 {
-    return open_file(path, 0, out, err);
+    return open_file(path, 0, 0, out, err);
+}
+
+op_status op_material_open_streaming(const char *path, op_material **out, op_error *err)
+{
+    return open_file(path, 0, 1, out, err);
+}
+
+void op_material_release(const op_material *m, const void *p, size_t n)
+{
+    op_file_release(&m->file, p, n);
 }
 
 void op_material_close(op_material *m)

@@ -28,6 +28,7 @@ struct op_material {
     uint32_t nsections;
     const unsigned char *table;
     const float *albedo;    /* the "ALBEDO" section (channels x rows), or NULL */
+    int streaming;          /* op_material_open_streaming: pages released once checked */
 };
 
 /* The largest albedo (the sum of a row of Rd: the fraction of the light entering one incident

@@ -131,6 +131,7 @@ typedef struct prep_job {
     double log_a, log_b;
     float *dst;
     int64_t rows_per_task;
+    int find_peaks;
 } prep_job;
 
 static void prep_task(void *user, int task, int thread)
@@ -140,7 +141,7 @@ static void prep_task(void *user, int task, int thread)
     int64_t n = j->rows - r0 < j->rows_per_task ? j->rows - r0 : j->rows_per_task;
     size_t at = (size_t)r0 * (size_t)j->cols;
     (void)thread;
-    if (j->shift)
+    if (j->shift && j->find_peaks)
         op_prep_find_peaks(j->src + at, n, j->cols, j->shift + r0, j->max + r0);
     op_prep_apply(j->src + at, n, j->cols, j->shift ? j->shift + r0 : NULL,
                   j->max ? j->max + r0 : NULL, j->dst + at);
@@ -148,16 +149,32 @@ static void prep_task(void *user, int task, int thread)
         op_prep_log(j->dst + at, (uint64_t)n * (uint64_t)j->cols, j->log_a, j->log_b);
 }
 
-op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
-                       double log_a, double log_b, int threads, float *dst, op_error *err)
+static op_status prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
+                           int find_peaks, double log_a, double log_b, int threads, float *dst,
+                           op_error *err)
 {
     /* Blocks of about 256 KiB: large enough to amortize a task, small enough to balance. */
     int64_t per = (int64_t)(65536 / (cols > 0 ? cols : 1));
-    prep_job j = {src, rows, cols, shift, max, log_a, log_b, dst, per > 0 ? per : 1};
+    prep_job j = {src, rows, cols, shift, max, log_a, log_b, dst, per > 0 ? per : 1, find_peaks};
     int64_t tasks = (rows + j.rows_per_task - 1) / j.rows_per_task;
     while (tasks > 1 << 30) {
         j.rows_per_task *= 2;
         tasks = (rows + j.rows_per_task - 1) / j.rows_per_task;
     }
     return op_parallel_for(threads, (int)tasks, prep_task, &j, NULL, err);
+}
+
+op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
+                       double log_a, double log_b, int threads, float *dst, op_error *err)
+{
+    return prep_rows(src, rows, cols, shift, max, 1, log_a, log_b, threads, dst, err);
+}
+
+op_status op_prep_rows_given_peaks(const float *src, int64_t rows, int cols,
+                                   const uint32_t *shift, const float *max, double log_a,
+                                   double log_b, int threads, float *dst, op_error *err)
+{
+    /* prep_task writes shift and max only when it finds the peaks */
+    return prep_rows(src, rows, cols, (uint32_t *)shift, (float *)max, 0, log_a, log_b, threads,
+                     dst, err);
 }
