@@ -591,7 +591,12 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
         st = ds->block_rows ? stream_peaks(a, ds, c, &shift, &max, err)
                             : prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
         svd_rows t = {a, ds, c, mat, shift, max};
-        if (st == OP_OK && (st = check_log_transform(a, &t, err)) != OP_OK) {
+        if (st == OP_OK)
+            st = check_log_transform(a, &t, err);
+        if (ds->block_rows) /* its sampled rows (and the pages the kernel mapped around them) */
+            op_material_release(ds->file, ds->rd[c],
+                                (size_t)rows * (size_t)cols * sizeof *ds->rd[c]);
+        if (st != OP_OK) {
             free(shift);
             free(max);
         }
