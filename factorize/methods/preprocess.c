@@ -13,9 +13,12 @@ static void scan_range(const float *src, uint64_t i0, uint64_t i1, op_prep_count
     for (uint64_t i = i0; i < i1; i++) {
         uint32_t bits;
         memcpy(&bits, &src[i], sizeof bits);
+        /* on the bits alone: workers flush denormals to zero (parallel.c), which would make a
+         * negative denormal compare as 0 */
         int bad = (bits & 0x7f800000u) == 0x7f800000u; /* NaN or infinite */
+        int neg = (bits >> 31) & ((bits & 0x7fffffffu) != 0);
         nonfinite += (uint64_t)bad;
-        negative += (uint64_t)(!bad & (src[i] < 0.0f));
+        negative += (uint64_t)((bad ^ 1) & neg);
     }
     counts->first_nonfinite = -1;
     for (uint64_t i = i0; nonfinite && i < i1; i++)
