@@ -58,8 +58,8 @@ op_status op_dataset_spec_defaults(const char *name, op_dataset_spec *spec, op_e
         spec->kernel = presets[i].k;
         spec->size_x_cm = presets[i].sx;
         spec->size_y_cm = presets[i].sy;
-        spec->media[0] = op_medium_find(presets[i].a);
-        spec->media[1] = op_medium_find(presets[i].b);
+        spec->media[0] = op_medium_lookup(presets[i].a);
+        spec->media[1] = op_medium_lookup(presets[i].b);
         spec->generator = OP_GEN_DIFFUSION;
         spec->photons = 1000;
         spec->seed = 1;
@@ -88,6 +88,9 @@ op_status op_dataset_spec_check(const op_dataset_spec *s, op_error *err)
                             s->size_x_cm, s->size_y_cm);
     if (!s->media[0] || !s->media[1])
         return op_error_set(err, OP_ERR_INPUT, "dataset without media");
+    if (s->eta != 0 && !(s->eta >= 1.0 && s->eta <= 3.0))
+        return op_error_set(err, OP_ERR_INPUT, "eta %g: must be from 1 to 3 (or 0: each "
+                            "medium's own)", s->eta);
     if (s->threads < 1 || s->threads > 1024)
         return op_error_set(err, OP_ERR_INPUT, "threads %d: must be 1 to 1024", s->threads);
     if (s->generator == OP_GEN_MONTECARLO && s->photons < 1)
@@ -249,6 +252,13 @@ op_status op_dataset_generate(const op_dataset_spec *spec, op_dataset *out,
     st = op_dataset_layout(spec, &layout, err);
     if (st != OP_OK)
         return st;
+    layout.eta = spec->eta;
+    char etas[48];
+    double e0 = op_layout_eta(&layout, 0), e1 = op_layout_eta(&layout, 1);
+    if (e0 == e1)
+        snprintf(etas, sizeof etas, "%.2g", e0);
+    else
+        snprintf(etas, sizeof etas, "%.2g,%.2g", e0, e1);
     st = op_dataset_alloc(out, spec->width, spec->height, spec->kernel,
                           spec->generator == OP_GEN_MONTECARLO, err);
     if (st == OP_OK) {
@@ -262,15 +272,15 @@ op_status op_dataset_generate(const op_dataset_spec *spec, op_dataset *out,
             op_mc_stats stats;
             st = op_mc_generate(&layout, &o, out, mc_stats ? mc_stats : &stats, err);
             snprintf(out->generator, sizeof out->generator,
-                     "montecarlo photons=%llu seed=%llu media=%s,%s eta=%.2g",
+                     "montecarlo photons=%llu seed=%llu media=%s,%s eta=%s",
                      (unsigned long long)spec->photons, (unsigned long long)spec->seed,
-                     spec->media[0]->name, spec->media[1]->name, OP_MEDIUM_ETA);
+                     spec->media[0]->name, spec->media[1]->name, etas);
         } else {
             st = op_diffusion_generate(&layout, spec->threads, spec->progress,
                                        spec->progress_user, out, err);
             snprintf(out->generator, sizeof out->generator,
-                     "diffusion dipole-segment media=%s,%s eta=%.2g", spec->media[0]->name,
-                     spec->media[1]->name, OP_MEDIUM_ETA);
+                     "diffusion dipole-segment media=%s,%s eta=%s", spec->media[0]->name,
+                     spec->media[1]->name, etas);
         }
     }
     if (st == OP_OK && op_dataset_check(out, err) != OP_OK) {

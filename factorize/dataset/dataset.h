@@ -14,7 +14,7 @@
 #define OP_FACTOR_DATASET_H
 
 #include "dataset_layout.h"
-#include "media.h"
+#include "opaline.h"
 #include "opaline.h"
 
 #include <stdint.h>
@@ -33,6 +33,8 @@ typedef struct op_dataset_spec {
     int width, height, kernel;  /* incident pixels, odd kernel side */
     double size_x_cm, size_y_cm;
     const op_medium *media[2];  /* [0] base medium, [1] second medium (chess, veins) */
+    double eta;                 /* > 0: one index of refraction for the whole sample (a recipe
+                                   reproducing older values); 0: each medium's own */
     op_generator generator;
     uint64_t photons;           /* Monte Carlo photons per incident pixel and channel */
     uint64_t seed;              /* Monte Carlo seed (and the veins' noise) */

@@ -21,6 +21,7 @@ static op_status layout_init(op_layout *l, int w, int h, double sx, double sy,
     l->pixel_y = 10.0 * sy / h;
     l->media[0] = a;
     l->media[1] = b;
+    l->eta = 0;
     l->map = calloc((size_t)w * (size_t)h, 1);
     if (!l->map)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %d x %d medium map", w, h);

@@ -85,6 +85,16 @@ typedef struct mc_thread {
 } mc_thread;
 
 /* Traces every photon of channel c entering pixel (px, py); fills row and standard errors. */
+/* The medium (0 or 1) of the pixel under the point at (u, v) sample widths, in the periodic
+ * tiling, without integer division. */
+static inline int medium_at(const op_layout *l, double u, double v)
+{
+    int ix = (int)((u - floor(u)) * l->width), iy = (int)((v - floor(v)) * l->height);
+    ix = ix < l->width ? ix : l->width - 1;
+    iy = iy < l->height ? iy : l->height - 1;
+    return l->map[iy * l->width + ix];
+}
+
 static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
 {
     mc_job *j = t->job;
@@ -101,7 +111,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     int hetero = l->media[0] != l->media[1];
     double inv_hx = 1 / l->pixel_x, inv_hy = 1 / l->pixel_y, inv_bar = 1 / sig_bar;
     double inv_tx = 1 / (l->pixel_x * l->width), inv_ty = 1 / (l->pixel_y * l->height);
-    const double eta = OP_MEDIUM_ETA;
+    const double eta_m[2] = {op_layout_eta(l, 0), op_layout_eta(l, 1)};
+    const int one_eta = eta_m[0] == eta_m[1];
     const int diffuse = j->o->incidence == OP_MC_DIFFUSE;
     rng r;
     rng_seed(&r, j->o->seed, (uint64_t)c, (uint64_t)py * (uint64_t)l->width + (uint64_t)px);
@@ -113,6 +124,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     for (uint64_t p = 0; p < n; p++) {
         double x = (px + rng_uniform(&r)) * l->pixel_x, y = (py + rng_uniform(&r)) * l->pixel_y;
         double z = 0, ux = 0, uy = 0, uz = 1, w = 1;
+        /* The boundary's index where the photon crosses it: that of the medium there. */
+        double eta = eta_m[one_eta ? 0 : l->map[py * l->width + px]];
         if (diffuse) {
             /* Cosine-weighted from outside, kept with the Fresnel transmittance, refracted. */
             double ct, phi;
@@ -135,6 +148,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
                 x += ux * tt;
                 y += uy * tt;
                 z = 0;
+                if (!one_eta)
+                    eta = eta_m[medium_at(l, x * inv_tx, y * inv_ty)];
                 if (rng_uniform(&r) < fresnel(-uz, eta, 1.0)) {
                     uz = -uz;
                     continue;
@@ -152,14 +167,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
             y += uy * s;
             z = zn;
             int m = 0;
-            if (hetero) {
-                /* The pixel under (x, y) in the periodic tiling, without integer division. */
-                double u = x * inv_tx, v = y * inv_ty;
-                int ix = (int)((u - floor(u)) * l->width), iy = (int)((v - floor(v)) * l->height);
-                ix = ix < l->width ? ix : l->width - 1;
-                iy = iy < l->height ? iy : l->height - 1;
-                m = l->map[iy * l->width + ix];
-            }
+            if (hetero)
+                m = medium_at(l, x * inv_tx, y * inv_ty);
             if (hetero && rng_uniform(&r) >= p_real[m])
                 continue; /* null collision */
             w *= albedo[m];
