@@ -148,6 +148,59 @@ static void test_clamping_and_info(void **state)
     assert_string_equal(info.integrator, "direct");
     assert_int_equal(info.triangles, 12);
     op_scene_free(scene);
+
+    /* What the clamps do, seen in an image: a spot of intensity 1 at height 1 pointing down at a
+     * plane of diffuseReflectance 100, seen from z = 4 over +-60 degrees (the plane out to
+     * about 80 degrees from the spot's axis). Clamped, the reflectance is 1 and the cutoff 90
+     * degrees, so the beam (0.75 cutoff) is 67.5 degrees with a linear falloff to 90 beyond it:
+     * L = 1 / pi * falloff(theta) * cos(theta) / d^2. Unclamped, the image would be 100 times
+     * as bright, and the beam (150 degrees) would light the whole plane without falloff. */
+    path = op_test_write_temp("scene.xml", 
+        "<scene version=\"0.6.0\">"
+        " <sensor type=\"perspective\"><float name=\"fov\" value=\"120\"/>"
+        "  <transform name=\"toWorld\"><lookat origin=\"0,0,4\" target=\"0,0,0\" up=\"0,1,0\"/>"
+        "  </transform><sampler type=\"stratified\"><integer name=\"sampleCount\" value=\"16\"/>"
+        "  </sampler>"
+        "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"40\"/>"
+        "   <integer name=\"height\" value=\"40\"/><rfilter type=\"box\"/></film></sensor>"
+        " <emitter type=\"spot\"><transform name=\"toWorld\"><lookat origin=\"0,0,1\" "
+        "  target=\"0,0,0\"/></transform><float name=\"cutoffAngle\" value=\"200\"/>"
+        "  <spectrum name=\"intensity\" value=\"1\"/></emitter>"
+        " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"20\"/></transform>"
+        "  <bsdf type=\"diffuse\"><rgb name=\"diffuseReflectance\" value=\"100, 100, 100\"/>"
+        "  </bsdf></shape>"
+        "</scene>");
+    op_renderer *r = op_test_render(path, 0, 2, 0);
+    const op_image *img = op_renderer_image(r);
+    int w = img->width, h = img->height;
+    double tx = tan(60.0 * M_PI / 180.0), ty = tx * h / w;
+    double worst = 0.0, outer_got = 0.0, outer_full = 0.0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double sx = 2.0 * (x + 0.5) / w - 1.0, sy = 2.0 * (y + 0.5) / h - 1.0;
+            double px = 4.0 * sx * tx, py = -4.0 * sy * ty, d2 = px * px + py * py + 1.0;
+            double theta = atan(sqrt(px * px + py * py)) * 180.0 / M_PI;
+            double fall = theta <= 67.5 ? 1.0 : (90.0 - theta) / 22.5;
+            double full = 1.0 / M_PI / (d2 * sqrt(d2)), expect = fall * full;
+            float got = img->pixels[4 * (y * w + x)];
+            /* the falloff's kink at 67.5 degrees is averaged over a pixel: judge the rest */
+            if (fabs(theta - 67.5) > 2.0) {
+                double rel = fabs(got - expect) / expect;
+                if (rel > worst)
+                    worst = rel;
+            }
+            if (theta > 75.0) {
+                outer_got += got;
+                outer_full += full;
+            }
+        }
+    print_message("  clamped spot on a clamped plane: worst relative error %.4f; beyond 75 "
+                  "degrees %.3f of the unclamped beam\n", worst, outer_got / outer_full);
+    if (worst > 0.05)
+        fail_msg("clamped scene: worst relative error %.4f", worst);
+    /* the falloff between 67.5 and 90 degrees is there: at most (90 - 75) / 22.5 of full */
+    assert_true(outer_full > 0.0 && outer_got < 0.7 * outer_full);
+    op_renderer_free(r);
 }
 
 int main(void)
