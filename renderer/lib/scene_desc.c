@@ -38,9 +38,11 @@ static char *dup_or_null(const char *s, int *fail)
 /* Grows *arr (of elem-sized items) so that index n fits; returns 0 when out of memory. */
 int op_array_grow(void **arr, int *cap, int n, size_t elem)
 {
+    if (n < 0)
+        return 0;
     if (n < *cap)
         return 1;
-    if (n < 0 || n >= INT_MAX / 2 || elem == 0)
+    if (n >= INT_MAX / 2 || elem == 0)
         return 0;
     int c = *cap > 0 ? *cap : 8;
     while (c <= n) /* c <= n < INT_MAX / 2: doubling cannot overflow */

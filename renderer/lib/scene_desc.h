@@ -130,8 +130,8 @@ int op_desc_report_unused(const op_node *root);
 
 /* Makes element n of the array *arr (of *cap elements of elem bytes) writable: when n >= *cap,
  * reallocates it to the smallest doubling of *cap (8 at first) above n and zero-fills the new
- * elements. Returns 0, with *arr and *cap unchanged, when out of memory or when the new size
- * would overflow an int count or a size_t byte size. The scene reader's and builder's growing
+ * elements. Returns 0, with *arr and *cap unchanged, when n is negative, when out of memory or
+ * when the new size would overflow an int count or a size_t byte size. The scene reader's and builder's growing
  * arrays all go through it. */
 int op_array_grow(void **arr, int *cap, int n, size_t elem);
 
