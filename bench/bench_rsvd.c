@@ -1,6 +1,6 @@
 /* opaline-bench-rsvd: times opaline's truncated SVD (op_rsvd, the svd method's factorization)
  * on a matrix given as raw float32, the way a peer library is timed: the same matrix, several
- * runs in one process, the median. bench_methods.py uses it to put opaline's SVD side by side
+ * runs in one process, the median. bench/methods_bench uses it to put opaline's SVD side by side
  * with scikit-learn's randomized_svd on exactly the bytes it hands to scikit-learn.
  *
  * usage: opaline-bench-rsvd MATRIX ROWS COLS RANK [--repeats N] [--factors OUT]

@@ -94,6 +94,28 @@ void op_progress_advance(op_progress *p, uint64_t n);
 /* Prints the final report and frees p. */
 void op_progress_end(op_progress *p);
 
+/* ---------------------------------------------------------------- small shared helpers */
+
+/* SplitMix64 (Steele, Lea and Flood 2014): advances *state by the golden-ratio increment and
+ * returns the mixed value; the one deterministic 64-bit generator behind every seeded choice
+ * (randomized SVD, K-CTA seeding, dataset layouts and Monte Carlo streams, render streams). */
+static inline uint64_t op_splitmix64(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+/* SplitMix64 as a hash: a bijective mix of x (op_splitmix64 of the state x). */
+static inline uint64_t op_hash64(uint64_t x)
+{
+    return op_splitmix64(&x);
+}
+
+/* Seconds on the monotonic clock (CLOCK_MONOTONIC) from an arbitrary origin: for durations. */
+double op_monotonic_seconds(void);
+
 /* ---------------------------------------------------------------- threads */
 
 /* The one thread pool pattern of every opaline program: fn(user, task, thread) for every task

@@ -15,9 +15,9 @@ renderer stay listed when no renderer is found (or another one is).
 
 import json
 import os
-import struct
 
 from . import locations
+from .opm import meta as opm_meta  # the META dict of a .opm, {} when unreadable
 
 # The measured subsurface types opaline-render accepts (<subsurface type="...">), i.e. the
 # methods of the .opm container (docs/formats.md); `dipole` is not a file method.
@@ -181,40 +181,6 @@ def group(presets, text=""):
         groups.setdefault(p.category, []).append(p)
     order = sorted(groups, key=lambda c: (c == OTHER, c.lower()))
     return [(c, sorted(groups[c], key=lambda p: (p.label.lower(), p.name))) for c in order]
-
-
-def opm_meta(path):
-    """The META section of the .opm container at path (docs/formats.md) as a dict of strings,
-    or {} when the file cannot be read or has none. Reads the header and the section table
-    only, not the (possibly large) data."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(40)
-            if len(head) < 40 or head[:8] != b"OPALINEM":
-                return {}
-            nsec, = struct.unpack_from("<I", head, 12)
-            table, = struct.unpack_from("<Q", head, 24)
-            if not 1 <= nsec <= 4096:
-                return {}
-            fh.seek(table)
-            ents = fh.read(32 * nsec)
-            for i in range(len(ents) // 32):
-                tag = ents[32 * i:32 * i + 8].rstrip(b"\0")
-                if tag != b"META":
-                    continue
-                off, size = struct.unpack_from("<QQ", ents, 32 * i + 8)
-                if size > 1 << 20:
-                    return {}
-                fh.seek(off)
-                meta = {}
-                for line in fh.read(size).decode("utf-8", "replace").splitlines():
-                    k, sep, v = line.partition("=")
-                    if sep:
-                        meta[k.strip()] = v.strip()
-                return meta
-    except (OSError, ValueError, struct.error):
-        return {}
-    return {}
 
 
 def opm_meta_method(path):

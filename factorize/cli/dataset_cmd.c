@@ -216,8 +216,7 @@ int op_cmd_dataset(int argc, char **argv)
         return op_exit_code(st);
     }
 
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    double t0 = op_monotonic_seconds();
     op_dataset d;
     op_mc_stats s;
     st = op_dataset_generate(&spec, &d, &s, &err);
@@ -241,8 +240,7 @@ int op_cmd_dataset(int argc, char **argv)
         op_log(OP_LOG_ERROR, "dataset: %s", err.message);
         return op_exit_code(st);
     }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    double secs = op_monotonic_seconds() - t0;
     op_log(OP_LOG_INFO, "dataset %s: %d x %d pixels, K %d, %.4g x %.4g cm, %s: generated in %.2f s",
            spec.name, spec.width, spec.height, spec.kernel, spec.size_x_cm, spec.size_y_cm,
            d.generator, secs);

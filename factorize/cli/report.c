@@ -8,9 +8,7 @@
 
 double op_now(void)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    return op_monotonic_seconds();
 }
 
 void op_report_stage(op_factor_report *r, const char *name, double seconds)

@@ -5,7 +5,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 /* ------------------------------------------------------------ random numbers */
 
@@ -13,22 +12,14 @@ typedef struct rng {
     uint64_t s[4];
 } rng;
 
-static uint64_t splitmix64(uint64_t *x)
-{
-    uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-
 /* The stream of one (channel, pixel) work unit. */
 static void rng_seed(rng *r, uint64_t seed, uint64_t channel, uint64_t pixel)
 {
     uint64_t x = seed;
-    x = splitmix64(&x) ^ (channel * 0xd1b54a32d192ed03ULL);
-    x = splitmix64(&x) ^ pixel;
+    x = op_splitmix64(&x) ^ (channel * 0xd1b54a32d192ed03ULL);
+    x = op_splitmix64(&x) ^ pixel;
     for (int i = 0; i < 4; i++)
-        r->s[i] = splitmix64(&x);
+        r->s[i] = op_splitmix64(&x);
 }
 
 static inline uint64_t rotl(uint64_t x, int k)
@@ -223,13 +214,6 @@ static void mc_task(void *user, int u, int thread)
     op_progress_advance(j->progress, 1);
 }
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset *out,
                          op_mc_stats *stats, op_error *err)
 {
@@ -265,10 +249,10 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
         th[t].sq = th[t].sum + cols;
     }
     job.progress = op_progress_begin("montecarlo", job.units, o->progress, o->progress_user);
-    double t0 = now_seconds();
+    double t0 = op_monotonic_seconds();
     job.threads = th;
     op_status st = op_parallel_for(threads, (int)job.units, mc_task, &job, NULL, err);
-    stats->seconds = now_seconds() - t0;
+    stats->seconds = op_monotonic_seconds() - t0;
     op_progress_end(job.progress);
     if (st != OP_OK) {
         free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);

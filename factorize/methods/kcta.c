@@ -56,15 +56,6 @@ double op_kcta_error(const float *a, const op_kcta_model *md)
 
 /* ------------------------------------------------------------ small linear algebra */
 
-/* splitmix64, for the k-means++ seeding. */
-static uint64_t next_u64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
 /* Completes columns r .. T-1 of the cols x T row-major v (whose first r columns are
  * orthonormal) to an orthonormal set, from coordinate vectors (twice-applied Gram-Schmidt).
  * Needs T <= cols. */
@@ -562,7 +553,7 @@ static op_status initialize(work *w, op_error *err)
         goto done;
     uint64_t rng = 0x6b637461ull; /* "kcta" */
     /* k-means++: the first centre uniformly, the others with probability ~ distance^2. */
-    int64_t first = (int64_t)(next_u64(&rng) % (uint64_t)rows);
+    int64_t first = (int64_t)(op_splitmix64(&rng) % (uint64_t)rows);
     for (int d = 0; d < D; d++)
         cent[d] = z[first * D + d];
     for (int64_t i = 0; i < rows; i++)
@@ -580,7 +571,7 @@ static op_status initialize(work *w, op_error *err)
         }
         if (c == C)
             break;
-        double u = (double)(next_u64(&rng) >> 11) * 0x1.0p-53 * total;
+        double u = (double)(op_splitmix64(&rng) >> 11) * 0x1.0p-53 * total;
         int64_t pick = rows - 1;
         for (int64_t i = 0; i < rows; i++) {
             u -= dist[i];

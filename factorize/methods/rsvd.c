@@ -42,20 +42,11 @@ static int converged(double captured_prev, double captured, double norm2, double
     return captured - captured_prev <= fmax(tol * residual, resolution * norm2);
 }
 
-/* splitmix64: a small, well-mixed deterministic generator. */
-static uint64_t next_u64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
 /* A standard normal deviate (Box-Muller). */
 static double gaussian(uint64_t *state)
 {
-    double u1 = ((double)(next_u64(state) >> 11) + 1.0) * 0x1.0p-53; /* (0, 1] */
-    double u2 = (double)(next_u64(state) >> 11) * 0x1.0p-53;
+    double u1 = ((double)(op_splitmix64(state) >> 11) + 1.0) * 0x1.0p-53; /* (0, 1] */
+    double u2 = (double)(op_splitmix64(state) >> 11) * 0x1.0p-53;
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }
 

@@ -4,12 +4,6 @@
 #include <string.h>
 #include <strings.h>
 
-#define GET_OR_FAIL(call)                                                                          \
-    do {                                                                                           \
-        if ((call) != OP_OK)                                                                       \
-            return err ? err->status : OP_ERR_INPUT;                                               \
-    } while (0)
-
 /* Named indices of refraction (Mitsuba's table, a subset). */
 static const struct {
     const char *name;

@@ -14,7 +14,7 @@ static double normal(uint64_t *s)
 {
     uint64_t z[2];
     for (int i = 0; i < 2; i++)
-        z[i] = ds_splitmix(s);
+        z[i] = op_splitmix64(s);
     double u1 = ((double)(z[0] >> 11) + 1.0) * 0x1.0p-53, u2 = (double)(z[1] >> 11) * 0x1.0p-53;
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }
