@@ -184,13 +184,17 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
                              &b->refl_tex, err);
     }
-    if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0) {
-        b->type = OP_BSDF_DIELECTRIC;
+    int rough_dielectric = strcmp(node->type, "roughdielectric") == 0;
+    if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0 ||
+        rough_dielectric) {
+        b->type = rough_dielectric ? OP_BSDF_ROUGHDIELECTRIC : OP_BSDF_DIELECTRIC;
         GET_OR_FAIL(read_ior(node, "intIOR", "bk7", &int_ior, err));
         GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
         GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
         op_v3 t;
         GET_OR_FAIL(read_reflectance(node, "specularTransmittance", NULL, 1.0, &t, err));
+        if (rough_dielectric)
+            GET_OR_FAIL(read_alpha(node, &b->alpha, err));
         b->eta = (float)(int_ior / ext_ior);
         return OP_OK;
     }
@@ -236,17 +240,6 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         b->eta = (float)(int_ior / ext_ior);
         if (rough)
             GET_OR_FAIL(read_alpha(node, &b->alpha, err));
-        return OP_OK;
-    }
-    if (strcmp(node->type, "roughdielectric") == 0) {
-        b->type = OP_BSDF_ROUGHDIELECTRIC;
-        GET_OR_FAIL(read_ior(node, "intIOR", "bk7", &int_ior, err));
-        GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
-        GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
-        op_v3 t;
-        GET_OR_FAIL(read_reflectance(node, "specularTransmittance", NULL, 1.0, &t, err));
-        GET_OR_FAIL(read_alpha(node, &b->alpha, err));
-        b->eta = (float)(int_ior / ext_ior);
         return OP_OK;
     }
     if (strcmp(node->type, "coating") == 0) {
@@ -418,6 +411,21 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     }
 }
 
+/* Fills the density and weight of the non-delta direction s->wo drawn for b from the combined
+ * density op_bsdf_eval reports; 0 when it lies below the surface or has no density. */
+static int weigh_sample(const op_bsdf *b, op_v3 wi, op_bsdf_sample *s)
+{
+    if (s->wo.z <= 0.0f)
+        return 0;
+    float pdf;
+    op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
+    if (pdf <= 0.0f)
+        return 0;
+    s->pdf = pdf;
+    s->weight = v3_scale(f, 1.0f / pdf);
+    return 1;
+}
+
 int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
                        op_bsdf_sample *s)
 {
@@ -479,12 +487,8 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
             s->weight = v3_scale(b->specular, fi / ps);
         } else {
             s->wo = op_sample_cosine(u1, u2);
-            float pdf;
-            op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
-            if (pdf <= 0.0f)
+            if (!weigh_sample(b, wi, s))
                 return 0;
-            s->pdf = pdf;
-            s->weight = v3_scale(f, 1.0f / pdf);
         }
         break;
     }
@@ -499,14 +503,8 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         } else {
             s->wo = op_sample_cosine(u1, u2);
         }
-        if (s->wo.z <= 0.0f)
+        if (!weigh_sample(b, wi, s))
             return 0;
-        float pdf;
-        op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
-        if (pdf <= 0.0f)
-            return 0;
-        s->pdf = pdf;
-        s->weight = v3_scale(f, 1.0f / pdf);
         break;
     }
     case OP_BSDF_SHEEN: {
@@ -522,14 +520,8 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         }
         op_v3 m = ggx_sample_m(u1, u2, b->alpha);
         s->wo = v3_sub(v3_scale(m, 2.0f * v3_dot(wi, m)), wi);
-        if (s->wo.z <= 0.0f)
+        if (!weigh_sample(b, wi, s))
             return 0;
-        float pdf;
-        op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
-        if (pdf <= 0.0f)
-            return 0;
-        s->pdf = pdf;
-        s->weight = v3_scale(f, 1.0f / pdf);
         break;
     }
     case OP_BSDF_THROUGH:

@@ -30,41 +30,11 @@ static double fresnel(double mu, double eta)
     return 0.5 * (rs * rs + rp * rp);
 }
 
-/* A raw material of 16 x 16 pixels, kernel 5, 1 x 1 cm, every row a normalized Gaussian times
- * albedo (all channels). */
-static void write_grey(const char *path, double albedo)
+/* A raw Gaussian material (op_test_write_gaussian_raw) of albedo a in every channel. */
+static void write_grey(const char *path, double a)
 {
-    op_material_info info;
-    memset(&info, 0, sizeof info);
-    info.method = OP_METHOD_RAW;
-    info.width = info.height = 16;
-    info.kernel = 5;
-    info.channels = 3;
-    info.size_x_cm = info.size_y_cm = 1.0;
-    snprintf(info.name, sizeof info.name, "Grey");
-    snprintf(info.generator, sizeof info.generator, "test_render_sheen");
-    int K = 5, rows = 16 * 16;
-    double w[25], sum = 0.0;
-    for (int y = 0; y < K; y++)
-        for (int x = 0; x < K; x++)
-            sum += w[y * K + x] = exp(-0.5 * ((x - 2) * (x - 2) + (y - 2) * (y - 2)));
-    float *rd = malloc((size_t)rows * K * K * sizeof(float));
-    assert_non_null(rd);
-    for (int r = 0; r < rows; r++)
-        for (int k = 0; k < K * K; k++)
-            rd[(size_t)r * K * K + k] = (float)(albedo * w[k] / sum);
-    op_error err = {0};
-    op_material_writer *wr;
-    op_status st = op_material_writer_open(path, &info, &wr, &err);
-    OP_ASSERT_OK(st, err);
-    static const char *tags[3] = {"RD.R", "RD.G", "RD.B"};
-    for (int c = 0; c < 3; c++) {
-        st = op_material_writer_add(wr, tags[c], rd, (uint64_t)rows * K * K * sizeof(float), &err);
-        OP_ASSERT_OK(st, err);
-    }
-    st = op_material_writer_commit(wr, &err);
-    OP_ASSERT_OK(st, err);
-    free(rd);
+    const double albedo[3] = {a, a, a};
+    op_test_write_gaussian_raw(path, albedo, 0);
 }
 
 /* pi L / E (the mean radiance over the environment's), per channel, of an 8 x 8 view of the centre of a flat slab (a 2 x 2
