@@ -57,6 +57,7 @@ class TestSheen(unittest.TestCase):
 
     def test_export(self):
         self.principled.inputs["Roughness"].default_value = 0.5
+        self.principled.inputs["IOR"].default_value = 1.5  # Blender 4.x: F0 from IOR x level
         S.set_specular(self.principled, 0.5)  # F0 = 0.04: IOR 1.5
         _, b = self.export("principled")
         self.assertIsNotNone(b)
