@@ -72,6 +72,10 @@ def draw_material_settings(layout, context, mat):
         col.prop(s, "filepath")
         col.prop(s, "file_method")
     col.prop(s, "scale")
+    col.prop(s, "sheen")
+    if s.sheen == 'ON':
+        col.prop(s, "sheen_roughness")
+        col.prop(s, "sheen_ior")
     if s.enabled and s.kind != 'DIPOLE':
         bad = objects_without_uvs(mat, context.scene.objects) if context.scene else []
         if bad:

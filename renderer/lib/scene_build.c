@@ -602,6 +602,35 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     return st;
 }
 
+/* The surface reflection of a translucent shape from the <bsdf> beside its <subsurface>
+ * (docs/subsurface-rendering.md, The surface's reflection). */
+static op_status add_boundary(builder *b, op_node *node, op_sss_desc *d, op_error *err)
+{
+    static const char *types[] = {"dielectric", "roughdielectric", "plastic", "roughplastic",
+                                  "coating"};
+    int ok = 0;
+    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
+        ok |= strcmp(node->type, types[i]) == 0;
+    if (!ok)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> cannot be the surface of "
+                            "a shape with a <subsurface> (dielectric, roughdielectric, plastic, "
+                            "roughplastic or coating)", node->file, node->line, node->type);
+    if (op_node_child(node, "bsdf", 0))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> over a <subsurface> takes "
+                            "no nested <bsdf> (the subsurface is what lies beneath)", node->file,
+                            node->line, node->type);
+    if (op_node_has(node, "diffuseReflectance") || op_node_has(node, "reflectance") ||
+        op_node_child(node, "texture", 0))
+        op_log(OP_LOG_WARN, "%s:%d: <bsdf type=\"%s\">: the diffuse reflectance is replaced by "
+               "the subsurface", node->file, node->line, node->type);
+    op_bsdf given;
+    GET_OR_FAIL(op_bsdf_build(node, b->s->textures, &given, err));
+    if (op_bsdf_boundary(&given, &d->sheen, &d->through, err))
+        return op_error_prefix(err, "%s:%d: ", node->file, node->line);
+    d->has_boundary = 1;
+    return OP_OK;
+}
+
 static op_status add_shape(builder *b, op_node *node, op_error *err)
 {
     op_scene *s = b->s;
@@ -631,8 +660,13 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
                                  strcmp(c->tag, "subsurface") == 0) ? "a second time " : "");
     }
     int bi = -1, ei = -1, si = -1;
-    GET_OR_FAIL(add_bsdf(b, bsdf, &bi, err));
+    GET_OR_FAIL(add_bsdf(b, sss ? NULL : bsdf, &bi, err));
     s->shapes[index].bsdf = bi;
+    op_bsdf_type bt = s->bsdfs[bi].type;
+    if (!sss && (bt == OP_BSDF_ROUGHDIELECTRIC || bt == OP_BSDF_COATING))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> is rendered only as the "
+                            "surface of a shape with a <subsurface>", bsdf->file, bsdf->line,
+                            bsdf->type);
     if (em) {
         if (strcmp(em->type, "area") != 0)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: only an area emitter may be nested in a "
@@ -644,8 +678,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
         GET_OR_FAIL(add_subsurface(b, sss, &si, err));
         s->shapes[index].sss = si;
         if (bsdf)
-            op_log(OP_LOG_WARN, "%s:%d: <shape> has both a bsdf and a subsurface; the subsurface "
-                   "material replaces the bsdf", node->file, node->line);
+            GET_OR_FAIL(add_boundary(b, bsdf, &s->sss[si], err));
     }
     return OP_OK;
 }

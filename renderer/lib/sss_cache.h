@@ -17,7 +17,7 @@
 
 /* The file format's version, raised whenever the layout or what the pre-pass computes for the
  * same key changes: a file of another version is recomputed and replaced. */
-#define OP_SSS_CACHE_VERSION 1u
+#define OP_SSS_CACHE_VERSION 2u /* 2: E behind a surface <bsdf> is what crosses it */
 
 enum { OP_SSS_KEY_BYTES = 16 };
 
