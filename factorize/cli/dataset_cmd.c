@@ -1,7 +1,7 @@
 /* dataset_cmd.c - `opaline-factor dataset NAME -o OUT.opm ...`: makes a synthetic dataset by
  * simulating its measurement (diffusion or Monte Carlo) and writes it as a raw material. */
 #include "commands.h"
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_montecarlo.h"
 #include "opaline.h"
 

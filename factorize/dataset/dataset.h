@@ -77,11 +77,4 @@ uint32_t op_dataset_crc(const op_dataset *d);
  * op_material_writer: the destination appears whole or not at all. */
 op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err);
 
-struct op_mc_stats;
-/* Checks spec, runs its generator into out (allocated here; freed again on failure) and checks
- * the energy invariants of the result. With the Monte Carlo generator, fills *mc_stats when it
- * is not NULL. */
-op_status op_dataset_generate(const op_dataset_spec *spec, op_dataset *out,
-                              struct op_mc_stats *mc_stats, op_error *err);
-
 #endif

@@ -4,7 +4,7 @@
 #include "test_support.h"
 
 #include "commands.h"
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_diffusion.h"
 #include "opaline.h"
 

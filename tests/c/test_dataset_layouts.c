@@ -4,7 +4,7 @@
  * sources say. */
 #include "test_support.h"
 
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_layout.h"
 #include "opaline.h"
 

@@ -4,7 +4,7 @@
  * results whatever the thread count. */
 #include "test_support.h"
 
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_diffusion.h"
 #include "dataset_montecarlo.h"
 #include "opaline.h"

@@ -5,7 +5,7 @@
 #include "test_support.h"
 
 #include "commands.h"
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dipole.h"
 #include "opaline.h"
 
