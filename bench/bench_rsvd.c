@@ -115,13 +115,13 @@ int main(int argc, char **argv)
     op_rsvd_options opt = op_rsvd_defaults();
     for (long long r = 0; r < repeats; r++) {
         op_error err = {0};
-        double t0 = op_now();
+        double t0 = op_monotonic_seconds();
         if (op_rsvd(a, rows, cols, (int)rank, &opt, us, v, NULL, NULL, &err) != OP_OK) {
             op_log(OP_LOG_ERROR, "%s: %s", argv[1], err.message);
             rc = 1;
             goto done;
         }
-        seconds[r] = op_now() - t0;
+        seconds[r] = op_monotonic_seconds() - t0;
     }
     if (factors) {
         op_error err = {0};

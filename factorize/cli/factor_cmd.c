@@ -587,7 +587,7 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
-        double t0 = op_now();
+        double t0 = op_monotonic_seconds();
         st = ds->block_rows ? stream_peaks(a, ds, c, &shift, &max, err)
                             : prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
         svd_rows t = {a, ds, c, mat, shift, max};
@@ -603,7 +603,7 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
         if (st != OP_OK)
             break;
         op_progress_advance(prog, 1);
-        double t1 = op_now();
+        double t1 = op_monotonic_seconds();
         *prep_seconds += t1 - t0;
         float *us = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *us);
         float *v = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *v);
@@ -615,7 +615,7 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
                      ? op_rsvd_rows(&src, rows, cols, terms, &a->svd, us, v, NULL, prog, err)
                      : op_rsvd(mat, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
         op_log(OP_LOG_DEBUG, "channel %d: preprocessing %.3f s, SVD of %lld x %d to rank %d "
-               "%.3f s", c, t1 - t0, (long long)rows, cols, terms, op_now() - t1);
+               "%.3f s", c, t1 - t0, (long long)rows, cols, terms, op_monotonic_seconds() - t1);
         if (st != OP_OK) {
             op_error_prefix(err, "channel %d: ", c);
             free(us);
@@ -692,11 +692,11 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
-        double t0 = op_now();
+        double t0 = op_monotonic_seconds();
         st = prepare_channel(a, ds, c, 0, mat, &shift, &max, err);
         if (st != OP_OK)
             break;
-        double t1 = op_now();
+        double t1 = op_monotonic_seconds();
         *prep_seconds += t1 - t0;
         op_kcta_model md;
         st = op_kcta_factor(mat, rows, cols, &opt, &md, prog, err);
@@ -712,7 +712,7 @@ static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms,
         op_log(OP_LOG_INFO, "kcta channel %d: %d iteration(s)%s, %d empty cluster(s) split, "
                "relative error %.4g of the preprocessed matrix (%.3f s)", c, md.iterations,
                md.restored ? " (one more raised the error and was undone)" : "", md.splits,
-               norm > 0 ? sqrt(md.history[md.nhistory - 1] / norm) : 0.0, op_now() - t1);
+               norm > 0 ? sqrt(md.history[md.nhistory - 1] / norm) : 0.0, op_monotonic_seconds() - t1);
         uint64_t nidx = (uint64_t)rows * (uint64_t)md.km;
         void *idx = alloc_or_null(nidx * (uint64_t)wide);
         if (!idx) {
@@ -767,7 +767,7 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
     op_progress *prog = op_progress_begin(
         "nmf", (uint64_t)ds->info.channels * (uint64_t)opt.max_iter, NULL, NULL);
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        double t0 = op_now();
+        double t0 = op_monotonic_seconds();
         float *prof = alloc_or_null((uint64_t)cols * sizeof *prof);
         float *scale = alloc_or_null((uint64_t)rows * sizeof *scale);
         float *w = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *w);
@@ -782,7 +782,7 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
         }
         op_nmf_homogeneous(ds->rd[c], rows, ds->info.kernel, a->homog_exp, prof, scale);
         op_nmf_remainder(ds->rd[c], rows, cols, prof, scale, q);
-        double t1 = op_now();
+        double t1 = op_monotonic_seconds();
         *prep_seconds += t1 - t0;
         op_nmf_stats ns;
         st = op_nmf_hals(q, rows, cols, &opt, w, h, &ns, prog, err);
@@ -791,7 +791,7 @@ static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
                    "error %.4g (NNDSVD start %.4g) (%.3f s)", c, ns.iterations,
                    ns.converged ? "converged" : "stopped at --iters",
                    ns.norm > 0 ? sqrt(ns.objective / ns.norm) : 0.0,
-                   ns.norm > 0 ? sqrt(ns.initial / ns.norm) : 0.0, op_now() - t1);
+                   ns.norm > 0 ? sqrt(ns.initial / ns.norm) : 0.0, op_monotonic_seconds() - t1);
         else
             op_error_prefix(err, "channel %d: ", c);
         st = channel_add_if(out, st, "PROF.", ds, c, prof, (uint64_t)cols * sizeof *prof, err);
@@ -964,24 +964,24 @@ static op_status time_evaluation(const op_material *m, op_factor_report *rep, op
     enum { REPEATS = 5 };
     double coherent_ns[REPEATS], random_ns[REPEATS], sum = 0;
     for (int k = 0; k < REPEATS; k++) {
-        double t = op_now();
+        double t = op_monotonic_seconds();
         for (int i = 0; i < N; i++) {
             const int32_t *a = args + 5 * (i & ~63), *d = args + 5 * i;
             sum += op_material_eval(m, a[0], a[1], a[2], d[3], d[4]);
         }
-        coherent_ns[k] = (op_now() - t) * 1e9 / N;
-        t = op_now();
+        coherent_ns[k] = (op_monotonic_seconds() - t) * 1e9 / N;
+        t = op_monotonic_seconds();
         for (int i = 0; i < N; i++) {
             const int32_t *a = args + 5 * i;
             sum += op_material_eval(m, a[0], a[1], a[2], a[3], a[4]);
         }
-        random_ns[k] = (op_now() - t) * 1e9 / N;
+        random_ns[k] = (op_monotonic_seconds() - t) * 1e9 / N;
     }
     rep->eval_ns = median(coherent_ns, REPEATS);
     rep->eval_random_ns = median(random_ns, REPEATS);
-    double t = op_now();
+    double t = op_monotonic_seconds();
     op_status st = op_material_albedo_map(m, albedo, err);
-    rep->albedo_map_seconds = op_now() - t;
+    rep->albedo_map_seconds = op_monotonic_seconds() - t;
     op_log(OP_LOG_DEBUG, "evaluation checksum %g", sum);
     free(args);
     free(albedo);
@@ -1008,7 +1008,7 @@ int op_cmd_factor(int argc, char **argv)
         usage(stderr);
         return fail(st, &err);
     }
-    double t0 = op_now(), t = t0;
+    double t0 = op_monotonic_seconds(), t = t0;
     op_factor_report rep = {0};
     dataset ds = {0};
     section_list secs = {0};
@@ -1018,7 +1018,7 @@ int op_cmd_factor(int argc, char **argv)
     st = load_dataset(&a, &ds, &rep, &err);
     if (st != OP_OK)
         goto done;
-    op_report_stage(&rep, "load", op_now() - t);
+    op_report_stage(&rep, "load", op_monotonic_seconds() - t);
 
     int64_t mn = ds.rows < ds.cols ? ds.rows : ds.cols;
     int terms = a.terms;
@@ -1055,7 +1055,7 @@ int op_cmd_factor(int argc, char **argv)
     /* Opened before the work, so that an output that cannot be written fails at once. */
     if ((st = op_material_writer_open(a.output, &info, &writer, &err)) != OP_OK)
         goto done;
-    t = op_now();
+    t = op_monotonic_seconds();
     double prep = 0;
     if (a.method == OP_METHOD_SVD)
         st = factor_svd(&a, &ds, terms, &secs, &prep, &err);
@@ -1071,12 +1071,12 @@ int op_cmd_factor(int argc, char **argv)
         goto done;
     if (prep > 0)
         op_report_stage(&rep, "preprocess", prep);
-    op_report_stage(&rep, "factor", op_now() - t - prep);
+    op_report_stage(&rep, "factor", op_monotonic_seconds() - t - prep);
 
     /* Write without the albedo map and read the file back (still under its temporary name) to
      * measure it and the errors; then add the map. Every output is put in place only at the
      * end, the material last: an interruption or a failure before leaves the old files. */
-    t = op_now();
+    t = op_monotonic_seconds();
     uint64_t albedo_count = (uint64_t)ds.rows * (uint64_t)ds.info.channels;
     albedo = alloc_or_null(albedo_count * sizeof *albedo);
     if (!albedo) {
@@ -1087,19 +1087,19 @@ int op_cmd_factor(int argc, char **argv)
     if ((st = write_sections(writer, &secs, &err)) != OP_OK ||
         (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK)
         goto done;
-    op_report_stage(&rep, "write", op_now() - t);
-    t = op_now();
+    op_report_stage(&rep, "write", op_monotonic_seconds() - t);
+    t = op_monotonic_seconds();
     st = evaluate(pending, &ds, a.threads, &rep, albedo, &err);
     if (st != OP_OK)
         goto done;
-    op_report_stage(&rep, "evaluate", op_now() - t);
-    t = op_now();
+    op_report_stage(&rep, "evaluate", op_monotonic_seconds() - t);
+    t = op_monotonic_seconds();
     if (a.method != OP_METHOD_RAW &&
         ((st = op_material_writer_add(writer, "ALBEDO", albedo, albedo_count * sizeof *albedo,
                                       &err)) != OP_OK ||
          (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK))
         goto done;
-    op_report_stage(&rep, "finish", op_now() - t);
+    op_report_stage(&rep, "finish", op_monotonic_seconds() - t);
 
     op_material *out;
     if ((st = op_material_open(pending, &out, &err)) != OP_OK) {
@@ -1126,7 +1126,7 @@ int op_cmd_factor(int argc, char **argv)
     rep.log_b = info.log_b;
     rep.original_bytes = (uint64_t)ds.rows * (uint64_t)ds.cols * (uint64_t)ds.info.channels * 4u;
     rep.compression_ratio = (double)rep.original_bytes / (double)rep.size_bytes;
-    rep.total_seconds = op_now() - t0;
+    rep.total_seconds = op_monotonic_seconds() - t0;
     rep.peak_memory_bytes = op_peak_memory_bytes();
     op_report_print(&rep, stdout);
     if (fflush(stdout) != 0 || ferror(stdout)) {

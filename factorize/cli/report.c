@@ -4,12 +4,6 @@
 #include <math.h>
 #include <string.h>
 #include <sys/resource.h>
-#include <time.h>
-
-double op_now(void)
-{
-    return op_monotonic_seconds();
-}
 
 void op_report_stage(op_factor_report *r, const char *name, double seconds)
 {
