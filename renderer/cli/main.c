@@ -1,5 +1,5 @@
 /* opaline-render - renders a scene to image files or to the tile stream on stdout.
- * Command line and tile stream: /work/notes/interfaces.md, documented in docs/rendering.md. */
+ * The command line and the tile stream are documented in docs/rendering.md. */
 #include <errno.h>
 #include <libgen.h>
 #include <pthread.h>
