@@ -62,5 +62,5 @@ t = time.time(); randomized_svd(a, 10, random_state=0); print(f"sklearn {time.ti
 PY
 else
   echo "(python3-sklearn not installed: no scikit-learn comparison; its figure on this machine"
-  echo " was 0.71 s per channel, /work/shared/reference/subsurface-facts.md)"
+  echo " was 0.71 s per channel, ../shared/reference/subsurface-facts.md beside the checkout)"
 fi

@@ -61,4 +61,5 @@ if [ -z "$py" ]; then
 fi
 py=${py:-python3}
 command -v "$py" >/dev/null || { echo "bench_methods: python3 is required" >&2; exit 2; }
-exec "$py" "$root/bench/bench_methods.py" --tool "$tool" --out "$out" "${args[@]}"
+export PYTHONPATH="$root/bench${PYTHONPATH:+:$PYTHONPATH}"  # the methods_bench package
+exec "$py" -m methods_bench --tool "$tool" --out "$out" "${args[@]}"

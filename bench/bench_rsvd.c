@@ -1,6 +1,6 @@
 /* opaline-bench-rsvd: times opaline's truncated SVD (op_rsvd, the svd method's factorization)
  * on a matrix given as raw float32, the way a peer library is timed: the same matrix, several
- * runs in one process, the median. bench_methods.py uses it to put opaline's SVD side by side
+ * runs in one process, the median. bench/methods_bench uses it to put opaline's SVD side by side
  * with scikit-learn's randomized_svd on exactly the bytes it hands to scikit-learn.
  *
  * usage: opaline-bench-rsvd MATRIX ROWS COLS RANK [--repeats N] [--factors OUT]
@@ -115,13 +115,13 @@ int main(int argc, char **argv)
     op_rsvd_options opt = op_rsvd_defaults();
     for (long long r = 0; r < repeats; r++) {
         op_error err = {0};
-        double t0 = op_now();
+        double t0 = op_monotonic_seconds();
         if (op_rsvd(a, rows, cols, (int)rank, &opt, us, v, NULL, NULL, &err) != OP_OK) {
             op_log(OP_LOG_ERROR, "%s: %s", argv[1], err.message);
             rc = 1;
             goto done;
         }
-        seconds[r] = op_now() - t0;
+        seconds[r] = op_monotonic_seconds() - t0;
     }
     if (factors) {
         op_error err = {0};

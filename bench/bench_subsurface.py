@@ -28,7 +28,8 @@ against raw instead. The times are whole-process wall times (loading, pre-pass, 
 writing).
 
 The scene text and the image comparison live in bench/paper_scene.py (shared with
-bench_methods.py). Everything goes to OUT: datasets/ (only those not found in PRESETS/datasets),
+bench/methods_bench). Everything goes to OUT: datasets/ (only those not found in
+PRESETS/datasets),
 materials/ (factored materials and their reports, reused while newer than the dataset and
 opaline-factor), scenes/, images/, results.csv, convergence.csv, results.json. The last line is
 the verdict against the goal: svd T = 10 on Chess4x4 converged (1 %) in at most 60 s with PSNR

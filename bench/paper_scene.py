@@ -4,7 +4,7 @@ One translucent object carrying a measured material (Spot the cow from ../shared
 or a built-in sphere of about its size where ../shared is absent) on a diffuse floor under a spot
 light and a dim constant sky, path tracer with maxDepth 4, rendered by opaline-render with its
 default seed (so equal samples give equal random streams: images differ only by the material).
-Used by bench_subsurface.py and bench_methods.py; standard library only.
+Used by bench_subsurface.py and the methods_bench package; standard library only.
 
 Contract: scene_xml() returns the whole scene text; render() runs opaline-render once and returns
 its figures; compare() gives the image error against a reference of the same size."""

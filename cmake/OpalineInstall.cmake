@@ -2,7 +2,8 @@
 #
 # `cmake --install BUILD --prefix P` writes
 #   P/bin/opaline-render, P/bin/opaline-factor                       (renderer/cli/, factorize/cli/)
-#   P/share/opaline/presets/NAME.opm, NAME.png, NAME.json             (presets/)
+#   P/bin/opaline-cluster                                            (cluster/, SLURM front end)
+#   P/share/opaline/presets/NAME.opm, NAME.png, NAME.json, NAME.recipe (presets/)
 #   P/share/opaline/blender_addon/opaline/                            the add-on's source folder
 #   P/share/opaline/blender_addon/opaline-blender-addon.zip           Blender 3.4 to 4.1
 #   P/share/opaline/blender_addon/opaline-blender-extension.zip       Blender 4.2 and later

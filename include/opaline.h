@@ -94,6 +94,28 @@ void op_progress_advance(op_progress *p, uint64_t n);
 /* Prints the final report and frees p. */
 void op_progress_end(op_progress *p);
 
+/* ---------------------------------------------------------------- small shared helpers */
+
+/* SplitMix64 (Steele, Lea and Flood 2014): advances *state by the golden-ratio increment and
+ * returns the mixed value; the one deterministic 64-bit generator behind every seeded choice
+ * (randomized SVD, K-CTA seeding, dataset layouts and Monte Carlo streams, render streams). */
+static inline uint64_t op_splitmix64(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+/* SplitMix64 as a hash: a bijective mix of x (op_splitmix64 of the state x). */
+static inline uint64_t op_hash64(uint64_t x)
+{
+    return op_splitmix64(&x);
+}
+
+/* Seconds on the monotonic clock (CLOCK_MONOTONIC) from an arbitrary origin: for durations. */
+double op_monotonic_seconds(void);
+
 /* ---------------------------------------------------------------- threads */
 
 /* The one thread pool pattern of every opaline program: fn(user, task, thread) for every task
@@ -180,6 +202,11 @@ typedef struct op_file_view {
  * in place by another program) ends the process with exit code 2 and the message
  * "PATH: the file was truncated or changed while in use", once op_file_guard_faults has run. */
 op_status op_file_map(const char *path, op_file_view *map, op_error *err);
+/* Drops the whole pages within [p, p + n) of a mapped view from the process's memory: they are
+ * read again from the file (or the page cache) when next touched. For reading a file larger
+ * than memory in passes with a bounded resident size. Does nothing for a view read into memory
+ * or for a range outside the view. */
+void op_file_release(const op_file_view *map, const void *p, size_t n);
 /* Unmaps (or frees) and zeroes map. Accepts a zeroed map. */
 void op_file_unmap(op_file_view *map);
 /* Installs the SIGBUS handler behind op_file_map's promise; other faults keep their default
@@ -287,6 +314,12 @@ int op_material_cols(const op_material *m);
  * albedo must not be called. The factorizer reads datasets this way, so that NaN or negative
  * noise in a dataset gets its own clear report. Close with op_material_close. */
 op_status op_material_open_container(const char *path, op_material **out, op_error *err);
+/* op_material_open_container for a file larger than memory, read in passes: each section's
+ * pages are dropped from memory once its checksum is verified (in pieces, so the resident size
+ * stays bounded), and readers drop the rows they are done with by op_material_release. */
+op_status op_material_open_streaming(const char *path, op_material **out, op_error *err);
+/* op_file_release on m's file: [p, p + n) lies within one of its sections. */
+void op_material_release(const op_material *m, const void *p, size_t n);
 
 /* Writing: open, add each section once, commit. Section tags are 1 to 8 printable characters;
  * "META" is written by the library from info. The file is an op_output: it appears whole at
@@ -310,6 +343,27 @@ void op_material_writer_abort(op_material_writer *w);
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
 /* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */
 uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b);
+
+/* ---------------------------------------------------------------- scattering media */
+/* The one table of named scattering media, shared by the dataset generator and the renderer's
+ * dipole (libopaline/media.c; sources in docs/datasets.md). Coefficients are the reduced
+ * scattering sigma_s' and absorption sigma_a per R, G, B in 1/mm (phase function g = 0 after
+ * reduction); eta is the medium's index of refraction relative to the outside (air). */
+typedef struct op_medium {
+    const char *name;  /* canonical spelling, e.g. "Marble" */
+    double sigma_s[3]; /* reduced scattering coefficient, 1/mm */
+    double sigma_a[3]; /* absorption coefficient, 1/mm */
+    double eta;        /* relative index of refraction, > 1 */
+    const char *source; /* where the values come from */
+} op_medium;
+
+/* The medium called `name` (case-insensitive), or NULL when there is none (or name is NULL). */
+const op_medium *op_medium_lookup(const char *name);
+/* The i-th medium of the table (0 <= i < op_medium_count()), else NULL. */
+const op_medium *op_medium_at(int i);
+int op_medium_count(void);
+/* The media's names, ", "-separated, in table order (for messages; a static string). */
+const char *op_medium_names(void);
 
 const char *op_version(void);
 

@@ -291,6 +291,20 @@ op_status op_file_map(const char *path, op_file_view *map, op_error *err)
     return st;
 }
 
+void op_file_release(const op_file_view *map, const void *p, size_t n)
+{
+    const char *lo = map->data, *hi = lo ? lo + map->size : lo, *a = p, *b = a + n;
+    if (!lo || map->slot < 0 || a < lo || b > hi || a >= b)
+        return;
+    uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE);
+    uintptr_t first = ((uintptr_t)a + page - 1) / page * page, last = (uintptr_t)b / page * page;
+    if (b == hi) /* the file's last page, partial or not, belongs to the range */
+        last = ((uintptr_t)b + page - 1) / page * page;
+    if (last > first)
+        madvise((void *)first, last - first, MADV_DONTNEED); /* advisory: pages of a read-only
+                                                                 private file mapping, clean */
+}
+
 void op_file_unmap(op_file_view *map)
 {
     if (map->data && map->slot >= 0) {

@@ -50,7 +50,7 @@ void op_material_close(op_material *m)
         return;
     if (m->ops && m->ops->destroy)
         m->ops->destroy(m);
-    op_material_release(m);
+    op_material_free_container(m);
 }
 
 float op_material_eval(const op_material *m, int channel, int x, int y, int dx, int dy)

@@ -35,8 +35,38 @@ const char *op_version(void)
     return OPALINE_VERSION_STRING;
 }
 
+/* Buffers from 64 MiB on are checksummed in 16 MiB blocks on every core, combined in order. */
+enum { CRC_BLOCK = 16 << 20, CRC_MAX_BLOCKS = 1 << 16 };
+typedef struct crc_job {
+    const unsigned char *data;
+    size_t n, block;
+    uint32_t *parts;
+} crc_job;
+
+static void crc_task(void *user, int task, int thread)
+{
+    const crc_job *j = user;
+    size_t at = (size_t)task * j->block, len = j->n - at < j->block ? j->n - at : j->block;
+    (void)thread;
+    j->parts[task] = (uint32_t)crc32_z(0, j->data + at, len);
+}
+
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n)
 {
+    crc_job j = {data, n, CRC_BLOCK, NULL};
+    while (n / j.block >= CRC_MAX_BLOCKS)
+        j.block *= 2;
+    int tasks = (int)((n + j.block - 1) / j.block);
+    if (n >= 4 * (size_t)CRC_BLOCK && (j.parts = malloc((size_t)tasks * sizeof *j.parts)) &&
+        op_parallel_for(0, tasks, crc_task, &j, NULL, NULL) == OP_OK) {
+        for (int t = 0; t < tasks; t++) {
+            size_t len = n - (size_t)t * j.block < j.block ? n - (size_t)t * j.block : j.block;
+            crc = op_crc32_combine(crc, j.parts[t], len);
+        }
+        free(j.parts);
+        return crc;
+    }
+    free(j.parts);
     return (uint32_t)crc32_z(crc, data, n);
 }
 
@@ -328,6 +358,21 @@ static op_status check_entry(const op_material *m, uint32_t i, const unsigned ch
     return OP_OK;
 }
 
+/* The CRC-32 of a section; streaming, in pieces of 64 MiB released once read. */
+static uint32_t section_crc(const op_material *m, const unsigned char *p, uint64_t size)
+{
+    if (!m->streaming)
+        return op_crc32(0, p, (size_t)size);
+    const uint64_t piece = (uint64_t)64 << 20;
+    uint32_t crc = 0;
+    for (uint64_t at = 0; at < size; at += piece) {
+        size_t n = (size_t)(size - at < piece ? size - at : piece);
+        crc = op_crc32(crc, p + at, n);
+        op_file_release(&m->file, p + at, n);
+    }
+    return crc;
+}
+
 static op_status check_container(op_material *m, op_error *err)
 {
     const unsigned char *b = m->base;
@@ -365,7 +410,7 @@ static op_status check_container(op_material *m, op_error *err)
         if (st != OP_OK)
             return st;
         uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
-        if (!checksum_ok(get_u32(e + 24), op_crc32(0, b + off, size)))
+        if (!checksum_ok(get_u32(e + 24), section_crc(m, b + off, size)))
             return op_error_set(err, OP_ERR_FORMAT,
                                 "%s: section '%.8s' checksum mismatch (corrupt file)", path,
                                 (const char *)e);
@@ -373,8 +418,8 @@ static op_status check_container(op_material *m, op_error *err)
     return OP_OK;
 }
 
-/* Frees what op_material_open_container made; the method's state must be gone already. */
-void op_material_release(op_material *m)
+/* Frees what open_container made; the method's state must be gone already. */
+void op_material_free_container(op_material *m)
 {
     if (!m)
         return;
@@ -382,12 +427,14 @@ void op_material_release(op_material *m)
     free(m);
 }
 
-op_status op_material_open_container(const char *path, op_material **out, op_error *err)
+static op_status open_container(const char *path, int streaming, op_material **out,
+                                op_error *err)
 {
     *out = NULL;
     op_material *m = calloc(1, sizeof *m);
     if (!m)
         return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    m->streaming = streaming;
     snprintf(m->path, sizeof m->path, "%s", path);
     op_status st = op_file_map(path, &m->file, err);
     if (st != OP_OK) {
@@ -404,11 +451,26 @@ op_status op_material_open_container(const char *path, op_material **out, op_err
     if (st == OP_OK)
         st = parse_meta(path, meta, meta_n, &m->info, err);
     if (st != OP_OK) {
-        op_material_release(m);
+        op_material_free_container(m);
         return st;
     }
     *out = m;
     return OP_OK;
+}
+
+op_status op_material_open_container(const char *path, op_material **out, op_error *err)
+{
+    return open_container(path, 0, out, err);
+}
+
+op_status op_material_open_streaming(const char *path, op_material **out, op_error *err)
+{
+    return open_container(path, 1, out, err);
+}
+
+void op_material_release(const op_material *m, const void *p, size_t n)
+{
+    op_file_release(&m->file, p, n);
 }
 
 const op_material_info *op_material_get_info(const op_material *m)

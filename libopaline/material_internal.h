@@ -4,6 +4,8 @@
 
 #include "opaline.h"
 
+#include <string.h>
+
 /* One evaluation method. prepare() checks the method's sections against m->info (sizes,
  * finiteness, ranges) and builds m->state; after it succeeds eval and eval_row must never fail
  * or return a negative or non-finite value for in-range arguments. The albedo map is the
@@ -26,6 +28,7 @@ struct op_material {
     uint32_t nsections;
     const unsigned char *table;
     const float *albedo;    /* the "ALBEDO" section (channels x rows), or NULL */
+    int streaming;          /* op_material_open_streaming: pages released once checked */
 };
 
 /* The largest albedo (the sum of a row of Rd: the fraction of the light entering one incident
@@ -64,6 +67,20 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
 /* out[t] = max over j < n of |v[j * T + t]| for t < T, v being n x T row-major: the factor
  * bound the methods' overflow checks start from. */
 void op_column_abs_max(const float *v, int n, int T, double *out);
+/* The transpose (T x n, row-major, from malloc) of v (n x T, row-major), or NULL when out of
+ * memory: eval_row works through a row in chunks of OP_EVAL_CHUNK columns, vectorized across
+ * the columns of the transposed factor. */
+float *op_transpose(const float *v, int n, int T);
+#define OP_EVAL_CHUNK 256
+/* out[(col + k) mod n] = v[k] for k < len, col < 2n, len <= n: a chunk of a shifted row. */
+static inline void op_store_shifted(float *out, int n, int col, const float *v, int len)
+{
+    if (col >= n)
+        col -= n;
+    int first = n - col < len ? n - col : len;
+    memcpy(out + col, v, (size_t)first * sizeof *v);
+    memcpy(out, v + first, (size_t)(len - first) * sizeof *v);
+}
 /* Ends a prepare() whose state is one block from malloc: keeps it as m->state when st is OP_OK,
  * else frees it; returns st. */
 op_status op_method_keep_state(op_material *m, void *state, op_status st);
@@ -73,7 +90,7 @@ void op_method_free_state(op_material *m);
 
 
 /* Frees a material whose method state is gone (or was never made): its mapping and itself. */
-void op_material_release(op_material *m);
+void op_material_free_container(op_material *m);
 
 extern const op_method_ops op_method_raw_ops;
 extern const op_method_ops op_method_svd_ops;

@@ -112,6 +112,16 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
     return st;
 }
 
+float *op_transpose(const float *v, int n, int T)
+{
+    float *vt = malloc((size_t)n * (size_t)T * sizeof *vt + 1);
+    if (vt)
+        for (int j = 0; j < n; j++)
+            for (int t = 0; t < T; t++)
+                vt[(size_t)t * n + j] = v[(size_t)j * T + t];
+    return vt;
+}
+
 void op_column_abs_max(const float *v, int n, int T, double *out)
 {
     for (int t = 0; t < T; t++)

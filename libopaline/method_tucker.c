@@ -21,6 +21,7 @@ typedef struct tucker_state {
     int64_t rows;
     const float *u, *v, *range, *beta, *max;
     const uint32_t *shift;
+    float *vt; /* V transposed (terms x cols), for eval_row's column chunks */
 } tucker_state;
 
 /* Rejects factors whose reconstruction could overflow a float anywhere: |U[r] . V[j]| <= b_r,
@@ -77,6 +78,10 @@ static op_status tucker_prepare(op_material *m, op_error *err)
         st = op_material_shift_sections(m, -1, &s->shift, &s->max, err);
     if (st == OP_OK)
         st = check_range(m, s, err);
+    if (st == OP_OK && !(s->vt = op_transpose(s->v, s->cols, s->terms)))
+        st = op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", m->path);
+    if (st != OP_OK)
+        free(s->vt);
     return op_method_keep_state(m, s, st);
 }
 
@@ -111,26 +116,59 @@ static float tucker_eval(const op_material *m, int channel, int64_t row, int col
     return s->max[row] * entry(s, channel, row, s->v + (size_t)j * s->terms);
 }
 
+/* The row in chunks of OP_EVAL_CHUNK columns, vectorized across the columns with V transposed:
+ * each entry is computed with exactly entry()'s operations in the same order, so eval_row and
+ * eval agree bit for bit. */
 static void tucker_eval_row(const op_material *m, int channel, int64_t row, float *out)
 {
     const tucker_state *s = m->state;
-    const int T = s->terms, n = s->cols;
-    if (!s->shift) {
-        for (int j = 0; j < n; j++)
-            out[j] = entry(s, channel, row, s->v + (size_t)j * T);
-        return;
+    const int T = s->terms, n = s->cols, P = s->degree;
+    const float *u = s->u + row * T;
+    const float center = s->range[2 * row], scale = s->range[2 * row + 1];
+    const float *beta = s->beta + ((size_t)channel * s->rows + row) * (size_t)(P + 1);
+    const int sh = s->shift ? (int)s->shift[row] : 0;
+    const float mx = s->shift ? s->max[row] : 1.0f;
+    float x[OP_EVAL_CHUNK], b1[OP_EVAL_CHUNK], b2[OP_EVAL_CHUNK];
+    for (int j0 = 0; j0 < n; j0 += OP_EVAL_CHUNK) {
+        const int len = n - j0 < OP_EVAL_CHUNK ? n - j0 : OP_EVAL_CHUNK;
+        for (int k = 0; k < len; k++)
+            x[k] = 0.0f;
+        for (int t = 0; t < T; t++) {
+            const float *v = s->vt + (size_t)t * n + j0, ut = u[t];
+            for (int k = 0; k < len; k++)
+                x[k] += ut * v[k];
+        }
+        for (int k = 0; k < len; k++) {
+            x[k] = (x[k] - center) * scale;
+            b1[k] = b2[k] = 0.0f;
+        }
+        for (int p = P; p >= 1; p--) {
+            const float bp = beta[p];
+            for (int k = 0; k < len; k++) {
+                float b0 = 2.0f * x[k] * b1[k] - b2[k] + bp;
+                b2[k] = b1[k];
+                b1[k] = b0;
+            }
+        }
+        for (int k = 0; k < len; k++) {
+            float y = x[k] * b1[k] - b2[k] + beta[0];
+            x[k] = mx * (y > 0.0f ? y : 0.0f); /* mx is 1 when not shifted: exact */
+        }
+        op_store_shifted(out, n, j0 + sh, x, len);
     }
-    int sh = (int)s->shift[row];
-    float mx = s->max[row];
-    for (int j = 0; j < n - sh; j++)
-        out[j + sh] = mx * entry(s, channel, row, s->v + (size_t)j * T);
-    for (int j = n - sh; j < n; j++)
-        out[j + sh - n] = mx * entry(s, channel, row, s->v + (size_t)j * T);
+}
+
+static void tucker_destroy(op_material *m)
+{
+    tucker_state *s = m->state;
+    if (s)
+        free(s->vt);
+    op_method_free_state(m);
 }
 
 const op_method_ops op_method_tucker_ops = {
     .prepare = tucker_prepare,
     .eval = tucker_eval,
     .eval_row = tucker_eval_row,
-    .destroy = op_method_free_state,
+    .destroy = tucker_destroy,
 };

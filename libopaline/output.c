@@ -172,7 +172,7 @@ static int create_temp(op_output *o, const char *temp_prefix)
     static const char letters[] = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789";
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
-    uint64_t x = ((uint64_t)ts.tv_nsec * 0x9e3779b97f4a7c15ull ^ (uint64_t)(uintptr_t)o) | 1;
+    uint64_t x = op_hash64((uint64_t)ts.tv_nsec ^ (uint64_t)(uintptr_t)o) | 1;
     int fd = -1, e = EEXIST;
     pthread_mutex_lock(&live_lock);
     for (int tries = 0; fd < 0 && e == EEXIST && tries < 100; tries++) {

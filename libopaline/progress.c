@@ -1,5 +1,6 @@
 /* progress.c - the one progress reporter: a bar with ETA on a terminal, plain lines
- * elsewhere, or a caller's callback (the Blender add-on and tests use that). */
+ * elsewhere, or a caller's callback (the Blender add-on and tests use that); and the one
+ * monotonic clock read (op_monotonic_seconds), which it times with. */
 #include "opaline.h"
 
 #include <pthread.h>
@@ -20,7 +21,7 @@ struct op_progress {
     pthread_mutex_t lock; /* serializes reports; advance() takes it only when a report is due */
 };
 
-static double now_seconds(void)
+double op_monotonic_seconds(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -85,7 +86,7 @@ op_progress *op_progress_begin(const char *label, uint64_t total, op_progress_fn
     p->fn = fn;
     p->user = user;
     p->tty = isatty(STDERR_FILENO);
-    p->start = p->last_report = now_seconds();
+    p->start = p->last_report = op_monotonic_seconds();
     pthread_mutex_init(&p->lock, NULL);
     return p;
 }
@@ -95,7 +96,7 @@ void op_progress_advance(op_progress *p, uint64_t n)
     if (!p)
         return;
     atomic_fetch_add(&p->done, n);
-    double t = now_seconds();
+    double t = op_monotonic_seconds();
     double interval = p->fn || p->tty ? 0.25 : 5.0;
     /* Racy read of last_report is fine: it only decides whether to try the lock. */
     if (t - p->last_report < interval)
@@ -116,7 +117,7 @@ void op_progress_end(op_progress *p)
     if (!p)
         return;
     pthread_mutex_lock(&p->lock);
-    report(p, now_seconds(), 1);
+    report(p, op_monotonic_seconds(), 1);
     pthread_mutex_unlock(&p->lock);
     pthread_mutex_destroy(&p->lock);
     free(p);

@@ -155,6 +155,6 @@ fi
 
 rc=0
 chroot "$scratch/root" env -i HOME=/root TERM="${TERM:-dumb}" PATH=/usr/sbin:/usr/bin:/sbin:/bin \
-  LANG=C.UTF-8 OPALINE_FUZZ_SECONDS=0 OPALINE_PLATFORMS=none "$@" || rc=$?
+  LANG=C.UTF-8 OPALINE_FUZZ_SECONDS=0 OPALINE_PLATFORMS=none OPALINE_CLUSTER=none "$@" || rc=$?
 kill_inside "$scratch/root"
 exit $rc

@@ -5,11 +5,15 @@
 #
 #   install-deps.sh                 what the build, the demo and the tests need
 #   install-deps.sh --bench         also what the benchmarks compare against (bench/)
+#   install-deps.sh --screenshots   also the virtual display of scripts/addon-screenshots.sh
 #   install-deps.sh --print GROUP   prints a group's packages, one a line, and installs nothing
 #
 # Groups: core (build, run, add-on tests), fuzz (clang's libFuzzer, left out when
 # OPALINE_FUZZ_SECONDS=0), platforms (debootstrap, for the Debian 13 / sid test runs; left out
-# when OPALINE_PLATFORMS=none), bench.
+# when OPALINE_PLATFORMS=none), cluster (SLURM and munge, for the one-node cluster of
+# tests/e2e/test_cluster.sh; left out when OPALINE_CLUSTER=none; no daemon is enabled: the test
+# starts its own in a temp folder), bench, screenshots (Xvfb; only scripts/addon-screenshots.sh
+# installs it).
 set -euo pipefail
 
 group() {
@@ -19,8 +23,12 @@ group() {
                python3 ;;
     fuzz) echo clang libclang-rt-dev ;;
     platforms) echo debootstrap ;;
+    cluster) echo slurm-wlm munge ;;
     bench) echo python3-numpy python3-sklearn python3-matplotlib embree-tools ;;
-    *) echo "install-deps.sh: unknown group '$1' (core, fuzz, platforms, bench)" >&2; return 2 ;;
+    screenshots) echo xvfb ;;
+    *) echo "install-deps.sh: unknown group '$1' (core, fuzz, platforms, cluster, bench," \
+            "screenshots)" >&2
+       return 2 ;;
   esac
 }
 
@@ -32,7 +40,9 @@ fi
 packages=($(group core))
 [ "${OPALINE_FUZZ_SECONDS:-30}" = 0 ] || packages+=($(group fuzz))
 [ "${OPALINE_PLATFORMS:-}" = none ] || packages+=($(group platforms))
+[ "${OPALINE_CLUSTER:-}" = none ] || packages+=($(group cluster))
 [ "${1:-}" = --bench ] && packages+=($(group bench))
+[ "${1:-}" = --screenshots ] && packages+=($(group screenshots))
 
 missing=()
 for p in "${packages[@]}"; do

@@ -20,9 +20,9 @@ bl_info = {
 
 import bpy  # noqa: E402
 
-from . import engine, preferences, presets, properties, ui  # noqa: E402
+from . import cluster, engine, preferences, presets, properties, ui  # noqa: E402
 
-_classes = preferences.classes + properties.classes + ui.classes
+_classes = preferences.classes + properties.classes + ui.classes + cluster.classes
 
 
 def register():

@@ -37,6 +37,7 @@ TILE = 32  # opaline-render's tile side
 last_reports = []
 last_log = []  # the last F12's renderer LOG records, (level, text): what its pre-pass cache did
 last_export = None  # the ExportResult of the last F12
+last_status = [""]  # the status text the last F12 showed last ("opaline: Path tracing 25 %...")
 _HDR = struct.Struct("<4sIQ")
 MAX_PAYLOAD = 1 << 34
 
@@ -298,13 +299,18 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                        (type(e).__name__, e))
 
     def _report(self, kind, msg):
-        """A report of the render (a RuntimeError of bpy.ops.render.render in the background
-        for errors), also queued for the window manager's reports: the Info editor and the
-        status bar, whatever the render window shows."""
+        """A report of the render: F12's render operator moves it to the window manager's
+        reports when the render ends (the Info editor and the status bar, once each;
+        scripts/addon-screenshots.sh checks it under a real display); a RuntimeError of
+        bpy.ops.render.render for errors in the background. (A report of an operator called
+        from Python, e.g. from a timer, never reaches the Info editor: Python holds those.)"""
         last_reports.append((kind, msg))
         self.report({kind}, msg)
-        if kind in ('ERROR', 'WARNING'):
-            _wm_reports.put((kind, msg))
+
+    def _status(self, text):
+        """The render's status text (the render window's header), also kept in last_status."""
+        last_status[0] = text
+        self.update_stats("", text)
 
     def _fail(self, msg):
         msg = "opaline: " + msg
@@ -319,6 +325,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         from .export import scene as scene_export
         del last_reports[:]
         del last_log[:]
+        last_status[0] = ""
         scene = depsgraph.scene
         full_w, full_h, cx, cy, width, height = render_region(scene.render)
         probe = self.begin_result(0, 0, full_w, full_h)  # clamped to Blender's result
@@ -339,7 +346,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             with open(os.path.join(tmp, KEEP_MARKER), "w") as f:
                 f.write("Blender's opaline F12 exports, kept (Keep exported files): delete this "
                         "folder when done\n")
-        self.update_stats("", "opaline: exporting")
+        self._status("opaline: exporting")
         xml = os.path.join(tmp, "scene.xml")
         res = scene_export.export_scene(depsgraph, xml, bpy.context, renderer)
         last_export = res
@@ -380,7 +387,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         console."""
         if level == "warning":
             if "irradiance points" in text and "capped at" in text:
-                text += (" [opaline render settings: Max irradiance points, "
+                text += (" [opaline render settings: Irradiance Point Cap, "
                          "scene.opaline.max_sss_points]")
             self._report('WARNING', "opaline-render: " + text)
         elif level != "error":  # errors: in the failure's report, with the exit status
@@ -388,7 +395,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         last_log.append((level, text))
 
     def _run(self, cmd, env, out_path, width, height, progress):
-        self.update_stats("", "opaline: loading the scene")
+        self._status("opaline: loading the scene")
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
                                 start_new_session=True)
         events = queue.Queue()
@@ -467,7 +474,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                 frac, label = val
                 total, text = progress.stage(label, frac)
                 self.update_progress(total)
-                self.update_stats("", "opaline: " + text)
+                self._status("opaline: " + text)
             elif typ == T_LOG:
                 level, text = val
                 if level == "error":
@@ -500,48 +507,15 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         self.update_progress(1.0)
 
 
-_wm_reports = queue.Queue()  # (kind, message) from the render thread, for the main thread
-
-
-class OPALINE_OT_render_report(bpy.types.Operator):
-    """Adds a report of the opaline render to the Info editor and the status bar"""
-    bl_idname = "opaline.render_report"
-    bl_label = "opaline render report"
-    bl_options = {'INTERNAL'}
-
-    kind: bpy.props.EnumProperty(items=[(k, k.capitalize(), "") for k in
-                                        ("ERROR", "WARNING", "INFO")], default='INFO')
-    message: bpy.props.StringProperty()
-
-    def execute(self, context):
-        self.report({self.kind}, self.message)
-        return {'FINISHED'}
-
-
-def drain_wm_reports():
-    """Main thread (a timer): moves the queued render reports to the window manager's reports.
-    Returns the seconds to the next call."""
-    while True:
-        try:
-            kind, msg = _wm_reports.get_nowait()
-        except queue.Empty:
-            return 0.5
-        try:
-            bpy.ops.opaline.render_report(kind=kind, message=msg)
-        except RuntimeError:
-            pass  # an ERROR report raises after it is added; it is in the reports already
-
-
 def compatible_panels():
     """The standard property panels whose settings opaline uses (lights, world colour, camera,
-    output format, frame range, colour management, the material preview; the material slots
-    and Surface are the add-on's own panels). One panel per setting: the EEVEE panels, which
+    output format, frame range, colour management; the material slots, Surface and Preview are
+    the add-on's own panels). One panel per setting: the EEVEE panels, which
     exist in every supported version; not Cycles' (their settings are Cycles' own, and they
     share one COMPAT_ENGINES set). The names are the same in Blender 3.4 (BLENDER_EEVEE), 4.2 to
     4.5 (EEVEE Next, BLENDER_EEVEE_NEXT, whose panels kept the EEVEE_ / DATA_PT_EEVEE_ names)
     and 5.x (BLENDER_EEVEE again)."""
     want = {"DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
-            "MATERIAL_PT_preview",
             "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface",
             "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
             "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management"}
@@ -559,9 +533,6 @@ _OWN_SETS = []
 
 def register_engine():
     bpy.utils.register_class(OpalineRenderEngine)
-    bpy.utils.register_class(OPALINE_OT_render_report)
-    if not bpy.app.background and not bpy.app.timers.is_registered(drain_wm_reports):
-        bpy.app.timers.register(drain_wm_reports, first_interval=0.5, persistent=True)
     for p in compatible_panels():
         if "COMPAT_ENGINES" in p.__dict__:
             p.COMPAT_ENGINES.add('OPALINE')
@@ -577,7 +548,4 @@ def unregister_engine():
         else:
             p.COMPAT_ENGINES.discard('OPALINE')
     _OWN_SETS.clear()
-    if bpy.app.timers.is_registered(drain_wm_reports):
-        bpy.app.timers.unregister(drain_wm_reports)
-    bpy.utils.unregister_class(OPALINE_OT_render_report)
     bpy.utils.unregister_class(OpalineRenderEngine)

@@ -67,6 +67,15 @@ class OPALINE_AP_preferences(bpy.types.AddonPreferences):
                     "add-on (PREFIX/bin), PATH, then ~/.local/bin, /usr/local/bin, "
                     "/opt/opaline/bin, /usr/bin")
     preset_folders: CollectionProperty(type=OPALINE_PG_folder)
+    cluster_command: StringProperty(
+        name="opaline-cluster", subtype='FILE_PATH',
+        description="Path of the opaline-cluster program (its submit command is run); set, "
+                    "the Render panel shows Render on Cluster (docs/cluster.md)")
+    cluster_partition: StringProperty(name="Partition",
+                                      description="SLURM partition (empty: the default)")
+    cluster_sbatch_args: StringProperty(name="sbatch Arguments",
+                                        description="More sbatch arguments, e.g. "
+                                                    "--account=lab --time=2:00:00")
 
     def draw(self, context):
         layout = self.layout
@@ -87,6 +96,8 @@ class OPALINE_AP_preferences(bpy.types.AddonPreferences):
         r = box.row()
         r.operator(OPALINE_OT_folder_add.bl_idname, icon='ADD')
         r.operator(OPALINE_OT_presets_refresh.bl_idname, icon='FILE_REFRESH')
+        from . import cluster
+        cluster.draw_preferences(self, layout)
 
 
 def get(context=None):

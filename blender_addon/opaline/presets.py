@@ -1,5 +1,6 @@
-"""Material presets: folders holding NAME.opm (the material), NAME.png (albedo thumbnail) and
-NAME.json (the factor report), as the build writes them into <build>/presets/.
+"""Material presets: folders holding NAME.opm (the material), NAME.png (albedo thumbnail),
+NAME.json (the factor report) and NAME.recipe (the build's recipe, presets/NAME.recipe: the
+preset's category), as the build writes them into <build>/presets/.
 
 The search order follows opaline-render's (docs/subsurface-rendering.md, "Finding the
 material"): the colon-separated OPALINE_PRESETS_PATH, the add-on preferences' extra folders, the
@@ -14,13 +15,17 @@ renderer stay listed when no renderer is found (or another one is).
 
 import json
 import os
-import struct
 
 from . import locations
+from .opm import meta as opm_meta  # the META dict of a .opm, {} when unreadable
 
 # The measured subsurface types opaline-render accepts (<subsurface type="...">), i.e. the
 # methods of the .opm container (docs/formats.md); `dipole` is not a file method.
 METHODS = ("svd", "tucker", "kcta", "nmf", "raw")
+
+# The chooser's group of a preset without a category (no NAME.recipe beside it, or none in it):
+# listed after every named category.
+OTHER = "Other"
 
 _PREVIEWS = None          # bpy.utils.previews collection (thumbnails)
 _ENUM_ITEMS = []          # kept alive: Blender needs the strings of dynamic enums to persist
@@ -30,7 +35,7 @@ _CACHE = {"key": None, "presets": []}
 class Preset:
     """One preset found on disk; `report` is the parsed NAME.json (or {})."""
 
-    __slots__ = ("name", "folder", "opm", "png", "report", "_size_cm")
+    __slots__ = ("name", "folder", "opm", "png", "report", "_size_cm", "_category")
 
     def __init__(self, name, folder, report):
         self.name = name
@@ -40,6 +45,7 @@ class Preset:
         self.png = png if os.path.isfile(png) else None
         self.report = report
         self._size_cm = False
+        self._category = None
 
     @property
     def method(self):
@@ -51,6 +57,15 @@ class Preset:
         """A short label that tells presets apart when the chooser cuts it: the material's
         name first, then the method and its parameters ("Chess4x4 (SVD S10)")."""
         return display_label(self.name)
+
+    @property
+    def category(self):
+        """The chooser's group: the recipe's `category` (NAME.recipe beside the .opm), else
+        OTHER."""
+        if self._category is None:
+            c = recipe_keys(os.path.join(self.folder, self.name + ".recipe")).get("category")
+            self._category = c or OTHER
+        return self._category
 
     @property
     def size_cm(self):
@@ -67,9 +82,18 @@ class Preset:
         except OSError:
             return None
 
-    def summary(self):
-        """One line for the panel and tool tips: method, terms, size in MB, error, the
-        sample's physical size."""
+    def brief(self):
+        """The chooser's two lines under the name: method and parameters; size in MB and error
+        ("TUCKER T16 P4", "3.0 MB, 4.39 %")."""
+        n = self.file_bytes()
+        parts = [megabytes(n)] if n is not None else []
+        if "relative_rmse" in self.report:
+            parts.append("%.2f %%" % (100.0 * float(self.report["relative_rmse"])))
+        return display_parts(self.name)[1] or self.method.upper(), ", ".join(parts)
+
+    def summary_lines(self):
+        """Two lines for the panel: method, terms, size in MB; the error and the sample's
+        physical size."""
         r = self.report
         parts = [self.method.upper()]
         if "terms" in r:
@@ -80,13 +104,17 @@ class Preset:
         if "compression_ratio" in r:
             parts.append("%.0fx smaller" % float(r["compression_ratio"]))
         if "relative_rmse" in r:
-            parts.append("error %.2f %% (rel. RMSE)" % (100.0 * float(r["relative_rmse"])))
+            err = "error %.2f %% (rel. RMSE)" % (100.0 * float(r["relative_rmse"]))
         elif "rmse" in r:
-            parts.append("error %.3g (RMSE)" % float(r["rmse"]))
+            err = "error %.3g (RMSE)" % float(r["rmse"])
         else:
-            parts.append("error unknown (no report)")
-        parts.append(physical_size_text(self.size_cm))
-        return ", ".join(parts)
+            err = "error unknown (no report)"
+        return ", ".join(parts), "%s, %s" % (err, physical_size_text(self.size_cm))
+
+    def summary(self):
+        """One line for tool tips and the search: method, terms, size in MB, error, the
+        sample's physical size."""
+        return ", ".join(self.summary_lines())
 
 
 def megabytes(n):
@@ -101,51 +129,58 @@ def physical_size_text(size_cm):
     return "sample %.3g x %.3g cm" % size_cm
 
 
-def display_label(name):
-    """name as the chooser shows it: 'SVD_S10_Chess4x4' -> 'Chess4x4 (SVD S10)' (method prefix
-    and its parameters moved after the material's name); other names unchanged."""
+def display_parts(name):
+    """(material, method) of a preset name: 'SVD_S10_Chess4x4' -> ('Chess4x4', 'SVD S10');
+    a name without a method prefix -> (name, '')."""
     toks = name.split("_")
     if len(toks) < 2 or toks[0].lower() not in METHODS:
-        return name
+        return name, ""
     i = 1
     while i < len(toks) - 1 and toks[i][:1].isalpha() and toks[i].rstrip("0123456789") != toks[i] \
             and toks[i].rstrip("0123456789").isalpha():
         i += 1
-    return "%s (%s)" % ("_".join(toks[i:]), " ".join([toks[0].upper()] + toks[1:i]))
+    return "_".join(toks[i:]), " ".join([toks[0].upper()] + toks[1:i])
 
 
-def opm_meta(path):
-    """The META section of the .opm container at path (docs/formats.md) as a dict of strings,
-    or {} when the file cannot be read or has none. Reads the header and the section table
-    only, not the (possibly large) data."""
+def display_label(name):
+    """name as the chooser shows it: 'SVD_S10_Chess4x4' -> 'Chess4x4 (SVD S10)' (method prefix
+    and its parameters moved after the material's name); other names unchanged."""
+    material, method = display_parts(name)
+    return "%s (%s)" % (material, method) if method else name
+
+
+def recipe_keys(path):
+    """The `key = value` lines of a preset recipe (presets/CMakeLists.txt: '#' comments and
+    blank lines skipped) as a dict, or {} when the file cannot be read."""
+    out = {}
     try:
-        with open(path, "rb") as fh:
-            head = fh.read(40)
-            if len(head) < 40 or head[:8] != b"OPALINEM":
-                return {}
-            nsec, = struct.unpack_from("<I", head, 12)
-            table, = struct.unpack_from("<Q", head, 24)
-            if not 1 <= nsec <= 4096:
-                return {}
-            fh.seek(table)
-            ents = fh.read(32 * nsec)
-            for i in range(len(ents) // 32):
-                tag = ents[32 * i:32 * i + 8].rstrip(b"\0")
-                if tag != b"META":
+        with open(path, "r", encoding="utf-8") as fh:
+            for line in fh:
+                line = line.strip()
+                if not line or line.startswith("#"):
                     continue
-                off, size = struct.unpack_from("<QQ", ents, 32 * i + 8)
-                if size > 1 << 20:
-                    return {}
-                fh.seek(off)
-                meta = {}
-                for line in fh.read(size).decode("utf-8", "replace").splitlines():
-                    k, sep, v = line.partition("=")
-                    if sep:
-                        meta[k.strip()] = v.strip()
-                return meta
-    except (OSError, ValueError, struct.error):
+                k, sep, v = line.partition("=")
+                if sep:
+                    out[k.strip()] = v.strip()
+    except (OSError, ValueError):
         return {}
-    return {}
+    return out
+
+
+def group(presets, text=""):
+    """The presets whose name, label, category or summary contain every word of `text` (any
+    case), grouped by category for the chooser: [(category, [preset, ...]), ...], categories
+    in alphabetical order with OTHER last, presets by label within each."""
+    words = text.lower().split()
+    groups = {}
+    for p in presets:
+        if words:
+            hay = " ".join((p.name, p.label, p.category, p.summary())).lower()
+            if not all(w in hay for w in words):
+                continue
+        groups.setdefault(p.category, []).append(p)
+    order = sorted(groups, key=lambda c: (c == OTHER, c.lower()))
+    return [(c, sorted(groups[c], key=lambda p: (p.label.lower(), p.name))) for c in order]
 
 
 def opm_meta_method(path):
@@ -304,20 +339,26 @@ def missing_message(name, context=None):
         name, where)
 
 
-def _icon(preset):
+def image_icon(path):
+    """The icon id of the image file at path (a thumbnail loaded once into the add-on's
+    previews), or 0 when path is None or it cannot be loaded."""
     global _PREVIEWS
-    if preset.png is None:
+    if path is None:
         return 0
     try:
         if _PREVIEWS is None:
             import bpy.utils.previews
             _PREVIEWS = bpy.utils.previews.new()
-        key = preset.png
-        if key not in _PREVIEWS:
-            _PREVIEWS.load(key, preset.png, 'IMAGE')
-        return _PREVIEWS[key].icon_id
+        if path not in _PREVIEWS:
+            _PREVIEWS.load(path, path, 'IMAGE')
+        return _PREVIEWS[path].icon_id
     except Exception:  # thumbnails are a nicety; never fail the UI for them
         return 0
+
+
+def icon(preset):
+    """The icon id of the preset's thumbnail (its albedo map), or 0."""
+    return image_icon(preset.png)
 
 
 NONE_ID = "NONE"
@@ -335,10 +376,13 @@ def enum_items(self, context):
                                 "Build the repository or add a preset folder in the add-on "
                                 "preferences", 'ERROR', 0))
         labels = [p.label for p in ps]
-        for i, p in enumerate(ps):
-            label = p.label if labels.count(p.label) == 1 else p.name
-            _ENUM_ITEMS.append((p.name, label, "%s: %s" % (p.name, p.summary()), _icon(p),
-                                i + 1))
+        i = 0
+        for category, members in group(ps):
+            for p in members:
+                i += 1
+                label = p.label if labels.count(p.label) == 1 else p.name
+                _ENUM_ITEMS.append((p.name, label, "%s (%s): %s" % (p.name, category,
+                                                                    p.summary()), icon(p), i))
     return _ENUM_ITEMS
 
 
@@ -346,10 +390,11 @@ _SEARCH_ITEMS = []
 
 
 def search_items(self, context):
-    """Items for the preset search popup: the label says name, method, MB, error and sample
-    size, so typing any of them ("svd", "marble", "12.6 cm") finds a preset."""
-    _SEARCH_ITEMS[:] = [(p.name, "%s  -  %s" % (p.label, p.summary()), p.name)
-                        for p in current(context)]
+    """Items for the preset search popup: the label says category, name, method, MB, error
+    and sample size, so typing any of them ("stone", "svd", "marble", "12.6 cm") finds a
+    preset."""
+    _SEARCH_ITEMS[:] = [(p.name, "%s / %s  -  %s" % (c, p.label, p.summary()), p.name)
+                        for c, members in group(current(context)) for p in members]
     return _SEARCH_ITEMS
 
 

@@ -78,6 +78,23 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
                        description="Index of refraction inside the medium (dipole only: it "
                                    "sets the dipole's boundary; measured materials contain "
                                    "their boundary, so they have no IOR)")
+    sheen: EnumProperty(
+        name="Surface sheen",
+        items=[('PRINCIPLED', "From Principled BSDF", "The surface reflection of the Surface's "
+                "Principled BSDF: IOR from its Specular (Specular IOR Level), roughness from its "
+                "Roughness; none when the Surface is not a Principled BSDF or has no specular"),
+               ('ON', "On", "A dielectric surface reflection of the roughness and IOR below"),
+               ('OFF', "Off", "No surface reflection: the measured subsurface look alone")],
+        default='PRINCIPLED',
+        description="The specular reflection of the translucent object's surface (exported as "
+                    "a dielectric or roughdielectric beside the subsurface; what it does not "
+                    "reflect enters the material)")
+    sheen_roughness: FloatProperty(name="Sheen roughness", default=0.2, min=0.0, max=1.0,
+                                   description="Roughness of the surface reflection (as "
+                                               "Blender's: the GGX alpha is its square)")
+    sheen_ior: FloatProperty(name="Sheen IOR", default=1.5, min=1.0, max=3.0,
+                             description="Index of refraction of the surface (1.5: 4 % "
+                                         "reflected at normal incidence)")
 
 
 class OPALINE_PG_scene(bpy.types.PropertyGroup):
@@ -115,8 +132,13 @@ classes = (OPALINE_PG_material, OPALINE_PG_scene)
 def register_props():
     bpy.types.Material.opaline = PointerProperty(type=OPALINE_PG_material)
     bpy.types.Scene.opaline = PointerProperty(type=OPALINE_PG_scene)
+    bpy.types.WindowManager.opaline_preset_filter = StringProperty(
+        name="Filter", options={'TEXTEDIT_UPDATE'},
+        description="Show the presets whose category, name, method, size or error contain "
+                    "these words")
 
 
 def unregister_props():
     del bpy.types.Material.opaline
     del bpy.types.Scene.opaline
+    del bpy.types.WindowManager.opaline_preset_filter

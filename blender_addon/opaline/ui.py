@@ -12,6 +12,7 @@ from .errors import OpalineError
 
 
 REPLACES_NOTE = "Replaces the Surface shader for opaline renders"
+CHOOSER_COLUMNS = 4   # presets per row in the chooser (the four chessboards fill one)
 
 
 def objects_without_uvs(mat, objects):
@@ -38,16 +39,24 @@ def draw_material_settings(layout, context, mat):
         col.label(text=REPLACES_NOTE, icon='SHADING_RENDERED')
     col.prop(s, "kind")
     if s.kind == 'PRESET':
-        row = col.row()
-        row.template_icon_view(s, "preset_enum", show_labels=True, scale=6.0, scale_popup=5.0)
-        sub = row.column(align=True)
-        sub.operator(OPALINE_OT_preset_search.bl_idname, text="", icon='VIEWZOOM')
-        sub.operator("opaline.presets_refresh", text="", icon='FILE_REFRESH')
         p = presets.find(s.preset, context) if s.preset else None
+        row = col.row()
+        if p is not None and presets.icon(p):
+            row.template_icon(icon_value=presets.icon(p), scale=5.0)
+        sub = row.column(align=True)
+        sub.context_pointer_set("material", mat)
+        sub.popover(OPALINE_PT_preset_chooser.bl_idname,
+                    text=p.label if p is not None else "Choose a preset", icon='MATERIAL')
+        r = sub.row(align=True)
+        r.operator(OPALINE_OT_preset_search.bl_idname, text="Search", icon='VIEWZOOM')
+        r.operator("opaline.presets_refresh", text="", icon='FILE_REFRESH')
         if p is not None:
             box = col.box()
             box.label(text="%s  (%s)" % (p.label, p.name))
-            box.label(text=p.summary(), icon='INFO')
+            box.label(text="Category: %s" % p.category, icon='ASSET_MANAGER')
+            first, second = p.summary_lines()
+            box.label(text=first, icon='INFO')
+            box.label(text=second, icon='BLANK1')
             size = p.size_cm
             if size is not None:
                 box.label(text="Covers %.3g x %.3g cm of the surface at Physical scale %g" % (
@@ -63,6 +72,10 @@ def draw_material_settings(layout, context, mat):
         col.prop(s, "filepath")
         col.prop(s, "file_method")
     col.prop(s, "scale")
+    col.prop(s, "sheen")
+    if s.sheen == 'ON':
+        col.prop(s, "sheen_roughness")
+        col.prop(s, "sheen_ior")
     if s.enabled and s.kind != 'DIPOLE':
         bad = objects_without_uvs(mat, context.scene.objects) if context.scene else []
         if bad:
@@ -132,12 +145,9 @@ class OPALINE_PT_material_engine(bpy.types.Panel):
         draw_material_settings(box, context, mat)
 
 
-class OPALINE_PT_surface(bpy.types.Panel):
-    """The material's Surface under opaline: the nodes of its Cycles output (the one opaline's
-    exporter reads), not the EEVEE output the preview nodes add; says when opaline subsurface
-    replaces it."""
-    bl_label = "Surface"
-    bl_idname = "MATERIAL_PT_opaline_surface"
+class MaterialPanel:
+    """Where the add-on's own Material tab panels under the opaline engine show: with a
+    material."""
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'WINDOW'
     bl_context = "material"
@@ -146,6 +156,14 @@ class OPALINE_PT_surface(bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+
+class OPALINE_PT_surface(MaterialPanel, bpy.types.Panel):
+    """The material's Surface under opaline: the nodes of its Cycles output (the one opaline's
+    exporter reads), not the EEVEE output the preview nodes add; says when opaline subsurface
+    replaces it."""
+    bl_label = "Surface"
+    bl_idname = "MATERIAL_PT_opaline_surface"
 
     def draw(self, context):
         layout = self.layout
@@ -165,6 +183,70 @@ class OPALINE_PT_surface(bpy.types.Panel):
                 layout.label(text="No output node")
         else:
             layout.prop(mat, "diffuse_color", text="Base Color")
+
+
+class OPALINE_PT_preset_chooser(bpy.types.Panel):
+    """The preset chooser, a popover of the material panel: a filter, then the presets grouped
+    under their categories (the recipes' `category`), each with its thumbnail, name, method,
+    size and error, and a button setting the material's preset_enum (highlighted when chosen;
+    its tool tip is the enum item's summary). context.material is the material it sets (the
+    caller's context_pointer_set)."""
+    bl_label = "opaline presets"
+    bl_idname = "OPALINE_PT_preset_chooser"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'HEADER'   # a popover only: never drawn in the editor itself
+    bl_ui_units_x = 34
+
+    def draw(self, context):
+        layout = self.layout
+        mat = getattr(context, "material", None)
+        wm = context.window_manager
+        layout.prop(wm, "opaline_preset_filter", text="", icon='VIEWZOOM')
+        every = presets.current(context)
+        groups = presets.group(every, wm.opaline_preset_filter)
+        if not groups:
+            layout.label(text="No preset matches '%s'" % wm.opaline_preset_filter if every else
+                         "No presets found: build the repository or add a preset folder "
+                         "in the add-on preferences", icon='INFO')
+        for category, members in groups:
+            box = layout.box()
+            box.label(text=category, icon='ASSET_MANAGER')
+            grid = box.grid_flow(row_major=True, columns=CHOOSER_COLUMNS, even_columns=True,
+                                 even_rows=True, align=False)
+            for p in members:
+                cell = grid.column(align=True)
+                cell.template_icon(icon_value=presets.icon(p), scale=3.5)
+                name = presets.display_parts(p.name)[0]
+                if mat is not None:
+                    cell.prop_enum(mat.opaline, "preset_enum", p.name, text=name)
+                else:
+                    cell.label(text=name)
+                for line in p.brief():
+                    cell.label(text=line)
+
+
+class OPALINE_PT_material_preview(MaterialPanel, bpy.types.Panel):
+    """The Material tab's Preview under opaline: the preset's (or material file's) albedo map,
+    which Material Preview lays on the object by its UVs. Blender's own Preview panel renders
+    with the scene's engine, which opaline does not do for previews."""
+    bl_label = "Preview"
+    bl_idname = "MATERIAL_PT_opaline_preview"
+
+    def draw(self, context):
+        from . import preview
+        layout = self.layout
+        mat = context.material
+        path = preview.albedo_path(mat, context)
+        if path is None:
+            layout.label(text="opaline subsurface is off for this material" if not
+                         mat.opaline.enabled else "No albedo map to show (no preset chosen, "
+                         "or no NAME.png beside the material file)", icon='INFO')
+            return
+        layout.template_icon(icon_value=presets.image_icon(path), scale=7.0)
+        s = mat.opaline
+        what = s.preset if s.kind == 'PRESET' else os.path.basename(path)
+        layout.label(text="Albedo map of %s" % what, icon='IMAGE_DATA')
+        layout.label(text="Material Preview lays it on the object by its UVs")
 
 
 class OPALINE_OT_preset_search(bpy.types.Operator):
@@ -351,8 +433,9 @@ def menu_export(self, context):
     self.layout.operator(OPALINE_OT_export.bl_idname, text="opaline scene (.xml)")
 
 
-classes = (OPALINE_OT_preset_search, OPALINE_OT_uv_unwrap, OPALINE_PT_material,
-           OPALINE_PT_material_engine, OPALINE_PT_surface, OPALINE_PT_render,
+classes = (OPALINE_OT_preset_search, OPALINE_OT_uv_unwrap,
+           OPALINE_PT_preset_chooser, OPALINE_PT_material, OPALINE_PT_material_engine,
+           OPALINE_PT_material_preview, OPALINE_PT_surface, OPALINE_PT_render,
            OPALINE_OT_export)
 
 

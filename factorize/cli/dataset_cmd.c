@@ -1,9 +1,9 @@
 /* dataset_cmd.c - `opaline-factor dataset NAME -o OUT.opm ...`: makes a synthetic dataset by
  * simulating its measurement (diffusion or Monte Carlo) and writes it as a raw material. */
 #include "commands.h"
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_montecarlo.h"
-#include "media.h"
+#include "opaline.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -18,7 +18,7 @@ static void dataset_usage(FILE *f)
     fprintf(f,
             "usage: opaline-factor dataset NAME -o OUT.opm [--pixels WxH] [--kernel K]\n"
             "           [--size-cm XxY] [--generator diffusion|montecarlo] [--photons N]\n"
-            "           [--seed S] [-t THREADS] [--media A,B] [--medium NAME]\n\n"
+            "           [--seed S] [-t THREADS] [--media A,B] [--medium NAME] [--eta N]\n\n"
             "Simulates the measurement of a flat heterogeneous translucent sample: for every\n"
             "colour channel and incident pixel, the fraction of the power entering there that\n"
             "leaves through each pixel of a K x K kernel around it (see docs/datasets.md).\n\n"
@@ -44,11 +44,10 @@ static void dataset_usage(FILE *f)
             "  --seed S            Monte Carlo and vein-noise seed (1)\n"
             "  -t THREADS          worker threads (default: all cores)\n"
             "  --media A,B         the two media (chessboards: squares; veins: base,vein)\n"
-            "  --medium NAME       the (base) medium; for homogeneous, the only one\n\n"
-            "media (coefficients in 1/mm, eta %.1f):", OP_MEDIUM_ETA);
-    for (int i = 0; i < op_medium_count(); i++)
-        fprintf(f, "%s %s", i ? "," : "", op_medium_at(i)->name);
-    fprintf(f, "\n");
+            "  --medium NAME       the (base) medium; for homogeneous, the only one\n"
+            "  --eta N             one index of refraction for the whole sample (1 to 3;\n"
+            "                      default: each medium's own, 1.3, Marble and Vein 1.5)\n\n"
+            "media (coefficients in 1/mm; docs/datasets.md): %s\n", op_medium_names());
 }
 
 /* Parses a whole decimal integer in [lo, hi]. */
@@ -132,7 +131,7 @@ int op_cmd_dataset(int argc, char **argv)
         if (!strcmp(a, "-o") || !strcmp(a, "--pixels") || !strcmp(a, "--kernel") ||
             !strcmp(a, "--size-cm") || !strcmp(a, "--generator") || !strcmp(a, "--photons") ||
             !strcmp(a, "--seed") || !strcmp(a, "-t") || !strcmp(a, "--media") ||
-            !strcmp(a, "--medium")) {
+            !strcmp(a, "--medium") || !strcmp(a, "--eta")) {
             if (!v)
                 return bad("dataset: option %s needs a value", a);
             i++;
@@ -175,6 +174,12 @@ int op_cmd_dataset(int argc, char **argv)
             spec.threads = (int)n;
         } else if (!strcmp(a, "--media")) {
             media_arg = v;
+        } else if (!strcmp(a, "--eta")) {
+            char *end;
+            errno = 0;
+            spec.eta = strtod(v, &end);
+            if (errno || end == v || *end || !(spec.eta >= 1.0 && spec.eta <= 3.0))
+                return bad("dataset: --eta '%s' must be a number from 1 to 3", v);
         } else {
             medium_arg = v;
         }
@@ -188,8 +193,8 @@ int op_cmd_dataset(int argc, char **argv)
         if (!comma)
             return bad("dataset: --media '%s' is not A,B", media_arg);
         *comma = '\0';
-        spec.media[0] = op_medium_find(buf);
-        spec.media[1] = op_medium_find(comma + 1);
+        spec.media[0] = op_medium_lookup(buf);
+        spec.media[1] = op_medium_lookup(comma + 1);
         if (!spec.media[0])
             return bad("dataset: unknown medium '%s' (see --help for the list)", buf);
         if (!spec.media[1])
@@ -198,7 +203,7 @@ int op_cmd_dataset(int argc, char **argv)
             return bad("dataset: %s", "homogeneous has one medium: use --medium NAME");
     }
     if (medium_arg) {
-        const op_medium *m = op_medium_find(medium_arg);
+        const op_medium *m = op_medium_lookup(medium_arg);
         if (!m)
             return bad("dataset: unknown medium '%s' (see --help for the list)", medium_arg);
         spec.media[0] = m;
@@ -211,8 +216,7 @@ int op_cmd_dataset(int argc, char **argv)
         return op_exit_code(st);
     }
 
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    double t0 = op_monotonic_seconds();
     op_dataset d;
     op_mc_stats s;
     st = op_dataset_generate(&spec, &d, &s, &err);
@@ -236,8 +240,7 @@ int op_cmd_dataset(int argc, char **argv)
         op_log(OP_LOG_ERROR, "dataset: %s", err.message);
         return op_exit_code(st);
     }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    double secs = op_monotonic_seconds() - t0;
     op_log(OP_LOG_INFO, "dataset %s: %d x %d pixels, K %d, %.4g x %.4g cm, %s: generated in %.2f s",
            spec.name, spec.width, spec.height, spec.kernel, spec.size_x_cm, spec.size_y_cm,
            d.generator, secs);

@@ -39,8 +39,6 @@ typedef struct op_factor_report {
     double fit_condition, fit_coef_max, fit_storage_error;
 } op_factor_report;
 
-/* Seconds on a monotonic clock. */
-double op_now(void);
 /* Records a stage's duration (ignored beyond OP_REPORT_MAX_STAGES). */
 void op_report_stage(op_factor_report *r, const char *name, double seconds);
 /* Peak resident set size of this process in bytes. */

@@ -1,8 +1,6 @@
 /* dataset.c - dataset specifications, the paper presets, energy checks and writing. */
 #include "dataset.h"
 
-#include "dataset_diffusion.h"
-#include "dataset_montecarlo.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -58,8 +56,8 @@ op_status op_dataset_spec_defaults(const char *name, op_dataset_spec *spec, op_e
         spec->kernel = presets[i].k;
         spec->size_x_cm = presets[i].sx;
         spec->size_y_cm = presets[i].sy;
-        spec->media[0] = op_medium_find(presets[i].a);
-        spec->media[1] = op_medium_find(presets[i].b);
+        spec->media[0] = op_medium_lookup(presets[i].a);
+        spec->media[1] = op_medium_lookup(presets[i].b);
         spec->generator = OP_GEN_DIFFUSION;
         spec->photons = 1000;
         spec->seed = 1;
@@ -88,6 +86,9 @@ op_status op_dataset_spec_check(const op_dataset_spec *s, op_error *err)
                             s->size_x_cm, s->size_y_cm);
     if (!s->media[0] || !s->media[1])
         return op_error_set(err, OP_ERR_INPUT, "dataset without media");
+    if (s->eta != 0 && !(s->eta >= 1.0 && s->eta <= 3.0))
+        return op_error_set(err, OP_ERR_INPUT, "eta %g: must be from 1 to 3 (or 0: each "
+                            "medium's own)", s->eta);
     if (s->threads < 1 || s->threads > 1024)
         return op_error_set(err, OP_ERR_INPUT, "threads %d: must be 1 to 1024", s->threads);
     if (s->generator == OP_GEN_MONTECARLO && s->photons < 1)
@@ -236,52 +237,4 @@ op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err)
         return st;
     }
     return op_material_writer_commit(w, err);
-}
-
-op_status op_dataset_generate(const op_dataset_spec *spec, op_dataset *out,
-                              struct op_mc_stats *mc_stats, op_error *err)
-{
-    memset(out, 0, sizeof *out);
-    op_status st = op_dataset_spec_check(spec, err);
-    if (st != OP_OK)
-        return st;
-    op_layout layout;
-    st = op_dataset_layout(spec, &layout, err);
-    if (st != OP_OK)
-        return st;
-    st = op_dataset_alloc(out, spec->width, spec->height, spec->kernel,
-                          spec->generator == OP_GEN_MONTECARLO, err);
-    if (st == OP_OK) {
-        out->size_x_cm = spec->size_x_cm;
-        out->size_y_cm = spec->size_y_cm;
-        snprintf(out->name, sizeof out->name, "%s", spec->name);
-        if (spec->generator == OP_GEN_MONTECARLO) {
-            op_mc_options o = {.photons = spec->photons, .seed = spec->seed,
-                               .threads = spec->threads, .progress = spec->progress,
-                               .progress_user = spec->progress_user};
-            op_mc_stats stats;
-            st = op_mc_generate(&layout, &o, out, mc_stats ? mc_stats : &stats, err);
-            snprintf(out->generator, sizeof out->generator,
-                     "montecarlo photons=%llu seed=%llu media=%s,%s eta=%.2g",
-                     (unsigned long long)spec->photons, (unsigned long long)spec->seed,
-                     spec->media[0]->name, spec->media[1]->name, OP_MEDIUM_ETA);
-        } else {
-            st = op_diffusion_generate(&layout, spec->threads, spec->progress,
-                                       spec->progress_user, out, err);
-            snprintf(out->generator, sizeof out->generator,
-                     "diffusion dipole-segment media=%s,%s eta=%.2g", spec->media[0]->name,
-                     spec->media[1]->name, OP_MEDIUM_ETA);
-        }
-    }
-    if (st == OP_OK && op_dataset_check(out, err) != OP_OK) {
-        op_error_prefix(err, "%s generator broke an energy invariant (a bug): ",
-                        spec->generator == OP_GEN_MONTECARLO ? "montecarlo" : "diffusion");
-        st = OP_ERR_INTERNAL;
-        if (err)
-            err->status = st;
-    }
-    if (st != OP_OK)
-        op_dataset_free(out);
-    op_layout_free(&layout);
-    return st;
 }

@@ -14,7 +14,7 @@
 #define OP_FACTOR_DATASET_H
 
 #include "dataset_layout.h"
-#include "media.h"
+#include "opaline.h"
 #include "opaline.h"
 
 #include <stdint.h>
@@ -33,6 +33,8 @@ typedef struct op_dataset_spec {
     int width, height, kernel;  /* incident pixels, odd kernel side */
     double size_x_cm, size_y_cm;
     const op_medium *media[2];  /* [0] base medium, [1] second medium (chess, veins) */
+    double eta;                 /* > 0: one index of refraction for the whole sample (a recipe
+                                   reproducing older values); 0: each medium's own */
     op_generator generator;
     uint64_t photons;           /* Monte Carlo photons per incident pixel and channel */
     uint64_t seed;              /* Monte Carlo seed (and the veins' noise) */
@@ -74,12 +76,5 @@ uint32_t op_dataset_crc(const op_dataset *d);
 /* Writes d as a raw material (sections RD.R RD.G RD.B, plus SE.* when present) through
  * op_material_writer: the destination appears whole or not at all. */
 op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err);
-
-struct op_mc_stats;
-/* Checks spec, runs its generator into out (allocated here; freed again on failure) and checks
- * the energy invariants of the result. With the Monte Carlo generator, fills *mc_stats when it
- * is not NULL. */
-op_status op_dataset_generate(const op_dataset_spec *spec, op_dataset *out,
-                              struct op_mc_stats *mc_stats, op_error *err);
 
 #endif

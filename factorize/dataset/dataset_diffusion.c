@@ -186,11 +186,13 @@ op_status op_diffusion_generate(const op_layout *l, int threads, op_progress_fn 
             int n = m <= 3 ? 10 : 4; /* more quadrature where Rd varies within a pixel */
             for (int k = 0; k <= m; k++) {
                 double f = (double)k / m;
+                double e0 = op_layout_eta(l, 0), e1 = op_layout_eta(l, 1);
+                double eta = e0 == e1 ? e0 : (1 - f) * e0 + f * e1;
                 for (int c = 0; c < 3; c++) {
                     double ss = (1 - f) * l->media[0]->sigma_s[c] + f * l->media[1]->sigma_s[c];
                     double sa = (1 - f) * l->media[0]->sigma_a[c] + f * l->media[1]->sigma_a[c];
                     op_dipole dp;
-                    op_dipole_init(&dp, ss, sa, OP_MEDIUM_ETA);
+                    op_dipole_init(&dp, ss, sa, eta);
                     *v++ = (float)op_dipole_pixel(&dp, ax * l->pixel_x, ay * l->pixel_y,
                                                   l->pixel_x, l->pixel_y, n);
                 }

@@ -4,7 +4,8 @@
  * are the path-length average of sigma_s' and sigma_a along the straight segment x_i -> x_o
  * (sampled at max(|dx|, |dy|) + 1 evenly spaced points, each in the pixel that holds it);
  * the classical dipole of Jensen et al. 2001 (multiple scattering only, no single scattering,
- * relative index OP_MEDIUM_ETA) gives Rd for that medium; Rd is integrated over both pixels
+ * relative index: each medium's op_medium.eta, averaged along the segment like the coefficients,
+ * or the layout's one eta) gives Rd for that medium; Rd is integrated over both pixels
  * (uniform entry over x_i, exit anywhere in x_o). The segment average is symmetric in its two
  * ends, so Rd(x_i, x_o) == Rd(x_o, x_i) exactly (bit for bit).
  */

@@ -21,6 +21,7 @@ static op_status layout_init(op_layout *l, int w, int h, double sx, double sy,
     l->pixel_y = 10.0 * sy / h;
     l->media[0] = a;
     l->media[1] = b;
+    l->eta = 0;
     l->map = calloc((size_t)w * (size_t)h, 1);
     if (!l->map)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %d x %d medium map", w, h);
@@ -49,19 +50,10 @@ op_status op_layout_chessboard(op_layout *l, int w, int h, double sx, double sy,
     return OP_OK;
 }
 
-/* splitmix64: the hash behind the noise lattice. */
-static uint64_t mix64(uint64_t z)
-{
-    z += 0x9e3779b97f4a7c15ULL;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-
 /* Uniform in [0, 1) from (seed, i). */
 static double hash01(uint64_t seed, uint64_t i)
 {
-    return (double)(mix64(seed ^ mix64(i)) >> 11) * (1.0 / 9007199254740992.0);
+    return (double)(op_hash64(seed ^ op_hash64(i)) >> 11) * (1.0 / 9007199254740992.0);
 }
 
 /* Value noise in [-1, 1] with lattice periods pu, pv; u, v in lattice units. */
@@ -75,7 +67,8 @@ static double periodic_noise2(double u, double v, int pu, int pv, uint64_t seed)
     double c[4];
     for (int k = 0; k < 4; k++) {
         int a = ((iu + (k & 1)) % pu + pu) % pu, b = ((iv + (k >> 1)) % pv + pv) % pv;
-        uint64_t hsh = mix64(seed ^ mix64((uint64_t)a * 73856093u + (uint64_t)b * 19349663u));
+        uint64_t hsh =
+            op_hash64(seed ^ op_hash64((uint64_t)a * 73856093u + (uint64_t)b * 19349663u));
         c[k] = (double)(hsh >> 11) * (2.0 / 9007199254740992.0) - 1.0;
     }
     double top = c[0] + (c[1] - c[0]) * tu, bot = c[2] + (c[3] - c[2]) * tu;

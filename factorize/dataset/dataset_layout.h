@@ -6,7 +6,6 @@
 #ifndef OP_FACTOR_DATASET_LAYOUT_H
 #define OP_FACTOR_DATASET_LAYOUT_H
 
-#include "media.h"
 #include "opaline.h"
 
 #include <stdint.h>
@@ -16,7 +15,15 @@ typedef struct op_layout {
     double pixel_x, pixel_y;    /* pixel size, mm */
     const op_medium *media[2];  /* media[1] == media[0] for a homogeneous sample */
     uint8_t *map;               /* width * height entries, 0 or 1, row y * width + x */
+    double eta;                 /* > 0: one index of refraction for the whole sample; 0 (as the
+                                   constructors leave it): each medium's own op_medium.eta */
 } op_layout;
+
+/* The relative index of refraction of medium m (0 or 1) of l. */
+static inline double op_layout_eta(const op_layout *l, int m)
+{
+    return l->eta > 0 ? l->eta : l->media[m]->eta;
+}
 
 /* Every pixel medium a. */
 op_status op_layout_homogeneous(op_layout *l, int w, int h, double size_x_cm, double size_y_cm,

@@ -5,7 +5,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 /* ------------------------------------------------------------ random numbers */
 
@@ -13,22 +12,14 @@ typedef struct rng {
     uint64_t s[4];
 } rng;
 
-static uint64_t splitmix64(uint64_t *x)
-{
-    uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-
 /* The stream of one (channel, pixel) work unit. */
 static void rng_seed(rng *r, uint64_t seed, uint64_t channel, uint64_t pixel)
 {
     uint64_t x = seed;
-    x = splitmix64(&x) ^ (channel * 0xd1b54a32d192ed03ULL);
-    x = splitmix64(&x) ^ pixel;
+    x = op_splitmix64(&x) ^ (channel * 0xd1b54a32d192ed03ULL);
+    x = op_splitmix64(&x) ^ pixel;
     for (int i = 0; i < 4; i++)
-        r->s[i] = splitmix64(&x);
+        r->s[i] = op_splitmix64(&x);
 }
 
 static inline uint64_t rotl(uint64_t x, int k)
@@ -85,6 +76,16 @@ typedef struct mc_thread {
 } mc_thread;
 
 /* Traces every photon of channel c entering pixel (px, py); fills row and standard errors. */
+/* The medium (0 or 1) of the pixel under the point at (u, v) sample widths, in the periodic
+ * tiling, without integer division. */
+static inline int medium_at(const op_layout *l, double u, double v)
+{
+    int ix = (int)((u - floor(u)) * l->width), iy = (int)((v - floor(v)) * l->height);
+    ix = ix < l->width ? ix : l->width - 1;
+    iy = iy < l->height ? iy : l->height - 1;
+    return l->map[iy * l->width + ix];
+}
+
 static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
 {
     mc_job *j = t->job;
@@ -101,7 +102,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     int hetero = l->media[0] != l->media[1];
     double inv_hx = 1 / l->pixel_x, inv_hy = 1 / l->pixel_y, inv_bar = 1 / sig_bar;
     double inv_tx = 1 / (l->pixel_x * l->width), inv_ty = 1 / (l->pixel_y * l->height);
-    const double eta = OP_MEDIUM_ETA;
+    const double eta_m[2] = {op_layout_eta(l, 0), op_layout_eta(l, 1)};
+    const int one_eta = eta_m[0] == eta_m[1];
     const int diffuse = j->o->incidence == OP_MC_DIFFUSE;
     rng r;
     rng_seed(&r, j->o->seed, (uint64_t)c, (uint64_t)py * (uint64_t)l->width + (uint64_t)px);
@@ -113,6 +115,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     for (uint64_t p = 0; p < n; p++) {
         double x = (px + rng_uniform(&r)) * l->pixel_x, y = (py + rng_uniform(&r)) * l->pixel_y;
         double z = 0, ux = 0, uy = 0, uz = 1, w = 1;
+        /* The boundary's index where the photon crosses it: that of the medium there. */
+        double eta = eta_m[one_eta ? 0 : l->map[py * l->width + px]];
         if (diffuse) {
             /* Cosine-weighted from outside, kept with the Fresnel transmittance, refracted. */
             double ct, phi;
@@ -135,6 +139,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
                 x += ux * tt;
                 y += uy * tt;
                 z = 0;
+                if (!one_eta)
+                    eta = eta_m[medium_at(l, x * inv_tx, y * inv_ty)];
                 if (rng_uniform(&r) < fresnel(-uz, eta, 1.0)) {
                     uz = -uz;
                     continue;
@@ -152,14 +158,8 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
             y += uy * s;
             z = zn;
             int m = 0;
-            if (hetero) {
-                /* The pixel under (x, y) in the periodic tiling, without integer division. */
-                double u = x * inv_tx, v = y * inv_ty;
-                int ix = (int)((u - floor(u)) * l->width), iy = (int)((v - floor(v)) * l->height);
-                ix = ix < l->width ? ix : l->width - 1;
-                iy = iy < l->height ? iy : l->height - 1;
-                m = l->map[iy * l->width + ix];
-            }
+            if (hetero)
+                m = medium_at(l, x * inv_tx, y * inv_ty);
             if (hetero && rng_uniform(&r) >= p_real[m])
                 continue; /* null collision */
             w *= albedo[m];
@@ -214,13 +214,6 @@ static void mc_task(void *user, int u, int thread)
     op_progress_advance(j->progress, 1);
 }
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset *out,
                          op_mc_stats *stats, op_error *err)
 {
@@ -256,10 +249,10 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
         th[t].sq = th[t].sum + cols;
     }
     job.progress = op_progress_begin("montecarlo", job.units, o->progress, o->progress_user);
-    double t0 = now_seconds();
+    double t0 = op_monotonic_seconds();
     job.threads = th;
     op_status st = op_parallel_for(threads, (int)job.units, mc_task, &job, NULL, err);
-    stats->seconds = now_seconds() - t0;
+    stats->seconds = op_monotonic_seconds() - t0;
     op_progress_end(job.progress);
     if (st != OP_OK) {
         free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);

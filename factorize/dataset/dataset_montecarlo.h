@@ -5,7 +5,7 @@
  * Free paths by delta (Woodcock) tracking against the larger extinction of the two media;
  * isotropic scattering with the reduced coefficients; survival weighting (weight *= albedo at
  * each real collision) with Russian roulette below weight 0.1; the flat boundary (relative index
- * OP_MEDIUM_ETA) reflects with the unpolarized Fresnel probability, else the photon leaves and
+ * of the medium where the photon crosses it, op_layout_eta) reflects with the unpolarized Fresnel probability, else the photon leaves and
  * its weight is tallied in the exit pixel. Incidence is diffuse by default: directions
  * cosine-weighted outside, kept with the Fresnel transmittance and refracted, which makes the
  * measurement reciprocal (Rd(x_i, x_o) = Rd(x_o, x_i) in expectation, since exit is collected

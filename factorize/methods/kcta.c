@@ -56,15 +56,6 @@ double op_kcta_error(const float *a, const op_kcta_model *md)
 
 /* ------------------------------------------------------------ small linear algebra */
 
-/* splitmix64, for the k-means++ seeding. */
-static uint64_t next_u64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
 /* Completes columns r .. T-1 of the cols x T row-major v (whose first r columns are
  * orthonormal) to an orthonormal set, from coordinate vectors (twice-applied Gram-Schmidt).
  * Needs T <= cols. */
@@ -207,7 +198,20 @@ typedef struct work {
     int64_t *mem_row; /* rows * K member lists, grouped by cluster */
     int *mem_slot;
     int64_t *mem_start; /* C + 1 */
+    float *x;           /* a cluster's rows (residuals), x_rows x n, kept across iterations */
+    int64_t x_rows;     /* so that its pages are faulted in once, not at every iteration */
 } work;
+
+/* w->x with room for m rows of n, or NULL when out of memory. */
+static float *rows_buffer(work *w, int64_t m)
+{
+    if (m > w->x_rows) {
+        free(w->x);
+        w->x = malloc((size_t)m * (size_t)w->n * sizeof *w->x);
+        w->x_rows = w->x ? m : 0;
+    }
+    return w->x;
+}
 
 #define PROJ_BLOCK 4096
 
@@ -470,7 +474,7 @@ static op_status update_stage(work *w, op_error *err)
     for (int c = 0; c < w->C; c++)
         if (w->mem_start[c + 1] - w->mem_start[c] > maxm)
             maxm = w->mem_start[c + 1] - w->mem_start[c];
-    float *x = malloc((size_t)(maxm ? maxm : 1) * n * sizeof *x);
+    float *x = rows_buffer(w, maxm ? maxm : 1);
     float *ynew = malloc((size_t)(maxm ? maxm : 1) * T * sizeof *ynew);
     float *yold = malloc((size_t)(maxm ? maxm : 1) * T * sizeof *yold);
     float *vnew = malloc((size_t)n * T * sizeof *vnew);
@@ -517,7 +521,6 @@ static op_status update_stage(work *w, op_error *err)
                    ych + q * T, (size_t)T * sizeof(float));
     }
 done:
-    free(x);
     free(ynew);
     free(yold);
     free(vnew);
@@ -550,7 +553,7 @@ static op_status initialize(work *w, op_error *err)
         goto done;
     uint64_t rng = 0x6b637461ull; /* "kcta" */
     /* k-means++: the first centre uniformly, the others with probability ~ distance^2. */
-    int64_t first = (int64_t)(next_u64(&rng) % (uint64_t)rows);
+    int64_t first = (int64_t)(op_splitmix64(&rng) % (uint64_t)rows);
     for (int d = 0; d < D; d++)
         cent[d] = z[first * D + d];
     for (int64_t i = 0; i < rows; i++)
@@ -568,7 +571,7 @@ static op_status initialize(work *w, op_error *err)
         }
         if (c == C)
             break;
-        double u = (double)(next_u64(&rng) >> 11) * 0x1.0p-53 * total;
+        double u = (double)(op_splitmix64(&rng) >> 11) * 0x1.0p-53 * total;
         int64_t pick = rows - 1;
         for (int64_t i = 0; i < rows; i++) {
             u -= dist[i];
@@ -622,7 +625,7 @@ static op_status initialize(work *w, op_error *err)
     int64_t maxc = 1;
     for (int c = 0; c < C; c++)
         maxc = count[c] > maxc ? count[c] : maxc;
-    x = malloc((size_t)maxc * n * sizeof *x);
+    x = rows_buffer(w, maxc);
     if (!x) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
         goto done;
@@ -641,7 +644,6 @@ done:
     free(dist);
     free(label);
     free(count);
-    free(x);
     return st;
 }
 
@@ -675,7 +677,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     float *sb = malloc(nb * sizeof *sb), *sc = malloc(nc * sizeof *sc);
     uint32_t *si = malloc(ni * sizeof *si);
     work w = {a, rows, cols, C, K, T, C * T, md, &opt->svd, NULL, NULL, NULL, NULL, NULL, NULL,
-              NULL};
+              NULL, NULL, 0};
     int64_t pb = rows < PROJ_BLOCK ? rows : PROJ_BLOCK;
     w.vall = malloc((size_t)cols * C * T * sizeof *w.vall);
     w.gram = malloc((size_t)C * T * C * T * sizeof *w.gram);
@@ -751,6 +753,7 @@ done:
     free(w.mem_row);
     free(w.mem_slot);
     free(w.mem_start);
+    free(w.x);
     if (st != OP_OK)
         op_kcta_free(md);
     return st;

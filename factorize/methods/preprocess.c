@@ -2,22 +2,70 @@
 #include "preprocess.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+/* Counts of src[i0 .. i1): branch-free, so that it vectorizes; the first non-finite value is
+ * looked for only when there is one. */
+static void scan_range(const float *src, uint64_t i0, uint64_t i1, op_prep_counts *counts)
+{
+    uint64_t nonfinite = 0, negative = 0;
+    for (uint64_t i = i0; i < i1; i++) {
+        uint32_t bits;
+        memcpy(&bits, &src[i], sizeof bits);
+        /* on the bits alone: workers flush denormals to zero (parallel.c), which would make a
+         * negative denormal compare as 0 */
+        int bad = (bits & 0x7f800000u) == 0x7f800000u; /* NaN or infinite */
+        int neg = (bits >> 31) & ((bits & 0x7fffffffu) != 0);
+        nonfinite += (uint64_t)bad;
+        negative += (uint64_t)((bad ^ 1) & neg);
+    }
+    counts->first_nonfinite = -1;
+    for (uint64_t i = i0; nonfinite && i < i1; i++)
+        if (!isfinite(src[i])) {
+            counts->first_nonfinite = (int64_t)i;
+            break;
+        }
+    counts->nonfinite = nonfinite;
+    counts->negative = negative;
+}
+
+typedef struct scan_job {
+    const float *src;
+    uint64_t n, per;
+    op_prep_counts *parts;
+} scan_job;
+
+static void scan_task(void *user, int task, int thread)
+{
+    const scan_job *j = user;
+    uint64_t i0 = (uint64_t)task * j->per, i1 = i0 + j->per < j->n ? i0 + j->per : j->n;
+    (void)thread;
+    scan_range(j->src, i0, i1, &j->parts[task]);
+}
 
 void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts)
 {
+    /* Blocks of 16 MiB on every core, merged in order. */
+    scan_job j = {src, n, (uint64_t)1 << 22, NULL};
+    while (n / j.per >= (1u << 16))
+        j.per *= 2;
+    int tasks = (int)((n + j.per - 1) / j.per);
+    if (tasks < 2 || !(j.parts = malloc((size_t)tasks * sizeof *j.parts)) ||
+        op_parallel_for(0, tasks, scan_task, &j, NULL, NULL) != OP_OK) {
+        free(j.parts);
+        scan_range(src, 0, n, counts);
+        return;
+    }
     counts->nonfinite = counts->negative = 0;
     counts->first_nonfinite = -1;
-    for (uint64_t i = 0; i < n; i++) {
-        float v = src[i];
-        if (!isfinite(v)) {
-            if (counts->first_nonfinite < 0)
-                counts->first_nonfinite = (int64_t)i;
-            counts->nonfinite++;
-        } else if (v < 0.0f) {
-            counts->negative++;
-        }
+    for (int t = 0; t < tasks; t++) {
+        counts->nonfinite += j.parts[t].nonfinite;
+        counts->negative += j.parts[t].negative;
+        if (counts->first_nonfinite < 0)
+            counts->first_nonfinite = j.parts[t].first_nonfinite;
     }
+    free(j.parts);
 }
 
 void op_prep_find_peaks(const float *src, int64_t rows, int cols, uint32_t *shift, float *max)
@@ -86,6 +134,7 @@ typedef struct prep_job {
     double log_a, log_b;
     float *dst;
     int64_t rows_per_task;
+    int find_peaks;
 } prep_job;
 
 static void prep_task(void *user, int task, int thread)
@@ -95,7 +144,7 @@ static void prep_task(void *user, int task, int thread)
     int64_t n = j->rows - r0 < j->rows_per_task ? j->rows - r0 : j->rows_per_task;
     size_t at = (size_t)r0 * (size_t)j->cols;
     (void)thread;
-    if (j->shift)
+    if (j->shift && j->find_peaks)
         op_prep_find_peaks(j->src + at, n, j->cols, j->shift + r0, j->max + r0);
     op_prep_apply(j->src + at, n, j->cols, j->shift ? j->shift + r0 : NULL,
                   j->max ? j->max + r0 : NULL, j->dst + at);
@@ -103,16 +152,32 @@ static void prep_task(void *user, int task, int thread)
         op_prep_log(j->dst + at, (uint64_t)n * (uint64_t)j->cols, j->log_a, j->log_b);
 }
 
-op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
-                       double log_a, double log_b, int threads, float *dst, op_error *err)
+static op_status prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
+                           int find_peaks, double log_a, double log_b, int threads, float *dst,
+                           op_error *err)
 {
     /* Blocks of about 256 KiB: large enough to amortize a task, small enough to balance. */
     int64_t per = (int64_t)(65536 / (cols > 0 ? cols : 1));
-    prep_job j = {src, rows, cols, shift, max, log_a, log_b, dst, per > 0 ? per : 1};
+    prep_job j = {src, rows, cols, shift, max, log_a, log_b, dst, per > 0 ? per : 1, find_peaks};
     int64_t tasks = (rows + j.rows_per_task - 1) / j.rows_per_task;
     while (tasks > 1 << 30) {
         j.rows_per_task *= 2;
         tasks = (rows + j.rows_per_task - 1) / j.rows_per_task;
     }
     return op_parallel_for(threads, (int)tasks, prep_task, &j, NULL, err);
+}
+
+op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
+                       double log_a, double log_b, int threads, float *dst, op_error *err)
+{
+    return prep_rows(src, rows, cols, shift, max, 1, log_a, log_b, threads, dst, err);
+}
+
+op_status op_prep_rows_given_peaks(const float *src, int64_t rows, int cols,
+                                   const uint32_t *shift, const float *max, double log_a,
+                                   double log_b, int threads, float *dst, op_error *err)
+{
+    /* prep_task writes shift and max only when it finds the peaks */
+    return prep_rows(src, rows, cols, (uint32_t *)shift, (float *)max, 0, log_a, log_b, threads,
+                     dst, err);
 }

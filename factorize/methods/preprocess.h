@@ -45,6 +45,11 @@ void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shi
  * in sequence, for any thread count. Fails only when threads cannot be started. */
 op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift, float *max,
                        double log_a, double log_b, int threads, float *dst, op_error *err);
+/* op_prep_rows with the peaks already found (shift and max given, or both NULL): for a matrix
+ * preprocessed one block of rows at a time; each row's result is op_prep_rows's. */
+op_status op_prep_rows_given_peaks(const float *src, int64_t rows, int cols,
+                                   const uint32_t *shift, const float *max, double log_a,
+                                   double log_b, int threads, float *dst, op_error *err);
 
 /* The svd method's value transform, in place: v = ln(v / a + b), with a > 0, b > 0, v >= 0. */
 void op_prep_log(float *v, uint64_t n, double a, double b);

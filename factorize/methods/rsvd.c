@@ -42,20 +42,11 @@ static int converged(double captured_prev, double captured, double norm2, double
     return captured - captured_prev <= fmax(tol * residual, resolution * norm2);
 }
 
-/* splitmix64: a small, well-mixed deterministic generator. */
-static uint64_t next_u64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
 /* A standard normal deviate (Box-Muller). */
 static double gaussian(uint64_t *state)
 {
-    double u1 = ((double)(next_u64(state) >> 11) + 1.0) * 0x1.0p-53; /* (0, 1] */
-    double u2 = (double)(next_u64(state) >> 11) * 0x1.0p-53;
+    double u1 = ((double)(op_splitmix64(state) >> 11) + 1.0) * 0x1.0p-53; /* (0, 1] */
+    double u2 = (double)(op_splitmix64(state) >> 11) * 0x1.0p-53;
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }
 
@@ -157,8 +148,10 @@ uint64_t op_rsvd_progress_units(int64_t m, int64_t n, int k, const op_rsvd_optio
     return use_exact(m, n, k, opt) ? 1 : (uint64_t)(2 * opt->power_iters + 2);
 }
 
-op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_options *opt,
-                  float *us, float *v, double *s, op_progress *progress, op_error *err)
+/* op_rsvd of a in memory, or of rows when a is NULL. */
+static op_status rsvd_any(const float *a, const op_row_source *rows, int64_t m, int64_t n, int k,
+                          const op_rsvd_options *opt, float *us, float *v, double *s,
+                          op_progress *progress, op_error *err)
 {
     op_rsvd_options def = op_rsvd_defaults();
     if (!opt)
@@ -172,6 +165,10 @@ op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_opt
     if (m > INT32_MAX || n > INT32_MAX || m * n / n != m)
         return op_error_set(err, OP_ERR_INPUT, "SVD: %lld x %lld is too large for LAPACK",
                             (long long)m, (long long)n);
+    if (rows && (use_exact(m, n, k, opt) || rows->block_rows < 1))
+        return op_error_set(err, OP_ERR_INPUT, "SVD: a matrix read in blocks of rows needs the "
+                            "randomized method (rank %d + oversampling %d < min(%lld, %lld), "
+                            "no --exact-svd)", k, opt->oversample, (long long)m, (long long)n);
     op_status st;
     if (use_exact(m, n, k, opt)) {
         st = exact_svd(a, m, n, k, us, v, s, err);
@@ -179,11 +176,24 @@ op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_opt
     } else {
         int l = k + opt->oversample;
         if (opt->precision == OP_SVD_DOUBLE)
-            st = randomized_double(a, m, n, k, l, opt->power_iters, opt->power_tol, opt->seed, us,
-                                   v, s, progress, err);
+            st = randomized_double(a, rows, m, n, k, l, opt->power_iters, opt->power_tol,
+                                   opt->seed, us, v, s, progress, err);
         else
-            st = randomized_single(a, m, n, k, l, opt->power_iters, opt->power_tol, opt->seed, us,
-                                   v, s, progress, err);
+            st = randomized_single(a, rows, m, n, k, l, opt->power_iters, opt->power_tol,
+                                   opt->seed, us, v, s, progress, err);
     }
     return st == OP_OK ? fix_signs(m, n, k, us, v, err) : st;
+}
+
+op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_options *opt,
+                  float *us, float *v, double *s, op_progress *progress, op_error *err)
+{
+    return rsvd_any(a, NULL, m, n, k, opt, us, v, s, progress, err);
+}
+
+op_status op_rsvd_rows(const op_row_source *src, int64_t m, int64_t n, int k,
+                       const op_rsvd_options *opt, float *us, float *v, double *s,
+                       op_progress *progress, op_error *err)
+{
+    return rsvd_any(NULL, src, m, n, k, opt, us, v, s, progress, err);
 }

@@ -40,6 +40,22 @@ op_rsvd_options op_rsvd_defaults(void);
 op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_options *opt,
                   float *us, float *v, double *s, op_progress *progress, op_error *err);
 
+/* A matrix read in blocks of rows, for one larger than memory: fetch writes rows [r0, r0 +
+ * count) of the row-major m x n matrix to dst (count x n floats), or fails setting err. */
+typedef struct op_row_source {
+    op_status (*fetch)(void *user, int64_t r0, int64_t count, float *dst, op_error *err);
+    void *user;
+    int64_t block_rows; /* rows per fetch, >= 1 */
+} op_row_source;
+
+/* op_rsvd of a matrix read through src: the randomized method, every product with A a pass
+ * over its blocks in order (memory: one block, plus the m x (k + p) and n x (k + p) bases).
+ * The same factors as op_rsvd within rounding (A^T Y's sums are split by blocks). The exact
+ * method is refused (OP_ERR_INPUT); so is k + oversample >= min(m, n), which needs it. */
+op_status op_rsvd_rows(const op_row_source *src, int64_t m, int64_t n, int k,
+                       const op_rsvd_options *opt, float *us, float *v, double *s,
+                       op_progress *progress, op_error *err);
+
 /* Units of progress op_rsvd reports for these arguments. */
 uint64_t op_rsvd_progress_units(int64_t m, int64_t n, int k, const op_rsvd_options *opt);
 

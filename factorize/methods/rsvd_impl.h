@@ -40,27 +40,110 @@ static double FN(top_energy)(const REAL *z, int64_t n, int l, int k, double *gra
     return e;
 }
 
+/* The matrix A of a randomized SVD: in memory (A, row-major m x n) or read through rows in
+ * blocks of rows->block_rows (into fblk, then blk in this precision). */
+typedef struct FN(source) {
+    const REAL *A;
+    const op_row_source *rows;
+    float *fblk;
+    REAL *blk;
+    double norm2; /* accumulated by the first FN(times) of a streamed matrix */
+} FN(source);
+
+/* Block b of a streamed A, in this precision: *nb rows from row *r0. */
+static op_status FN(block)(FN(source) *a, int64_t m, int64_t n, int64_t b, int64_t *r0,
+                           int64_t *nb, op_error *err)
+{
+    int64_t per = a->rows->block_rows;
+    *r0 = b * per;
+    *nb = m - *r0 < per ? m - *r0 : per;
+    op_status st = a->rows->fetch(a->rows->user, *r0, *nb, a->fblk, err);
+#if RSVD_IS_DOUBLE
+    for (size_t i = 0; st == OP_OK && i < (size_t)*nb * (size_t)n; i++)
+        a->blk[i] = a->fblk[i];
+#else
+    (void)n;
+#endif
+    return st;
+}
+
+/* y = A z (y column-major m x l, z column-major n x l); with norm2, also sums ||A||^2. */
+static op_status FN(times)(FN(source) *a, int64_t m, int64_t n, int l, const REAL *z, REAL *y,
+                           int norm2, op_error *err)
+{
+    if (!a->rows) {
+        GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1,
+             a->A, (blasint)n, z, (blasint)n, 0, y, (blasint)m);
+        return OP_OK;
+    }
+    for (int64_t b = 0, r0, nb; b * a->rows->block_rows < m; b++) {
+        op_status st = FN(block)(a, m, n, b, &r0, &nb, err);
+        if (st != OP_OK)
+            return st;
+        if (norm2)
+            a->norm2 += squared_norm(a->fblk, (size_t)nb * (size_t)n);
+        GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)nb, (blasint)l, (blasint)n, 1,
+             a->blk, (blasint)n, z, (blasint)n, 0, y + r0, (blasint)m);
+    }
+    return OP_OK;
+}
+
+/* z = A^T y (z column-major n x l, y column-major m x l). */
+static op_status FN(trans_times)(FN(source) *a, int64_t m, int64_t n, int l, const REAL *y,
+                                 REAL *z, op_error *err)
+{
+    if (!a->rows) {
+        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1,
+             a->A, (blasint)n, y, (blasint)m, 0, z, (blasint)n);
+        return OP_OK;
+    }
+    for (int64_t b = 0, r0, nb; b * a->rows->block_rows < m; b++) {
+        op_status st = FN(block)(a, m, n, b, &r0, &nb, err);
+        if (st != OP_OK)
+            return st;
+        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)nb, 1,
+             a->blk, (blasint)n, y + r0, (blasint)m, b ? 1 : 0, z, (blasint)n);
+    }
+    return OP_OK;
+}
+
 /* Randomized rank-k SVD with l >= k test vectors and at most q power iterations, fewer when
  * the rank-k error has converged to tol (see converged()); see op_rsvd. */
-static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int l, int q,
-                                double tol, uint64_t seed, float *us, float *v, double *s,
-                                op_progress *progress, op_error *err)
+static op_status FN(randomized)(const float *a, const op_row_source *rows, int64_t m, int64_t n,
+                                int k, int l, int q, double tol, uint64_t seed, float *us,
+                                float *v, double *s, op_progress *progress, op_error *err)
 {
-    double norm2 = tol > 0 ? squared_norm(a, (size_t)m * (size_t)n) : 0.0;
+    double norm2 = tol > 0 && !rows ? squared_norm(a, (size_t)m * (size_t)n) : 0.0;
     op_status st = OP_OK;
-    const REAL *A;
+    FN(source) A = {NULL, rows, NULL, NULL, 0.0};
     REAL *acopy = NULL;
+    if (rows) {
+        int64_t per = rows->block_rows < m ? rows->block_rows : m;
+        A.fblk = malloc((size_t)per * (size_t)n * sizeof *A.fblk);
 #if RSVD_IS_DOUBLE
-    acopy = malloc((size_t)m * (size_t)n * sizeof *acopy);
-    if (!acopy)
-        return op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for a %lld x %lld "
-                            "double matrix", (long long)m, (long long)n);
-    for (size_t i = 0; i < (size_t)m * (size_t)n; i++)
-        acopy[i] = a[i];
-    A = acopy;
+        A.blk = acopy = malloc((size_t)per * (size_t)n * sizeof *acopy);
 #else
-    A = a;
+        A.blk = A.fblk;
 #endif
+        if (!A.fblk || !A.blk) {
+            free(A.fblk);
+            free(acopy);
+            return op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for a block of "
+                                "%lld rows", (long long)per);
+        }
+    } else {
+#if RSVD_IS_DOUBLE
+        acopy = malloc((size_t)m * (size_t)n * sizeof *acopy);
+        if (!acopy)
+            return op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for a %lld x "
+                                "%lld double matrix", (long long)m, (long long)n);
+        for (size_t i = 0; i < (size_t)m * (size_t)n; i++)
+            acopy[i] = a[i];
+        A.A = acopy;
+#else
+        A.A = a;
+#endif
+    }
     /* Row-major m x n A is column-major n x m A^T (leading dimension n). */
     REAL *y = malloc((size_t)m * (size_t)l * sizeof *y);
     REAL *z = malloc((size_t)n * (size_t)l * sizeof *z);
@@ -86,15 +169,17 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
         z[i] = (REAL)gaussian(&rng);
     /* Y = orth(A Omega); then Z = A^T Y, which is B^T for the current Y, and while the
      * estimate of the rank-k error still improves, Z = orth(Z), Y = orth(A Z) and again. */
-    GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
-         (blasint)n, z, (blasint)n, 0, y, (blasint)m);
+    if ((st = FN(times)(&A, m, n, l, z, y, rows && tol > 0, err)) != OP_OK)
+        goto done;
+    if (rows)
+        norm2 = A.norm2;
     op_progress_advance(progress, 1);
     if ((st = FN(orthonormalize)(y, m, l, tau, NULL, err)) != OP_OK)
         goto done;
     double captured_prev = 0.0;
     for (int it = 0;; it++) {
-        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1, A,
-             (blasint)n, y, (blasint)m, 0, z, (blasint)n);
+        if ((st = FN(trans_times)(&A, m, n, l, y, z, err)) != OP_OK)
+            goto done;
         op_progress_advance(progress, 1);
         if (it == q)
             break;
@@ -106,8 +191,8 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
         captured_prev = captured;
         if ((st = FN(orthonormalize)(z, n, l, tau, NULL, err)) != OP_OK)
             goto done;
-        GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1, A,
-             (blasint)n, z, (blasint)n, 0, y, (blasint)m);
+        if ((st = FN(times)(&A, m, n, l, z, y, 0, err)) != OP_OK)
+            goto done;
         op_progress_advance(progress, 1);
         if ((st = FN(orthonormalize)(y, m, l, tau, NULL, err)) != OP_OK)
             goto done;
@@ -147,7 +232,8 @@ static op_status FN(randomized)(const float *a, int64_t m, int64_t n, int k, int
         for (int t = 0; t < k; t++)
             s[t] = sv[t];
 done:
-    free(acopy);
+    free(acopy); /* streamed in double: the block */
+    free(A.fblk);
     free(y);
     free(z);
     free(tau);

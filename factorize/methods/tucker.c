@@ -52,8 +52,12 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
     double *tau = malloc((size_t)np * sizeof *tau);
     double *tail = malloc(((size_t)n + 1) * sizeof *tail);
     double *c = malloc((size_t)np * sizeof *c);
+    /* LAPACK's workspace (at least 64 columns a block); the _work calls skip LAPACKE's NaN scan
+     * of the inputs, which cost as much as the factorization (the inputs are finite). */
+    lapack_int lwork = 64 * (np + nrhs);
+    double *work = malloc((size_t)lwork * sizeof *work);
     op_status st = OP_OK;
-    if (!a || !b || !tau || !tail || !c) {
+    if (!a || !b || !tau || !tail || !c || !work) {
         st = op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
         goto done;
     }
@@ -74,9 +78,10 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
     /* A = QR without pivoting: the least-squares fit of degree d < np is the back-substitution
      * of R's leading (d + 1) x (d + 1) block against the first d + 1 entries of Q^T y, so one
      * factorization gives every degree up to P. */
-    lapack_int info = LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, np, a, n, tau);
+    lapack_int info = LAPACKE_dgeqrf_work(LAPACK_COL_MAJOR, n, np, a, n, tau, work, lwork);
     if (info == 0)
-        info = LAPACKE_dormqr(LAPACK_COL_MAJOR, 'L', 'T', n, nrhs, kmax, a, n, tau, b, n);
+        info = LAPACKE_dormqr_work(LAPACK_COL_MAJOR, 'L', 'T', n, nrhs, kmax, a, n, tau, b, n,
+                                   work, lwork);
     if (info != 0) {
         st = op_error_set(err, OP_ERR_NUMERIC, "polynomial fit of degree %d to %d points failed "
                           "(LAPACK info %d)", degree, n, (int)info);
@@ -149,6 +154,7 @@ done:
     free(tau);
     free(tail);
     free(c);
+    free(work);
     return st;
 }
 
@@ -163,44 +169,60 @@ static void channel_mean(const float *const *ch, int nch, uint64_t count, float 
     }
 }
 
-/* The stored (float32) series at t in the evaluator's float arithmetic (libopaline/method_tucker.c). */
-static float chebyshev_eval_float(const float *beta, int degree, float t)
-{
-    float b1 = 0.0f, b2 = 0.0f;
-    for (int p = degree; p >= 1; p--) {
-        float b0 = 2.0f * t * b1 - b2 + beta[p];
-        b2 = b1;
-        b1 = b0;
-    }
-    return t * b1 - b2 + beta[0];
-}
+/* Rows per task of the colour fits: fixed, so that the merged figures do not depend on the
+ * thread count. */
+enum { FIT_ROWS_PER_TASK = 256 };
 
-/* Fits the colour polynomials of every row; res holds the mean's factors. Also measures what
- * storing the coefficients as float32 costs (res->fit). */
-static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res, op_error *err)
+typedef struct fit_job {
+    const float *const *ch;
+    int nch;
+    op_tucker_result *res;
+    const float *vt;         /* res->v transposed (terms x cols) */
+    op_polyfit_stats *parts; /* per task */
+    op_status *status;       /* per task */
+    op_error *errs;          /* per task */
+    op_progress *prog;
+} fit_job;
+
+/* Fits the colour polynomials of one block of rows (one op_parallel_for task): each row's and
+ * channel's coefficients go to res, its figures to the task's part. */
+static void fit_task(void *user, int task, int thread)
 {
+    const fit_job *j = user;
+    const float *const *ch = j->ch;
+    int nch = j->nch;
+    op_tucker_result *res = j->res;
+    op_polyfit_stats *fit = &j->parts[task];
+    op_error *err = &j->errs[task];
     int n = res->cols, T = res->terms, np = res->degree + 1;
+    int64_t r0 = (int64_t)task * FIT_ROWS_PER_TASK;
+    int64_t r1 = r0 + FIT_ROWS_PER_TASK < res->rows ? r0 + FIT_ROWS_PER_TASK : res->rows;
+    (void)thread;
     double *t = malloc((size_t)n * sizeof *t);
     float *tf = malloc((size_t)n * sizeof *tf);
     double *y = malloc((size_t)n * (size_t)nch * sizeof *y);
     double *coef = malloc((size_t)np * (size_t)nch * sizeof *coef);
+    /* Clenshaw's partial sums across the columns, float and double (vectorized loops) */
+    float *fb = malloc(2 * (size_t)n * sizeof *fb);
+    double *db = malloc(2 * (size_t)n * sizeof *db);
     op_status st = OP_OK;
-    if (!t || !tf || !y || !coef)
+    if (!t || !tf || !y || !coef || !fb || !db)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    memset(&res->fit, 0, sizeof res->fit);
-    op_progress *prog = op_progress_begin("tucker colour fit", (uint64_t)res->rows, NULL, NULL);
-    for (int64_t r = 0; r < res->rows && st == OP_OK; r++) {
+    for (int64_t r = r0; r < r1 && st == OP_OK; r++) {
         const float *u = res->u + r * T;
+        /* The same float arithmetic as the evaluation in libopaline/method_tucker.c: each dot
+         * product summed in order of k, vectorized across the columns. */
+        for (int jj = 0; jj < n; jj++)
+            tf[jj] = 0.0f;
+        for (int k = 0; k < T; k++) {
+            const float *v = j->vt + (size_t)k * n, uk = u[k];
+            for (int jj = 0; jj < n; jj++)
+                tf[jj] += uk * v[jj];
+        }
         float lo = INFINITY, hi = -INFINITY;
-        for (int j = 0; j < n; j++) {
-            /* The same float arithmetic as the evaluation in libopaline/method_tucker.c. */
-            const float *v = res->v + (size_t)j * T;
-            float dot = 0.0f;
-            for (int k = 0; k < T; k++)
-                dot += u[k] * v[k];
-            tf[j] = dot;
-            lo = fminf(lo, dot);
-            hi = fmaxf(hi, dot);
+        for (int jj = 0; jj < n; jj++) {
+            lo = fminf(lo, tf[jj]);
+            hi = fmaxf(hi, tf[jj]);
         }
         double mid = 0.5 * ((double)lo + (double)hi);
         float center = (float)mid;
@@ -211,18 +233,18 @@ static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res
                           : 0.0f;
         res->range[2 * r] = center;
         res->range[2 * r + 1] = scale;
-        for (int j = 0; j < n; j++) {
-            tf[j] = (tf[j] - center) * scale; /* as the evaluator computes it */
-            t[j] = tf[j];
+        for (int jj = 0; jj < n; jj++) {
+            tf[jj] = (tf[jj] - center) * scale; /* as the evaluator computes it */
+            t[jj] = tf[jj];
         }
         int s = res->shift ? (int)res->shift[r] : 0;
         float mx = res->max ? res->max[r] : 1.0f;
         for (int c = 0; c < nch; c++)
-            for (int j = 0; j < n; j++) {
-                int col = j + s < n ? j + s : j + s - n;
-                y[(size_t)c * n + j] = mx > 0.0f ? op_prep_clean(ch[c][r * n + col]) / mx : 0.0;
+            for (int jj = 0; jj < n; jj++) {
+                int col = jj + s < n ? jj + s : jj + s - n;
+                y[(size_t)c * n + jj] = mx > 0.0f ? op_prep_clean(ch[c][r * n + col]) / mx : 0.0;
             }
-        st = op_polyfit_chebyshev(t, y, n, nch, res->degree, coef, &res->fit, err);
+        st = op_polyfit_chebyshev(t, y, n, nch, res->degree, coef, fit, err);
         if (st != OP_OK) {
             op_error_prefix(err, "row %lld: ", (long long)r);
             break;
@@ -232,29 +254,99 @@ static op_status fit_rows(const float *const *ch, int nch, op_tucker_result *res
             const double *cd = coef + (size_t)c * np;
             for (int p = 0; p < np; p++)
                 beta[p] = (float)cd[p];
-            for (int j = 0; j < n; j++) {
-                double d = (double)chebyshev_eval_float(beta, res->degree, tf[j]) -
-                           op_chebyshev_eval(cd, res->degree, t[j]);
-                res->fit.storage_sq += d * d;
-                res->fit.data_sq += y[(size_t)c * n + j] * y[(size_t)c * n + j];
+            /* The stored (float32) series in the evaluator's float arithmetic
+             * (libopaline/method_tucker.c) against op_chebyshev_eval's double one, at every
+             * column: Clenshaw's recurrences as loops over the columns. */
+            float *f1 = fb, *f2 = fb + n;
+            double *d1 = db, *d2 = db + n;
+            for (int jj = 0; jj < n; jj++) {
+                f1[jj] = f2[jj] = 0.0f;
+                d1[jj] = d2[jj] = 0.0;
+            }
+            for (int p = res->degree; p >= 1; p--) {
+                const float bp = beta[p];
+                const double cp = cd[p];
+                for (int jj = 0; jj < n; jj++) {
+                    float f0 = 2.0f * tf[jj] * f1[jj] - f2[jj] + bp;
+                    f2[jj] = f1[jj];
+                    f1[jj] = f0;
+                    double d0 = 2.0 * t[jj] * d1[jj] - d2[jj] + cp;
+                    d2[jj] = d1[jj];
+                    d1[jj] = d0;
+                }
+            }
+            for (int jj = 0; jj < n; jj++) {
+                double d = (double)(tf[jj] * f1[jj] - f2[jj] + beta[0]) -
+                           (t[jj] * d1[jj] - d2[jj] + cd[0]);
+                fit->storage_sq += d * d;
+                fit->data_sq += y[(size_t)c * n + jj] * y[(size_t)c * n + jj];
             }
         }
-        if ((r & 255) == 255)
-            op_progress_advance(prog, 256);
     }
-    if (st == OP_OK)
-        op_progress_advance(prog, (uint64_t)(res->rows & 255));
-    op_progress_end(prog);
+    j->status[task] = st;
+    op_progress_advance(j->prog, (uint64_t)(r1 - r0));
     free(t);
     free(tf);
     free(y);
     free(coef);
+    free(fb);
+    free(db);
+}
+
+/* Fits the colour polynomials of every row, in parallel; res holds the mean's factors. Also
+ * measures what storing the coefficients as float32 costs (res->fit). */
+static op_status fit_rows(const float *const *ch, int nch, int threads, op_tucker_result *res,
+                          op_error *err)
+{
+    int64_t ntasks = (res->rows + FIT_ROWS_PER_TASK - 1) / FIT_ROWS_PER_TASK;
+    if (ntasks > (1 << 30))
+        return op_error_set(err, OP_ERR_INPUT, "tucker: %lld rows: too many",
+                            (long long)res->rows);
+    int tasks = (int)ntasks;
+    float *vt = malloc((size_t)res->cols * (size_t)res->terms * sizeof *vt + 1);
+    for (int jj = 0; vt && jj < res->cols; jj++)
+        for (int k = 0; k < res->terms; k++)
+            vt[(size_t)k * res->cols + jj] = res->v[(size_t)jj * res->terms + k];
+    fit_job j = {ch, nch, res, vt, calloc((size_t)tasks + 1, sizeof *j.parts),
+                 calloc((size_t)tasks + 1, sizeof *j.status),
+                 calloc((size_t)tasks + 1, sizeof *j.errs), NULL};
+    memset(&res->fit, 0, sizeof res->fit);
+    op_status st = OP_OK;
+    if (!vt || !j.parts || !j.status || !j.errs)
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    j.prog = op_progress_begin("tucker colour fit", (uint64_t)res->rows, NULL, NULL);
+    if (st == OP_OK)
+        st = op_parallel_for(threads, tasks, fit_task, &j, NULL, err);
+    op_progress_end(j.prog);
+    /* Merged in task order: the first failing row's error, the figures of all. */
+    for (int t = 0; st == OP_OK && t < tasks; t++)
+        if (j.status[t] != OP_OK) {
+            st = j.status[t];
+            if (err)
+                *err = j.errs[t];
+        }
+    op_polyfit_stats *f = &res->fit;
+    for (int t = 0; st == OP_OK && t < tasks; t++) {
+        const op_polyfit_stats *p = &j.parts[t];
+        f->cond_max = fmax(f->cond_max, p->cond_max);
+        f->coef_max = fmax(f->coef_max, p->coef_max);
+        if (p->fits)
+            f->degree_min = f->fits && f->degree_min < p->degree_min ? f->degree_min
+                                                                     : p->degree_min;
+        f->fits += p->fits;
+        f->storage_sq += p->storage_sq;
+        f->data_sq += p->data_sq;
+    }
+    free(vt);
+    free(j.parts);
+    free(j.status);
+    free(j.errs);
     return st;
 }
 
 op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t rows, int cols,
                            int terms, int degree, int shifted, const op_rsvd_options *opt,
-                           op_tucker_result *res, op_error *err)
+                           int threads, op_tucker_result *res, op_error *err)
 {
     memset(res, 0, sizeof *res);
     if (degree < 0 || degree > 20)
@@ -294,7 +386,7 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
     free(mean);
     free(mat);
     if (st == OP_OK)
-        st = fit_rows(channels, nchannels, res, err);
+        st = fit_rows(channels, nchannels, threads, res, err);
     if (st != OP_OK)
         op_tucker_free(res);
     return st;

@@ -40,11 +40,12 @@ typedef struct op_tucker_result {
     op_polyfit_stats fit;
 } op_tucker_result;
 
-/* Factors the channels (each rows x cols row-major float32; NULL-free array of `channels`).
+/* Factors the channels (each rows x cols row-major float32; NULL-free array of `channels`); the
+ * colour fits run on `threads` threads (<= 0: every core), with the same result for any count.
  * Non-finite and negative values count as 0. On failure res holds nothing to free. */
 op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t rows, int cols,
                            int terms, int degree, int shifted, const op_rsvd_options *opt,
-                           op_tucker_result *res, op_error *err);
+                           int threads, op_tucker_result *res, op_error *err);
 void op_tucker_free(op_tucker_result *res);
 
 /* A kept fit's float32 rounding moves it by at most this fraction of the data's largest value. */

@@ -1,5 +1,5 @@
 /* opaline-render - renders a scene to image files or to the tile stream on stdout.
- * Command line and tile stream: /work/notes/interfaces.md, documented in docs/rendering.md. */
+ * The command line and the tile stream are documented in docs/rendering.md. */
 #include <errno.h>
 #include <libgen.h>
 #include <pthread.h>
@@ -7,12 +7,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 #ifdef __linux__
 #include <sys/prctl.h>
 #endif
 
+#include "estimate.h"
 #include "opaline_render.h"
+#include "tile_merge.h"
 
 enum { MAX_OUTPUTS = 16, MAX_DEFINES = 256 };
 
@@ -43,6 +46,12 @@ static void usage(FILE *f)
             "  -s N           samples per pixel (overrides the scene's sampler)\n"
             "  -D name=value  overrides <default name=...>; repeatable\n"
             "  --check        parse and validate only\n"
+            "  --estimate     parse, then print the render's size and memory estimate on\n"
+            "                 stdout (key=value; for schedulers, docs/cluster.md)\n"
+            "  --raw-exr      .exr outputs hold the rendered floats exactly (32-bit RGBA,\n"
+            "                 whatever the film says): tiles for --merge-tiles\n"
+            "  --merge-tiles LIST  render nothing: assemble the film from the tiles LIST\n"
+            "                 names (lines X Y W H FILE) and write the outputs as a render\n"
             "  --limit NAME=VALUE  raise or lower a scene limit (coordinate, image-pixels,\n"
             "                 kernel, sss-points, sss-max-points; see docs/limits.md);\n"
             "                 repeatable\n"
@@ -229,13 +238,23 @@ static int parse_crop(const char *s, int v[4])
 
 /* ------------------------------------------------------------ output images */
 
+static int g_raw_exr; /* --raw-exr: .exr outputs are the image's floats, 32-bit RGBA */
+
+static int is_exr(const char *path)
+{
+    size_t n = strlen(path);
+    return n > 4 && strcasecmp(path + n - 4, ".exr") == 0;
+}
+
 /* Writes img to each path. Returns code, or when code is 0 the exit code of a failed write. */
 static int write_images(const op_scene *scene, const op_image *img, const char *const *paths,
                         int n, int code)
 {
     for (int i = 0; i < n; i++) {
         op_error werr = {0};
-        op_status ws = op_scene_write_image(scene, img, paths[i], &werr);
+        op_status ws = g_raw_exr && is_exr(paths[i])
+                           ? op_image_write_exr(paths[i], img, 0, &werr)
+                           : op_scene_write_image(scene, img, paths[i], &werr);
         if (ws) {
             op_log(OP_LOG_ERROR, "%s", werr.message);
             if (code == 0)
@@ -339,6 +358,8 @@ int main(int argc, char **argv)
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
     int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0}, stream_log = 0;
+    int estimate = 0;
+    const char *merge_list = NULL;
     op_scene_define defines[MAX_DEFINES];
     char *define_buf[MAX_DEFINES];
     int ndefines = 0;
@@ -352,7 +373,7 @@ int main(int argc, char **argv)
         int need = strcmp(a, "-o") == 0 || strcmp(a, "-t") == 0 || strcmp(a, "-s") == 0 ||
                    strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0 ||
                    strcmp(a, "--partial") == 0 || strcmp(a, "--crop") == 0 ||
-                   strcmp(a, "--sss-cache") == 0;
+                   strcmp(a, "--merge-tiles") == 0 || strcmp(a, "--sss-cache") == 0;
         if (need && i + 1 >= argc) {
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             bad = 1;
@@ -416,6 +437,12 @@ int main(int argc, char **argv)
             sss_cache_only = 1;
         } else if (strcmp(a, "--check") == 0) {
             check = 1;
+        } else if (strcmp(a, "--estimate") == 0) {
+            estimate = 1;
+        } else if (strcmp(a, "--raw-exr") == 0) {
+            g_raw_exr = 1;
+        } else if (strcmp(a, "--merge-tiles") == 0) {
+            merge_list = argv[++i];
         } else if (strcmp(a, "--stream") == 0) {
             stream_mode = 1;
         } else if (strcmp(a, "--stream-log") == 0) {
@@ -453,6 +480,10 @@ int main(int argc, char **argv)
     }
     if (!bad && !scene_path) {
         op_log(OP_LOG_ERROR, "no scene given");
+        bad = 1;
+    }
+    if (!bad && merge_list && (has_crop || stream_mode)) {
+        op_log(OP_LOG_ERROR, "--merge-tiles assembles the whole film: not with --crop or --stream");
         bad = 1;
     }
     if (!bad && sss_cache_only && !sss_cache) {
@@ -517,10 +548,38 @@ int main(int argc, char **argv)
         op_scene_free(scene);
         return 0;
     }
+    if (estimate) {
+        op_estimate e;
+        op_estimate_render(&info, &limits, &e);
+        const double mb = 1024.0 * 1024.0;
+        printf("width=%d height=%d full_width=%d full_height=%d spp=%d translucent=%d "
+               "memory_mb=%.0f loaded_mb=%.0f image_mb=%.0f sss_mb=%.0f\n", info.width,
+               info.height, info.full_width, info.full_height, info.spp, info.subsurface_shapes,
+               e.total_bytes / mb + 0.5, e.loaded_bytes / mb, e.image_bytes / mb,
+               e.sss_bytes / mb);
+        op_log_set_hook(NULL, NULL);
+        op_scene_free(scene);
+        if (fflush(stdout) != 0 || ferror(stdout)) {
+            op_log(OP_LOG_ERROR, "stdout: cannot write the estimate");
+            return 1;
+        }
+        return 0;
+    }
     char default_out[2048];
     if (noutputs == 0 && !stream_mode && !sss_cache_only) {
         default_output(scene_path, &info, default_out, sizeof default_out);
         outputs[noutputs++] = default_out;
+    }
+    if (merge_list) { /* the tiles' floats, written exactly as a render's image */
+        op_image merged;
+        st = op_tiles_merge(merge_list, info.width, info.height, &merged, &err);
+        int mcode = st ? op_exit_code(st) : write_images(scene, &merged, outputs, noutputs, 0);
+        if (st)
+            op_log(OP_LOG_ERROR, "%s", err.message);
+        op_image_free(&merged);
+        op_log_set_hook(NULL, NULL);
+        op_scene_free(scene);
+        return mcode;
     }
 
     op_render_options opt;

@@ -4,12 +4,6 @@
 #include <string.h>
 #include <strings.h>
 
-#define GET_OR_FAIL(call)                                                                          \
-    do {                                                                                           \
-        if ((call) != OP_OK)                                                                       \
-            return err ? err->status : OP_ERR_INPUT;                                               \
-    } while (0)
-
 /* Named indices of refraction (Mitsuba's table, a subset). */
 static const struct {
     const char *name;
@@ -122,6 +116,29 @@ static op_status read_textured(op_node *n, const char *name, const char *alias, 
     return OP_OK;
 }
 
+/* A rough model's distribution (beckmann, ggx or phong: all rendered as GGX) and alpha
+ * (default 0.1, clamped to [0.001, 1] with a warning). */
+static op_status read_alpha(op_node *node, float *out, op_error *err)
+{
+    const char *dist;
+    double alpha;
+    GET_OR_FAIL(op_node_string(node, "distribution", "beckmann", &dist, err));
+    GET_OR_FAIL(op_node_float(node, "alpha", 0.1, &alpha, err));
+    if (strcmp(dist, "beckmann") != 0 && strcmp(dist, "ggx") != 0 && strcmp(dist, "phong") != 0)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown distribution "
+                            "\"%s\"", node->file, node->line, node->type, dist);
+    if (strcmp(dist, "ggx") != 0)
+        op_log(OP_LOG_DEBUG, "%s:%d: %s: distribution %s rendered as ggx", node->file, node->line,
+               node->type, dist);
+    if (!(alpha > 0.0 && alpha <= 1.0)) {
+        op_log(OP_LOG_WARN, "%s:%d: <bsdf type=\"%s\">: alpha %g clamped to [0.001, 1]",
+               node->file, node->line, node->type, alpha);
+        alpha = alpha > 1.0 ? 1.0 : 0.001;
+    }
+    *out = (float)alpha;
+    return OP_OK;
+}
+
 void op_bsdf_default(op_bsdf *b)
 {
     memset(b, 0, sizeof *b);
@@ -161,13 +178,17 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
                              &b->refl_tex, err);
     }
-    if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0) {
-        b->type = OP_BSDF_DIELECTRIC;
+    int rough_dielectric = strcmp(node->type, "roughdielectric") == 0;
+    if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0 ||
+        rough_dielectric) {
+        b->type = rough_dielectric ? OP_BSDF_ROUGHDIELECTRIC : OP_BSDF_DIELECTRIC;
         GET_OR_FAIL(read_ior(node, "intIOR", "bk7", &int_ior, err));
         GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
         GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
         op_v3 t;
         GET_OR_FAIL(read_reflectance(node, "specularTransmittance", NULL, 1.0, &t, err));
+        if (rough_dielectric)
+            GET_OR_FAIL(read_alpha(node, &b->alpha, err));
         b->eta = (float)(int_ior / ext_ior);
         return OP_OK;
     }
@@ -211,29 +232,29 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
         GET_OR_FAIL(op_node_bool(node, "nonlinear", 0, &b->nonlinear, err));
         b->eta = (float)(int_ior / ext_ior);
-        if (rough) {
-            const char *dist;
-            double alpha;
-            GET_OR_FAIL(op_node_string(node, "distribution", "beckmann", &dist, err));
-            GET_OR_FAIL(op_node_float(node, "alpha", 0.1, &alpha, err));
-            if (strcmp(dist, "beckmann") != 0 && strcmp(dist, "ggx") != 0 &&
-                strcmp(dist, "phong") != 0)
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"roughplastic\">: "
-                                    "unknown distribution \"%s\"", node->file, node->line, dist);
-            if (strcmp(dist, "ggx") != 0)
-                op_log(OP_LOG_DEBUG, "%s:%d: roughplastic: distribution %s rendered as ggx",
-                       node->file, node->line, dist);
-            if (!(alpha > 0.0 && alpha <= 1.0)) {
-                op_log(OP_LOG_WARN, "%s:%d: <bsdf type=\"roughplastic\">: alpha %g clamped to "
-                       "[0.001, 1]", node->file, node->line, alpha);
-                alpha = alpha > 1.0 ? 1.0 : 0.001;
-            }
-            b->alpha = (float)alpha;
-        }
+        if (rough)
+            GET_OR_FAIL(read_alpha(node, &b->alpha, err));
+        return OP_OK;
+    }
+    if (strcmp(node->type, "coating") == 0) {
+        b->type = OP_BSDF_COATING;
+        double thick, zero[3] = {0, 0, 0}, sa[3];
+        GET_OR_FAIL(read_ior(node, "intIOR", "bk7", &int_ior, err));
+        GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
+        GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
+        GET_OR_FAIL(op_node_float(node, "thickness", 1.0, &thick, err));
+        GET_OR_FAIL(op_node_color(node, "sigmaA", zero, sa, err));
+        if (!(thick >= 0.0) || !(sa[0] >= 0.0 && sa[1] >= 0.0 && sa[2] >= 0.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"coating\">: thickness and "
+                                "sigmaA must be >= 0", node->file, node->line);
+        b->thickness = (float)thick;
+        b->sigma_a = v3_from_d(sa);
+        b->eta = (float)(int_ior / ext_ior);
         return OP_OK;
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
-                        "(diffuse, dielectric, conductor, plastic, roughplastic, twosided, mask)",
+                        "(diffuse, dielectric, conductor, plastic, roughplastic, roughdielectric, "
+                        "coating, twosided, mask)",
                         node->file, node->line, node->type);
 }
 
@@ -248,7 +269,8 @@ const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
 
 int op_bsdf_is_smooth_only(const op_bsdf *b)
 {
-    return b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_CONDUCTOR;
+    return b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_CONDUCTOR ||
+           (b->type == OP_BSDF_SHEEN && b->alpha <= 0.0f);
 }
 
 /* Unpolarized Fresnel reflectance of a dielectric; cos_i > 0 on the side of the normal (outside).
@@ -302,6 +324,27 @@ static float ggx_g1(op_v3 v, float a)
     return 2.0f / (1.0f + sqrtf(1.0f + a * a * t2));
 }
 
+/* A microfacet normal m drawn with density D(m) m.z. */
+static op_v3 ggx_sample_m(float u1, float u2, float a)
+{
+    float t2 = a * a * u1 / fmaxf(1.0f - u1, 1e-7f);
+    float cz = 1.0f / sqrtf(1.0f + t2), sz = sqrtf(fmaxf(0.0f, 1.0f - cz * cz));
+    float phi = 2.0f * OP_PI * u2;
+    return v3(sz * cosf(phi), sz * sinf(phi), cz);
+}
+
+/* The GGX reflection of a dielectric interface (f |cos wo|, without the specular tint) and the
+ * density of wo under ggx_sample_m's reflection. */
+static float ggx_reflect(op_v3 wi, op_v3 wo, float eta, float a, float *pdf)
+{
+    op_v3 h = v3_norm(v3_add(wi, wo));
+    float ct, d = ggx_d(h, a);
+    float fh = fresnel_dielectric(v3_dot(wi, h), eta, &ct);
+    float g = ggx_g1(wi, a) * ggx_g1(wo, a);
+    *pdf = d * h.z / (4.0f * v3_dot(wo, h));
+    return fh * d * g / (4.0f * wi.z);
+}
+
 /* Plastic's weights: probability of choosing the specular lobe. */
 static float plastic_spec_prob(const op_bsdf *b, float fi)
 {
@@ -344,19 +387,37 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     }
     case OP_BSDF_ROUGHPLASTIC: {
         float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
-        float ps = plastic_spec_prob(b, fi);
-        op_v3 h = v3_norm(v3_add(wi, wo));
-        float d = ggx_d(h, b->alpha);
-        float fh = fresnel_dielectric(v3_dot(wi, h), b->eta, &ct);
-        float g = ggx_g1(wi, b->alpha) * ggx_g1(wo, b->alpha);
-        float spec = fh * d * g / (4.0f * wi.z);
-        float spec_pdf = d * h.z / (4.0f * v3_dot(wo, h));
+        float ps = plastic_spec_prob(b, fi), spec_pdf;
+        float spec = ggx_reflect(wi, wo, b->eta, b->alpha, &spec_pdf);
         *pdf = ps * spec_pdf + (1.0f - ps) * wo.z * OP_INV_PI;
         return v3_add(v3_scale(b->specular, spec), plastic_diffuse(b, wi, wo));
     }
+    case OP_BSDF_SHEEN:
+        if (b->alpha <= 0.0f)
+            return v3s(0.0f);
+        return v3_scale(b->specular, ggx_reflect(wi, wo, b->eta, b->alpha, pdf));
+    case OP_BSDF_THROUGH:
+        *pdf = wo.z * OP_INV_PI;
+        return v3_scale(v3_mul(b->reflectance, op_bsdf_through_at(b->through, wo.z)),
+                        wo.z * OP_INV_PI);
     default:
         return v3s(0.0f);
     }
+}
+
+/* Fills the density and weight of the non-delta direction s->wo drawn for b from the combined
+ * density op_bsdf_eval reports; 0 when it lies below the surface or has no density. */
+static int weigh_sample(const op_bsdf *b, op_v3 wi, op_bsdf_sample *s)
+{
+    if (s->wo.z <= 0.0f)
+        return 0;
+    float pdf;
+    op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
+    if (pdf <= 0.0f)
+        return 0;
+    s->pdf = pdf;
+    s->weight = v3_scale(f, 1.0f / pdf);
+    return 1;
 }
 
 int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
@@ -420,12 +481,8 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
             s->weight = v3_scale(b->specular, fi / ps);
         } else {
             s->wo = op_sample_cosine(u1, u2);
-            float pdf;
-            op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
-            if (pdf <= 0.0f)
+            if (!weigh_sample(b, wi, s))
                 return 0;
-            s->pdf = pdf;
-            s->weight = v3_scale(f, 1.0f / pdf);
         }
         break;
     }
@@ -435,26 +492,42 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
         float ps = plastic_spec_prob(b, fi);
         if (u3 < ps) {
-            /* sample the GGX normal distribution D(m) m.z */
-            float a2 = b->alpha * b->alpha;
-            float t2 = a2 * u1 / fmaxf(1.0f - u1, 1e-7f);
-            float cz = 1.0f / sqrtf(1.0f + t2), sz = sqrtf(fmaxf(0.0f, 1.0f - cz * cz));
-            float phi = 2.0f * OP_PI * u2;
-            op_v3 m = v3(sz * cosf(phi), sz * sinf(phi), cz);
+            op_v3 m = ggx_sample_m(u1, u2, b->alpha);
             s->wo = v3_sub(v3_scale(m, 2.0f * v3_dot(wi, m)), wi);
         } else {
             s->wo = op_sample_cosine(u1, u2);
         }
-        if (s->wo.z <= 0.0f)
+        if (!weigh_sample(b, wi, s))
             return 0;
-        float pdf;
-        op_v3 f = op_bsdf_eval(b, wi, s->wo, &pdf);
-        if (pdf <= 0.0f)
-            return 0;
-        s->pdf = pdf;
-        s->weight = v3_scale(f, 1.0f / pdf);
         break;
     }
+    case OP_BSDF_SHEEN: {
+        if (wi.z <= 0.0f)
+            return 0;
+        if (b->alpha <= 0.0f) {
+            float ct;
+            s->wo = v3(-wi.x, -wi.y, wi.z);
+            s->delta = 1;
+            s->pdf = 1.0f;
+            s->weight = v3_scale(b->specular, fresnel_dielectric(wi.z, b->eta, &ct));
+            break;
+        }
+        op_v3 m = ggx_sample_m(u1, u2, b->alpha);
+        s->wo = v3_sub(v3_scale(m, 2.0f * v3_dot(wi, m)), wi);
+        if (!weigh_sample(b, wi, s))
+            return 0;
+        break;
+    }
+    case OP_BSDF_THROUGH:
+        if (wi.z <= 0.0f)
+            return 0;
+        s->wo = op_sample_cosine(u1, u2);
+        s->pdf = s->wo.z * OP_INV_PI;
+        s->weight = v3_mul(b->reflectance, op_bsdf_through_at(b->through, s->wo.z));
+        break;
+    case OP_BSDF_ROUGHDIELECTRIC:
+    case OP_BSDF_COATING:
+        return 0; /* only as a boundary (op_bsdf_boundary), which scene building enforces */
     }
     if (flip)
         s->wo.z = -s->wo.z;
@@ -497,4 +570,89 @@ op_v3 op_bsdf_albedo(const op_bsdf *b)
     default:
         return b->specular;
     }
+}
+
+/* A coating's absorption for light crossing it at cos (the refracted path length thickness /
+ * cos_t, as Mitsuba's coating). */
+static op_v3 coating_absorption(const op_bsdf *b, float cos)
+{
+    if (b->type != OP_BSDF_COATING || v3_is_black(b->sigma_a))
+        return v3s(1.0f);
+    float ct;
+    fresnel_dielectric(fmaxf(cos, 1e-4f), b->eta, &ct);
+    float len = b->thickness / fmaxf(ct, 1e-4f);
+    return v3(expf(-b->sigma_a.x * len), expf(-b->sigma_a.y * len), expf(-b->sigma_a.z * len));
+}
+
+enum { THROUGH_GRID = 48 }; /* lobe samples per axis when tabulating a rough sheen's albedo */
+
+op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr, op_error *err)
+{
+    static const char *names[] = {"diffuse", "dielectric", "conductor", "plastic", "roughplastic",
+                                  "roughdielectric", "coating", "sheen", "through"};
+    int rough = b->type == OP_BSDF_ROUGHPLASTIC || b->type == OP_BSDF_ROUGHDIELECTRIC;
+    if (!(rough || b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_PLASTIC ||
+          b->type == OP_BSDF_COATING) || b->masked || b->twosided)
+        return op_error_set(err, OP_ERR_INPUT, "a %s%s bsdf cannot be the surface of a translucent "
+                            "shape (dielectric, roughdielectric, plastic, roughplastic or coating)",
+                            b->masked ? "masked " : (b->twosided ? "twosided " : ""),
+                            names[b->type]);
+    op_bsdf_default(sheen);
+    sheen->type = OP_BSDF_SHEEN;
+    sheen->eta = b->eta;
+    sheen->alpha = rough ? b->alpha : 0.0f;
+    sheen->specular = b->specular;
+    /* the lobe's directional albedo R(mu) without the tint (which is not energy: Mitsuba's
+     * specularReflectance is an artistic factor), by the lobe's own sampling */
+    op_bsdf lobe = *sheen;
+    lobe.specular = v3s(1.0f);
+    double norm = 0.0;
+    for (int k = 0; k < OP_THROUGH_N; k++) {
+        float mu = (float)k / (float)(OP_THROUGH_N - 1);
+        double r = 0.0;
+        if (mu <= 0.0f) {
+            r = 1.0;
+        } else if (!rough) {
+            float ct;
+            r = fresnel_dielectric(mu, b->eta, &ct);
+        } else {
+            op_v3 wi = v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
+            for (int i = 0; i < THROUGH_GRID * THROUGH_GRID; i++) {
+                op_bsdf_sample s;
+                float u1 = ((float)(i % THROUGH_GRID) + 0.5f) / THROUGH_GRID;
+                float u2 = ((float)(i / THROUGH_GRID) + 0.5f) / THROUGH_GRID;
+                if (op_bsdf_sample_dir(&lobe, wi, u1, u2, 0.0f, &s))
+                    r += s.weight.x;
+            }
+            r /= THROUGH_GRID * THROUGH_GRID;
+        }
+        if (r > 1.0)
+            r = 1.0;
+        tr->t[k] = v3_scale(coating_absorption(b, mu), (float)(1.0 - r));
+        /* trapezoid rule for 2 int (1 - R) mu dmu */
+        double w = (k == 0 || k == OP_THROUGH_N - 1) ? 0.5 : 1.0;
+        norm += 2.0 * w * (1.0 - r) * mu / (OP_THROUGH_N - 1);
+    }
+    tr->exit_norm = norm > 0.0 ? (float)(1.0 / norm) : 0.0f;
+    return OP_OK;
+}
+
+op_v3 op_bsdf_through_at(const op_bsdf_through *tr, float cos)
+{
+    float x = fminf(fmaxf(cos, 0.0f), 1.0f) * (float)(OP_THROUGH_N - 1);
+    int k = (int)x;
+    if (k >= OP_THROUGH_N - 1)
+        return tr->t[OP_THROUGH_N - 1];
+    float f = x - (float)k;
+    return v3_add(v3_scale(tr->t[k], 1.0f - f), v3_scale(tr->t[k + 1], f));
+}
+
+void op_bsdf_sheen_standin(const op_bsdf *sheen, op_v3 albedo, op_bsdf *out)
+{
+    op_bsdf_default(out);
+    out->type = sheen->alpha > 0.0f ? OP_BSDF_ROUGHPLASTIC : OP_BSDF_PLASTIC;
+    out->eta = sheen->eta;
+    out->alpha = sheen->alpha;
+    out->specular = sheen->specular;
+    out->reflectance = albedo;
 }

@@ -1,49 +1,29 @@
-/* dipole.c - the classical dipole profile and the named media of Jensen et al. 2001 (see
- * dipole.h). The formulas are those of docs/subsurface-rendering.md. */
+/* dipole.c - the classical dipole profile and the named media (see dipole.h). The formulas
+ * are those of docs/subsurface-rendering.md. */
 #include "dipole.h"
 
+#include "opaline.h"
+
 #include <math.h>
-#include <stddef.h>
-#include <strings.h>
 
-/* Reduced scattering and absorption in 1/mm (Jensen et al. 2001, figure 5, as reproduced in
- * pbrt-v4 and Mitsuba 0.6; Chicken1's red absorption is the paper's 0.015). */
-static const struct medium {
-    const char *name;
-    double sp[3], a[3];
-} media[] = {
-    {"Apple", {2.29, 2.39, 1.97}, {0.0030, 0.0034, 0.046}},
-    {"Chicken1", {0.15, 0.21, 0.38}, {0.015, 0.077, 0.19}},
-    {"Chicken2", {0.19, 0.25, 0.32}, {0.018, 0.088, 0.20}},
-    {"Cream", {7.38, 5.47, 3.15}, {0.0002, 0.0028, 0.0163}},
-    {"Ketchup", {0.18, 0.07, 0.03}, {0.061, 0.97, 1.45}},
-    {"Marble", {2.19, 2.62, 3.00}, {0.0021, 0.0041, 0.0071}},
-    {"Potato", {0.68, 0.70, 0.55}, {0.0024, 0.0090, 0.12}},
-    {"Skimmilk", {0.70, 1.22, 1.90}, {0.0014, 0.0025, 0.0142}},
-    {"Skin1", {0.74, 0.88, 1.01}, {0.032, 0.17, 0.48}},
-    {"Skin2", {1.09, 1.59, 1.79}, {0.013, 0.070, 0.145}},
-    {"Spectralon", {11.6, 20.4, 14.9}, {0.0, 0.0, 0.0}},
-    {"Wholemilk", {2.55, 3.21, 3.77}, {0.0011, 0.0024, 0.014}},
-};
-
+/* The named media are libopaline's one media table (op_medium_lookup), shared with the dataset
+ * generator, so that a "Marble" here is the "Marble" of a dataset. */
 int op_sss_dipole_lookup(const char *name, double sigma_sp_mm[3], double sigma_a_mm[3], double *eta)
 {
-    for (size_t i = 0; i < sizeof media / sizeof media[0]; i++)
-        if (strcasecmp(name, media[i].name) == 0) {
-            for (int c = 0; c < 3; c++) {
-                sigma_sp_mm[c] = media[i].sp[c];
-                sigma_a_mm[c] = media[i].a[c];
-            }
-            *eta = strcasecmp(name, "Marble") == 0 ? 1.5 : 1.3;
-            return 1;
-        }
-    return 0;
+    const op_medium *m = op_medium_lookup(name);
+    if (!m)
+        return 0;
+    for (int c = 0; c < 3; c++) {
+        sigma_sp_mm[c] = m->sigma_s[c];
+        sigma_a_mm[c] = m->sigma_a[c];
+    }
+    *eta = m->eta;
+    return 1;
 }
 
 const char *op_sss_dipole_names(void)
 {
-    return "Apple, Chicken1, Chicken2, Cream, Ketchup, Marble, Potato, Skimmilk, Skin1, Skin2, "
-           "Spectralon, Wholemilk";
+    return op_medium_names();
 }
 
 /* The quantities of one channel: reduced albedo, effective transport coefficient and the depths

@@ -13,10 +13,10 @@ typedef struct op_sss_dipole {
     double eta;         /* interior / exterior index of refraction, > 0 */
 } op_sss_dipole;
 
-/* The named medium (case-insensitive: Apple, Chicken1, Chicken2, Cream, Ketchup, Marble,
- * Potato, Skimmilk, Skin1, Skin2, Spectralon, Wholemilk): its reduced scattering and absorption
- * in 1/mm and the index of refraction used with it (1.3; 1.5 for marble). Returns 0 when the
- * name is unknown (the arrays are then untouched). */
+/* The named medium of libopaline's media table (op_medium_lookup, case-insensitive: Jensen et
+ * al. 2001's Apple ... Wholemilk, and the generator's Vein, dyes and blends): its reduced
+ * scattering and absorption in 1/mm and its index of refraction (1.3; 1.5 for Marble and Vein).
+ * Returns 0 when the name is unknown (the arrays are then untouched). */
 int op_sss_dipole_lookup(const char *name, double sigma_sp_mm[3], double sigma_a_mm[3], double *eta);
 /* The names, comma separated, for messages. */
 const char *op_sss_dipole_names(void);

@@ -6,12 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define GET_OR_FAIL(call)                                                                          \
-    do {                                                                                           \
-        if ((call) != OP_OK)                                                                       \
-            return err ? err->status : OP_ERR_INPUT;                                               \
-    } while (0)
-
 static op_status read_nonneg_color(op_node *n, const char *name, double def, op_v3 *out,
                                    op_error *err)
 {

@@ -7,12 +7,6 @@
 
 #include "rvec.h"
 
-#define GET_OR_FAIL(call)                                                                          \
-    do {                                                                                           \
-        if ((call) != OP_OK)                                                                       \
-            return err ? err->status : OP_ERR_INPUT;                                               \
-    } while (0)
-
 static op_status build_filter(op_node *f, op_film *out, op_error *err)
 {
     out->filter = OP_FILTER_GAUSSIAN;

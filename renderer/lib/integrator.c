@@ -111,7 +111,10 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
  * only where there is a choice (any type not listed here gets all three). */
 static int bsdf_sample_dims(const op_bsdf *b)
 {
-    return b->type == OP_BSDF_DIFFUSE || b->type == OP_BSDF_CONDUCTOR ? 2 : 3;
+    return b->type == OP_BSDF_DIFFUSE || b->type == OP_BSDF_CONDUCTOR ||
+                   b->type == OP_BSDF_THROUGH || b->type == OP_BSDF_SHEEN
+               ? 2
+               : 3;
 }
 
 /* Whether emitter e is left to BSDF sampling alone where n_bsdf BSDF samples are taken: a
@@ -166,26 +169,38 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
     return n_light == 1 ? sum : v3_scale(sum, 1.0f / (float)n_light);
 }
 
-/* What a path meets at it, coming from direction wi_world (pointing away from the surface): a
- * translucent shape with cached exitance ends the path, returning NULL with *m its exitance M
- * on the lit side (black seen from behind), of which M / pi leaves towards wi_world (the
- * measured Rd already holds the boundary); any other surface returns the BSDF to shade with, a
- * translucent shape without exitance there being the diffuse stand-in of its mean albedo (built
- * in *proxy). */
+/* What a path meets at it, coming from direction wi_world (pointing away from the surface).
+ * *m gets pi times the radiance the surface itself sends towards wi_world: at a translucent
+ * shape with cached exitance M, on the lit side (black seen from behind), M itself without a
+ * surface bsdf (the Rd holds both crossings of the boundary, docs/subsurface-rendering.md) and
+ * M t(cos) exit_norm through one; black elsewhere. Returns the BSDF to shade with: NULL where the
+ * path ends (a translucent shape with exitance and no surface bsdf), the boundary's reflection
+ * lobe (with exitance and a surface bsdf), a translucent shape's stand-in without exitance
+ * there (built in *proxy: diffuse of its mean albedo, under a plastic interface where it has a
+ * surface bsdf), else the shape's own BSDF. */
 static const op_bsdf *surface_at(const op_trace_ctx *ctx, const op_isect *it, op_v3 wi_world,
                                  op_bsdf *proxy, op_v3 *m)
 {
     const op_scene *s = ctx->scene;
     const op_shape_rec *sh = &s->shapes[it->shape];
+    *m = v3s(0.0f);
     if (sh->sss < 0)
         return op_bsdf_at(&s->bsdfs[sh->bsdf], it->u, it->v, proxy);
+    const op_sss_desc *d = &s->sss[sh->sss];
     if (ctx->sss && op_sss_lookup(ctx->sss, sh->sss, it->p, it->ns, m)) {
         if (v3_dot(wi_world, it->ng) <= 0.0f)
             *m = v3s(0.0f);
-        return NULL;
+        else if (d->has_boundary)
+            *m = v3_scale(v3_mul(*m, op_bsdf_through_at(&d->through, v3_dot(wi_world, it->ns))),
+                          d->through.exit_norm);
+        return d->has_boundary ? &d->sheen : NULL;
+    }
+    if (d->has_boundary) {
+        op_bsdf_sheen_standin(&d->sheen, d->albedo_mean, proxy);
+        return proxy;
     }
     op_bsdf_default(proxy);
-    proxy->reflectance = s->sss[sh->sss].albedo_mean;
+    proxy->reflectance = d->albedo_mean;
     return proxy;
 }
 
@@ -257,10 +272,11 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             if (max_depth >= 0 && depth + 2 > max_depth)
                 break;
             op_v3 m;
-            if (!(bsdf = surface_at(ctx, &it, wi_world, &proxy, &m))) {
+            bsdf = surface_at(ctx, &it, wi_world, &proxy, &m);
+            if (!bsdf || !v3_is_black(m))
                 L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
+            if (!bsdf)
                 break;
-            }
         }
         op_v3 wi_l = op_frame_to_local(&it.frame, wi_world);
         if (!op_bsdf_is_smooth_only(bsdf))
@@ -382,6 +398,8 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
     const op_bsdf *bsdf = surface_at(ctx, &it, v3_neg(dir), &proxy, &m);
     if (!bsdf)
         return v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
+    if (!v3_is_black(m))
+        L = v3_add(L, v3_scale(v3_mul(beta, m), OP_INV_PI));
     int nl = ig->emitter_samples, nb = ig->bsdf_samples;
     op_v3 wi_l = op_frame_to_local(&it.frame, v3_neg(dir));
     if (nl > 0 && !op_bsdf_is_smooth_only(bsdf))
@@ -493,8 +511,13 @@ int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float
     }
 }
 
-op_v3 op_irradiance(const op_scene *scene, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng)
+op_v3 op_irradiance(const op_scene *scene, int sss, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng)
 {
+    op_bsdf through = white_bsdf;
+    if (sss >= 0 && scene->sss[sss].has_boundary) {
+        through.type = OP_BSDF_THROUGH;
+        through.through = &scene->sss[sss].through;
+    }
     const op_trace_ctx ctx = {scene, NULL};
     op_isect it;
     memset(&it, 0, sizeof it);
@@ -504,7 +527,7 @@ op_v3 op_irradiance(const op_scene *scene, op_v3 p, op_v3 ng, op_v3 ns, op_rng *
     it.frame = op_frame_from_normal(ns);
     it.shape = -1;
     op_path_sampler ps = op_path_sampler_from_rng(*rng);
-    op_v3 L = trace(&ctx, p, ns, 0.0f, INFINITY, &it, &white_bsdf, &ps, NULL);
+    op_v3 L = trace(&ctx, p, ns, 0.0f, INFINITY, &it, &through, &ps, NULL);
     *rng = ps.rng;
     return v3_scale(L, OP_PI);
 }

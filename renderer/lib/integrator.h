@@ -3,9 +3,11 @@
  * every emitter and bsdfSamples BSDF samples combined by MIS, no indirect light), the
  * debug views (normals, uv, albedo), and the irradiance estimate the subsurface pass uses.
  * Translucent shapes: a camera path that reaches one takes the cached exitance M/pi there and
- * ends; during the irradiance pass, and where the cache has no exitance (parts no camera
+ * ends; with a surface bsdf (render_scene.h: op_sss_desc's boundary) it takes the exitance
+ * through the boundary, M t(cos) exit_norm / pi, and goes on with the boundary's reflection
+ * lobe. During the irradiance pass, and where the cache has no exitance (parts no camera
  * segment reaches, see subsurface.h), they act as diffuse surfaces of the material's mean
- * albedo.
+ * albedo (under the boundary's interface as a plastic where there is one).
  * Masked surfaces (bsdf.h): camera, indirect and debug rays pass through them with probability
  * 1 - opacity (not a bounce), shadow rays are attenuated by 1 - opacity; an emitter's own
  * emission is seen by rays that reach its front, whether they then pass through or not. */
@@ -35,10 +37,11 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
  * there (within maxDepth); 0 otherwise. */
 int op_camera_sss_hit(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
                       int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
-/* One-sample estimate of the irradiance at surface point p (normals ng, ns): pi times the
- * radiance a white Lambertian surface would reflect there, with direct and indirect light
- * (translucent shapes acting as their diffuse stand-ins). */
-op_v3 op_irradiance(const op_scene *scene, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
+/* One-sample estimate of the irradiance at surface point p (normals ng, ns) of translucent shape
+ * sss (-1: none): pi times the radiance a white Lambertian surface would reflect there, with
+ * direct and indirect light (translucent shapes acting as their stand-ins); where shape sss has
+ * a surface bsdf, the irradiance that crosses it (each direction weighted by t(cos)). */
+op_v3 op_irradiance(const op_scene *scene, int sss, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
 /* The light transport the subsurface pre-pass asks for: op_irradiance and op_camera_sss_hit. */
 extern const op_sss_transport op_path_transport;
 

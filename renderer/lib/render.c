@@ -4,7 +4,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <time.h>
 
 #include "integrator.h"
 #include "opaline_render.h"
@@ -213,13 +212,6 @@ static void render_tile(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)w * (uint64_t)h);
 }
 
-static double seconds_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* The subsurface pre-pass, through the cache file when opt names one: its results are reused
  * where the key matches, and the file is (re)written, before the camera pass, when the pre-pass
  * computed anything or the file was missing or stale. */
@@ -231,14 +223,14 @@ static op_status prepass(const op_scene *s, const op_render_options *opt,
     unsigned char key[OP_SSS_KEY_BYTES];
     op_sss_store store;
     op_sss_file_state state;
-    double t0 = seconds_now();
+    double t0 = op_monotonic_seconds();
     op_status st = op_sss_key(s, opt->seed, key, err);
     if (st)
         return st;
-    double t1 = seconds_now();
+    double t1 = op_monotonic_seconds();
     if ((st = op_sss_store_load(opt->sss_cache, key, s->nsss, &store, &state, err)))
         return st;
-    double t2 = seconds_now();
+    double t2 = op_monotonic_seconds();
     so->store = &store;
     st = op_sss_cache_build(s, so, sss, err);
     if (st == OP_ERR_FORMAT) /* the store does not fit the scene (saved_prepare) */
@@ -251,12 +243,12 @@ static op_status prepass(const op_scene *s, const op_render_options *opt,
                    opt->sss_cache, store.reused_e, store.reused_m, fresh, store.new_e,
                    store.new_m, t1 - t0, t2 - t1);
         if (fresh > 0 || state != OP_SSS_FILE_VALID) {
-            double t3 = seconds_now();
+            double t3 = op_monotonic_seconds();
             st = op_sss_store_save(opt->sss_cache, key, &store, err);
             if (st == OP_OK)
                 op_log(OP_LOG_INFO, "pre-pass cache %s: written (%lld new sources, %lld new "
                        "receivers; %.3f s)", opt->sss_cache, store.new_e, store.new_m,
-                       seconds_now() - t3);
+                       op_monotonic_seconds() - t3);
         }
         if (st) {
             op_sss_cache_free(*sss);
@@ -333,14 +325,11 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
                job.spp, threads);
         job.prog = op_progress_begin("render", (uint64_t)s->film.width * s->film.height,
                                      opt->progress, opt->progress_user);
-        struct timespec t0, t1;
-        clock_gettime(CLOCK_MONOTONIC, &t0);
+        double t0 = op_monotonic_seconds();
         st = op_parallel_for(threads, job.tiles_x * tiles_y, render_tile, &job, opt->cancel, err);
         op_progress_end(job.prog);
         r->stats.tiles_done = atomic_load(&job.tiles_done);
-        clock_gettime(CLOCK_MONOTONIC, &t1);
-        r->stats.render_seconds =
-            (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+        r->stats.render_seconds = op_monotonic_seconds() - t0;
         op_log(OP_LOG_INFO, "camera pass: %.3f s (%dx%d, %d spp, %d threads)",
                r->stats.render_seconds, s->film.width, s->film.height, job.spp, threads);
     }

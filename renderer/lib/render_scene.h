@@ -40,6 +40,9 @@ typedef struct op_sss_desc {
     op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
     int is_dipole;         /* 1: the classical dipole below instead of a material (material NULL) */
     op_sss_dipole dipole;      /* coefficients per scene unit (docs/subsurface-rendering.md) */
+    int has_boundary;      /* 1: the shape's <bsdf> gives its surface reflection (below) */
+    op_bsdf sheen;         /* that reflection lobe (op_bsdf_boundary) */
+    op_bsdf_through through; /* what the boundary lets in and out */
 } op_sss_desc;
 
 typedef struct op_shape_rec {

@@ -6,18 +6,11 @@
 
 #include <stdint.h>
 
+#include "opaline.h" /* op_hash64 */
+
 typedef struct op_rng {
     uint64_t state, inc;
 } op_rng;
-
-/* SplitMix64's finalizer: a bijective 64-bit mix. */
-static inline uint64_t op_hash64(uint64_t x)
-{
-    x += 0x9E3779B97F4A7C15ull;
-    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-    return x ^ (x >> 31);
-}
 
 static inline uint32_t op_rng_u32(op_rng *r)
 {

@@ -21,12 +21,6 @@
 /* The installed presets folder, relative to the prefix of the running program (bin/..). */
 #define OPALINE_INSTALLED_PRESETS_SUBDIR "share/opaline/presets"
 
-#define GET_OR_FAIL(call)                                                                          \
-    do {                                                                                           \
-        if ((call) != OP_OK)                                                                       \
-            return err ? err->status : OP_ERR_INPUT;                                               \
-    } while (0)
-
 /* Growing arrays and what the builder needs while it works. */
 typedef struct builder {
     op_scene *s;
@@ -42,20 +36,6 @@ typedef struct builder {
     int *file_uses, *file_proto; /* file_proto: index into s->protos, or -1 */
     int nfiles, cap_files;
 } builder;
-
-static int grow(void **arr, int *cap, int n, size_t elem)
-{
-    if (n < *cap)
-        return 1;
-    int c = *cap ? 2 * *cap : 8;
-    void *p = realloc(*arr, (size_t)c * elem);
-    if (!p)
-        return 0;
-    memset((char *)p + (size_t)*cap * elem, 0, (size_t)(c - *cap) * elem);
-    *arr = p;
-    *cap = c;
-    return 1;
-}
 
 void op_scene_limits_init(op_scene_limits *lim)
 {
@@ -221,8 +201,8 @@ static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
             return OP_OK;
         }
     int cap = b->cap_bsdfs;
-    if (!grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs) ||
-        !grow((void **)&b->bsdf_nodes, &cap, s->nbsdfs, sizeof *b->bsdf_nodes))
+    if (!op_array_grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs) ||
+        !op_array_grow((void **)&b->bsdf_nodes, &cap, s->nbsdfs, sizeof *b->bsdf_nodes))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     if (node)
         GET_OR_FAIL(op_bsdf_build(node, s->textures, &s->bsdfs[s->nbsdfs], err));
@@ -237,7 +217,7 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
                              int *index, op_error *err)
 {
     op_scene *s = b->s;
-    if (!grow((void **)&s->emitters, &b->cap_emitters, s->nemitters, sizeof *s->emitters))
+    if (!op_array_grow((void **)&s->emitters, &b->cap_emitters, s->nemitters, sizeof *s->emitters))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_emitter *e = &s->emitters[s->nemitters];
     op_status st = op_emitter_build(node, mesh, shape, b->dir, b->lim->image_pixels, e, err);
@@ -268,8 +248,9 @@ static op_status open_material(builder *b, const char *path, op_material **out, 
             return OP_OK;
         }
     int cap = b->cap_mats;
-    if (!grow((void **)&s->materials, &b->cap_mats, s->nmaterials, sizeof *s->materials) ||
-        !grow((void **)&b->mat_paths, &cap, s->nmaterials, sizeof *b->mat_paths))
+    if (!op_array_grow((void **)&s->materials, &b->cap_mats, s->nmaterials,
+                       sizeof *s->materials) ||
+        !op_array_grow((void **)&b->mat_paths, &cap, s->nmaterials, sizeof *b->mat_paths))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_material *m;
     GET_OR_FAIL(op_material_open(path, &m, err));
@@ -362,7 +343,7 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     if (!dipole && want == OP_METHOD_COUNT)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: unknown type "
                             "(svd, tucker, kcta, nmf, raw, dipole)", node->file, node->line, t);
-    if (!grow((void **)&s->sss, &b->cap_sss, s->nsss, sizeof *s->sss))
+    if (!op_array_grow((void **)&s->sss, &b->cap_sss, s->nsss, sizeof *s->sss))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_sss_desc *d = &s->sss[s->nsss];
     memset(d, 0, sizeof *d);
@@ -503,9 +484,10 @@ static op_status count_file_uses(builder *b, op_node *root, op_error *err)
             k++;
         if (k == b->nfiles) {
             int cap = b->cap_files, cap2 = b->cap_files;
-            if (!grow((void **)&b->file_keys, &b->cap_files, b->nfiles, sizeof *b->file_keys) ||
-                !grow((void **)&b->file_uses, &cap, b->nfiles, sizeof *b->file_uses) ||
-                !grow((void **)&b->file_proto, &cap2, b->nfiles, sizeof *b->file_proto))
+            if (!op_array_grow((void **)&b->file_keys, &b->cap_files, b->nfiles,
+                               sizeof *b->file_keys) ||
+                !op_array_grow((void **)&b->file_uses, &cap, b->nfiles, sizeof *b->file_uses) ||
+                !op_array_grow((void **)&b->file_proto, &cap2, b->nfiles, sizeof *b->file_proto))
                 return op_error_set(err, OP_ERR_NOMEM, "out of memory");
             b->file_keys[k] = strdup(key);
             if (!b->file_keys[k])
@@ -620,11 +602,40 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     return st;
 }
 
+/* The surface reflection of a translucent shape from the <bsdf> beside its <subsurface>
+ * (docs/subsurface-rendering.md, The surface's reflection). */
+static op_status add_boundary(builder *b, op_node *node, op_sss_desc *d, op_error *err)
+{
+    static const char *types[] = {"dielectric", "roughdielectric", "plastic", "roughplastic",
+                                  "coating"};
+    int ok = 0;
+    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
+        ok |= strcmp(node->type, types[i]) == 0;
+    if (!ok)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> cannot be the surface of "
+                            "a shape with a <subsurface> (dielectric, roughdielectric, plastic, "
+                            "roughplastic or coating)", node->file, node->line, node->type);
+    if (op_node_child(node, "bsdf", 0))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> over a <subsurface> takes "
+                            "no nested <bsdf> (the subsurface is what lies beneath)", node->file,
+                            node->line, node->type);
+    if (op_node_has(node, "diffuseReflectance") || op_node_has(node, "reflectance") ||
+        op_node_child(node, "texture", 0))
+        op_log(OP_LOG_WARN, "%s:%d: <bsdf type=\"%s\">: the diffuse reflectance is replaced by "
+               "the subsurface", node->file, node->line, node->type);
+    op_bsdf given;
+    GET_OR_FAIL(op_bsdf_build(node, b->s->textures, &given, err));
+    if (op_bsdf_boundary(&given, &d->sheen, &d->through, err))
+        return op_error_prefix(err, "%s:%d: ", node->file, node->line);
+    d->has_boundary = 1;
+    return OP_OK;
+}
+
 static op_status add_shape(builder *b, op_node *node, op_error *err)
 {
     op_scene *s = b->s;
     node->used = 1;
-    if (!grow((void **)&s->shapes, &b->cap_shapes, s->nshapes, sizeof *s->shapes))
+    if (!op_array_grow((void **)&s->shapes, &b->cap_shapes, s->nshapes, sizeof *s->shapes))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     int index = s->nshapes;
     op_shape_rec *sh = &s->shapes[index];
@@ -649,8 +660,13 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
                                  strcmp(c->tag, "subsurface") == 0) ? "a second time " : "");
     }
     int bi = -1, ei = -1, si = -1;
-    GET_OR_FAIL(add_bsdf(b, bsdf, &bi, err));
+    GET_OR_FAIL(add_bsdf(b, sss ? NULL : bsdf, &bi, err));
     s->shapes[index].bsdf = bi;
+    op_bsdf_type bt = s->bsdfs[bi].type;
+    if (!sss && (bt == OP_BSDF_ROUGHDIELECTRIC || bt == OP_BSDF_COATING))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> is rendered only as the "
+                            "surface of a shape with a <subsurface>", bsdf->file, bsdf->line,
+                            bsdf->type);
     if (em) {
         if (strcmp(em->type, "area") != 0)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: only an area emitter may be nested in a "
@@ -662,8 +678,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
         GET_OR_FAIL(add_subsurface(b, sss, &si, err));
         s->shapes[index].sss = si;
         if (bsdf)
-            op_log(OP_LOG_WARN, "%s:%d: <shape> has both a bsdf and a subsurface; the subsurface "
-                   "material replaces the bsdf", node->file, node->line);
+            GET_OR_FAIL(add_boundary(b, bsdf, &s->sss[si], err));
     }
     return OP_OK;
 }

@@ -2,7 +2,9 @@
  * Building it from XML is scene_xml.c's job. */
 #include "scene_desc_internal.h"
 
+#include <limits.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,18 +36,25 @@ static char *dup_or_null(const char *s, int *fail)
 }
 
 /* Grows *arr (of elem-sized items) so that index n fits; returns 0 when out of memory. */
-static int grow(void **arr, int *cap, int n, size_t elem)
+int op_array_grow(void **arr, int *cap, int n, size_t elem)
 {
+    if (n < 0)
+        return 0;
     if (n < *cap)
         return 1;
-    int nc = *cap ? *cap * 2 : 4;
-    while (nc <= n)
-        nc *= 2;
-    void *p = realloc(*arr, (size_t)nc * elem);
+    if (n >= INT_MAX / 2 || elem == 0)
+        return 0;
+    int c = *cap > 0 ? *cap : 8;
+    while (c <= n) /* c <= n < INT_MAX / 2: doubling cannot overflow */
+        c *= 2;
+    if ((size_t)c > SIZE_MAX / elem)
+        return 0;
+    void *p = realloc(*arr, (size_t)c * elem);
     if (!p)
         return 0;
+    memset((char *)p + (size_t)*cap * elem, 0, (size_t)(c - *cap) * elem);
     *arr = p;
-    *cap = nc;
+    *cap = c;
     return 1;
 }
 
@@ -112,7 +121,7 @@ const char *op_desc_tree_file(op_desc_tree *t, const char *path)
     for (int i = 0; i < t->nfiles; i++)
         if (strcmp(t->files[i], path) == 0)
             return t->files[i];
-    if (!grow((void **)&t->files, &t->cap_files, t->nfiles, sizeof *t->files))
+    if (!op_array_grow((void **)&t->files, &t->cap_files, t->nfiles, sizeof *t->files))
         return NULL;
     char *d = strdup(path);
     if (!d)
@@ -124,7 +133,7 @@ const char *op_desc_tree_file(op_desc_tree *t, const char *path)
 op_node *op_desc_node_new(op_desc_tree *t, const char *tag, const char *type, const char *id,
                           const char *name, const char *file, int line)
 {
-    if (!grow((void **)&t->nodes, &t->cap_nodes, t->nnodes, sizeof *t->nodes))
+    if (!op_array_grow((void **)&t->nodes, &t->cap_nodes, t->nnodes, sizeof *t->nodes))
         return NULL;
     desc_node *d = calloc(1, sizeof *d);
     if (!d)
@@ -149,7 +158,7 @@ op_prop *op_desc_prop_add(op_node *n, const char *name, op_prop_kind kind, const
                           int line)
 {
     desc_node *d = (desc_node *)n;
-    if (!grow((void **)&n->props, &d->cap_props, n->nprops, sizeof *n->props))
+    if (!op_array_grow((void **)&n->props, &d->cap_props, n->nprops, sizeof *n->props))
         return NULL;
     op_prop *p = &n->props[n->nprops];
     memset(p, 0, sizeof *p);

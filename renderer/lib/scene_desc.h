@@ -120,4 +120,19 @@ op_prop *op_node_prop(const op_node *n, const char *name);
  * everything not marked used; returns the count. */
 int op_desc_report_unused(const op_node *root);
 
+/* For the scene builder's functions that return op_status: returns the failed call's status
+ * (as recorded in err; OP_ERR_INPUT when err is NULL) unless call returned OP_OK. */
+#define GET_OR_FAIL(call)                                                                          \
+    do {                                                                                           \
+        if ((call) != OP_OK)                                                                       \
+            return err ? err->status : OP_ERR_INPUT;                                               \
+    } while (0)
+
+/* Makes element n of the array *arr (of *cap elements of elem bytes) writable: when n >= *cap,
+ * reallocates it to the smallest doubling of *cap (8 at first) above n and zero-fills the new
+ * elements. Returns 0, with *arr and *cap unchanged, when n is negative, when out of memory or
+ * when the new size would overflow an int count or a size_t byte size. The scene reader's and builder's growing
+ * arrays all go through it. */
+int op_array_grow(void **arr, int *cap, int n, size_t elem);
+
 #endif

@@ -66,19 +66,6 @@ static op_status nomem(xml_ctx *c)
     return op_error_set(c->err, OP_ERR_NOMEM, "out of memory while reading the scene");
 }
 
-static int grow(void **arr, int *cap, int n, size_t elem)
-{
-    if (n < *cap)
-        return 1;
-    int nc = *cap ? *cap * 2 : 8;
-    void *p = realloc(*arr, (size_t)nc * elem);
-    if (!p)
-        return 0;
-    *arr = p;
-    *cap = nc;
-    return 1;
-}
-
 /* ---------------------------------------------------------------- errors */
 
 /* The text of attribute a as parsed, without expanding entity references: libxml2 keeps a
@@ -142,7 +129,7 @@ static op_status param_add(xml_ctx *c, const char *name, const char *value)
 {
     if (param_get(c, name, strlen(name)))
         return OP_OK;
-    if (!grow((void **)&c->params, &c->cap_params, c->nparams, sizeof *c->params))
+    if (!op_array_grow((void **)&c->params, &c->cap_params, c->nparams, sizeof *c->params))
         return nomem(c);
     param *p = &c->params[c->nparams];
     p->name = strdup(name);
@@ -414,7 +401,7 @@ static op_status id_insert(xml_ctx *c, const char *id, op_node *node, const char
 static op_status pending_add(xml_ctx *c, pending **arr, int *n, int *cap, op_node *parent,
                              int index, const char *id, const char *as, int line)
 {
-    if (!grow((void **)arr, cap, *n, sizeof **arr))
+    if (!op_array_grow((void **)arr, cap, *n, sizeof **arr))
         return nomem(c);
     pending *p = &(*arr)[*n];
     memset(p, 0, sizeof *p);

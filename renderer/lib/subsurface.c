@@ -348,7 +348,8 @@ static void irradiance_task(void *user, int task, int thread)
             op_rng rng = op_rng_seed(job->seed ^ 0x5355425355524641ull,
                                      ((uint64_t)job->task_shape[task] << 40) | (uint64_t)k,
                                      (uint64_t)s);
-            op_v3 e = job->transport->irradiance(job->scene, q->p, q->ng, q->n, &rng);
+            op_v3 e = job->transport->irradiance(job->scene, job->task_shape[task], q->p, q->ng,
+                                                 q->n, &rng);
             if (isfinite(e.x) && isfinite(e.y) && isfinite(e.z))
                 sum = v3_add(sum, e);
         }

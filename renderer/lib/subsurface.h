@@ -32,11 +32,13 @@ typedef struct op_sss_cache op_sss_cache;
 /* The light transport the pre-pass needs, supplied by its caller (render.c passes the path
  * tracer's, integrator.h's op_path_transport): the pre-pass lays points, marks and sums, and
  * traces nothing itself. irradiance: a one-sample estimate of pi times the radiance a white
- * Lambertian at (p, ng, ns) reflects. camera_hit: follows a camera ray's segment as the path
+ * Lambertian at (p, ng, ns) of translucent shape sss (its subsurface index) reflects, behind the
+ * shape's surface bsdf where it has one (what crosses the boundary). camera_hit: follows a camera ray's segment as the path
  * tracer would and says whether (and where, how far, at what cosine) it ends on a translucent
  * shape whose exitance the path tracer would use. Both draw only from rng. */
 typedef struct op_sss_transport {
-    op_v3 (*irradiance)(const op_scene *scene, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
+    op_v3 (*irradiance)(const op_scene *scene, int sss, op_v3 p, op_v3 ng, op_v3 ns,
+                        op_rng *rng);
     int (*camera_hit)(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
                       int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
 } op_sss_transport;

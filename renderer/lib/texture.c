@@ -8,12 +8,6 @@
 #include <strings.h>
 #include <unistd.h>
 
-#define GET_OR_FAIL(call)                                                                          \
-    do {                                                                                           \
-        if ((call) != OP_OK)                                                                       \
-            return err ? err->status : OP_ERR_INPUT;                                               \
-    } while (0)
-
 /* One image as a texture uses it: the file's values through the gamma asked for. */
 typedef struct tex_entry {
     char *path;

@@ -171,21 +171,15 @@ class TestEngine(unittest.TestCase):
         self.render("warn.exr")
         self.assertIn(('WARNING', "opaline-render: scene.xml:3: unused parameter 'intIOR'"),
                       E.last_reports)
+        self.assertTrue(E.last_status[0].startswith("opaline: "), E.last_status)
         bpy.data.objects["WARN"].name = "BADSCENE"
         with self.assertRaises(RuntimeError) as cm:
             self.render("bad.exr")
         self.assertIn("a long message that says all", str(cm.exception))
-        # queued for the window manager's reports (drained by a timer when Blender has a UI)
-        queued = []
-        while not E._wm_reports.empty():
-            queued.append(E._wm_reports.get_nowait())
-        self.assertIn(('ERROR', E.last_reports[-1][1]), queued)
-        self.assertEqual(E.drain_wm_reports(), 0.5)
-        self.assertEqual(bpy.ops.opaline.render_report(kind='WARNING', message="w"),
-                         {'FINISHED'})
-        with self.assertRaises(RuntimeError) as cm:
-            bpy.ops.opaline.render_report(kind='ERROR', message=queued[-1][1])
-        self.assertIn("a long message that says all", str(cm.exception))
+        # One report each: the render's own (which F12 moves to the Info editor once;
+        # scripts/addon-screenshots.sh checks that under a display), no second path.
+        self.assertFalse(hasattr(E, "_wm_reports"))
+        self.assertFalse(hasattr(bpy.types, "OPALINE_OT_render_report"))
         errs = [m for k, m in E.last_reports if k == 'ERROR']
         self.assertEqual(len(errs), 1, E.last_reports)
         self.assertIn("opaline-render failed (exit 2):\nscene.xml:7: <bsdf>: a long message "

@@ -1,7 +1,8 @@
 """The material panel and render settings under the opaline engine (issue 15): which standard
 panels show, where the opaline panel sits and what it says, the render settings reaching the
 XML, the Interior IOR only where it acts, the no-UV warning and its fix, the preset chooser's
-items, and the albedo preview nodes the add-on manages."""
+items, its categories (from the recipes) and filter, the albedo preview nodes the add-on
+manages, and the Material tab's Preview panel under opaline."""
 
 import os
 import struct
@@ -46,11 +47,11 @@ class Rec:
 
     def prop(self, data, name, **kw):
         self.log["props"].append(name)
-        return Rec(self.log)
+        return type(self)(self.log)
 
     def label(self, text="", **kw):
         self.log["labels"].append(text)
-        return Rec(self.log)
+        return type(self)(self.log)
 
     def operator(self, idname, **kw):
         self.log["ops"].append(idname)
@@ -59,8 +60,8 @@ class Rec:
             pass
         return Props()
 
-    def __getattr__(self, name):
-        return lambda *a, **k: Rec(self.log)
+    def __getattr__(self, name):   # sub-layouts (box, column, grid_flow ...) record too
+        return lambda *a, **k: type(self)(self.log)
 
     def __setattr__(self, name, value):
         object.__setattr__(self, name, value)
@@ -379,5 +380,170 @@ class TestPreviewNodes(Base):
         self.assertIn(lookalike.name, [n.name for n in nt.nodes])
 
 
+def ctx_for(mat, scene):
+    class Ctx:
+        material = mat
+        object = None
+        engine = 'OPALINE'
+        space_data = None
+        preferences = bpy.context.preferences
+        window_manager = bpy.context.window_manager
+    Ctx.scene = scene
+    return Ctx()
+
+
+class TestPresetCategories(Base):
+    LIBRARY = {"Stone": ["TUCKER_T16_P4_CarraraMarble", "TUCKER_T16_P4_Jade"],
+               "Wax & soap": ["SVD_S10_LayeredWax", "SVD_S10_Soap"],
+               "Skin & organic": ["SVD_S12_Skin"],
+               "Reference (Kurt et al. plugin)": ["SVD_S10_Chess4x4", "SVD_S10_Chess8x8",
+                                                  "TUCKER_T10_P4_Chess8x8",
+                                                  "TUCKER_T15_P7_Chess4x4"]}
+
+    def test_built_library_grouped(self):
+        """The build's presets carry their recipes' categories to the chooser."""
+        if S.presets_dir() is None:
+            self.skipTest("no built presets (OPALINE_PRESETS_DIR)")
+        import opaline.presets as P
+        P.clear()
+        built = [p for p in P.current(bpy.context) if p.folder == S.presets_dir()]
+        groups = {c: sorted(p.name for p in members) for c, members in P.group(built)}
+        self.assertEqual(groups, self.LIBRARY)
+        # The category is the recipe's, copied beside the preset by the build.
+        src = os.path.join(S.SOURCE_DIR, "presets", "SVD_S10_Chess4x4.recipe")
+        with open(src) as f, open(os.path.join(S.presets_dir(), "SVD_S10_Chess4x4.recipe")) as g:
+            self.assertEqual(f.read(), g.read())
+        # Searchable by category, in the filter and in the search popup.
+        self.assertEqual([c for c, _ in P.group(built, "stone")], ["Stone"])
+        self.assertEqual([p.name for c, ms in P.group(built, "kurt svd") for p in ms],
+                         ["SVD_S10_Chess4x4", "SVD_S10_Chess8x8"])
+        labels = [i[1] for i in P.search_items(None, bpy.context)]
+        self.assertTrue(any(t.startswith("Wax & soap / Soap (SVD S10)") for t in labels), labels)
+
+    def test_categories_order_filter_and_chooser(self):
+        folder = self.presets()
+        with open(os.path.join(folder, "TUCKER_T15_P7_Chessboard4x4.recipe"), "w") as f:
+            f.write("# a recipe\ndataset = chess4x4\nmethod = tucker\n"
+                    "category = Reference (Kurt et al. plugin)\n")
+        with open(os.path.join(folder, "SVD_S20_Chessboard4x4.recipe"), "w") as f:
+            f.write("category = A first group\n")
+        import opaline.presets as P
+        P.clear()
+        ps = [p for p in P.current(bpy.context) if p.folder == folder]
+        groups = P.group(ps)
+        # Alphabetical, presets without a category (no recipe beside them) last.
+        self.assertEqual([c for c, _ in groups],
+                         ["A first group", "Reference (Kurt et al. plugin)", P.OTHER])
+        self.assertEqual([p.name for p in groups[-1][1]], ["SVD_S10_Chessboard4x4"])
+        self.assertEqual(P.group(ps, "no such words"), [])
+        self.assertEqual([p.name for _, ms in P.group(ps, "TUCKER kurt") for p in ms],
+                         ["TUCKER_T15_P7_Chessboard4x4"])
+        # The chooser's items follow the groups.
+        mat = bpy.data.materials.new("m")
+        items = [i for i in P.enum_items(mat.opaline, bpy.context) if "Chessboard" in i[0]]
+        self.assertEqual([i[0] for i in items], ["SVD_S20_Chessboard4x4",
+                                                 "TUCKER_T15_P7_Chessboard4x4",
+                                                 "SVD_S10_Chessboard4x4"])
+        self.assertIn("(Reference (Kurt et al. plugin))", items[1][2])
+        # The chooser popover: a heading per category, a thumbnail and a button per preset.
+        from opaline import ui
+        mat.opaline.enabled = True
+        wm = bpy.context.window_manager
+        wm.opaline_preset_filter = "chessboard"   # only the test's presets
+        drawn = {"icons": [], "buttons": []}
+
+        class Layout(Rec):
+            def template_icon(self, icon_value=0, **kw):
+                drawn["icons"].append(icon_value)
+
+            def prop_enum(self, data, prop, value, text="", **kw):
+                drawn["buttons"].append((data.id_data.name, prop, value, text))
+
+        class Self:
+            layout = Layout()
+        mat.opaline.preset = "SVD_S20_Chessboard4x4"
+        ui.OPALINE_PT_preset_chooser.draw(Self(), ctx_for(mat, self.sc))
+        log = Self.layout.log
+        self.assertIn("opaline_preset_filter", log["props"])
+        for c in ("A first group", "Reference (Kurt et al. plugin)", P.OTHER):
+            self.assertIn(c, log["labels"])
+        # Each button sets this material's preset_enum to its preset (Blender highlights the
+        # chosen one): the groups' order, the material's name as the text.
+        self.assertEqual(drawn["buttons"],
+                         [("m", "preset_enum", "SVD_S20_Chessboard4x4", "Chessboard4x4"),
+                          ("m", "preset_enum", "TUCKER_T15_P7_Chessboard4x4", "Chessboard4x4"),
+                          ("m", "preset_enum", "SVD_S10_Chessboard4x4", "Chessboard4x4")])
+        self.assertIn("TUCKER T15 P7", log["labels"])
+        self.assertIn("11.5 MB, 1.85 %", log["labels"])
+        # A thumbnail each (icon ids are 0 in the background: the thumbnails are loaded).
+        self.assertEqual(len(drawn["icons"]), 3)
+        self.assertEqual(sorted(os.path.basename(k) for k in P._PREVIEWS.keys()
+                                if k.startswith(folder)),
+                         ["SVD_S10_Chessboard4x4.png", "TUCKER_T15_P7_Chessboard4x4.png"])
+        mat.opaline.preset_enum = "TUCKER_T15_P7_Chessboard4x4"
+        self.assertEqual(mat.opaline.preset, "TUCKER_T15_P7_Chessboard4x4")
+        # Nothing matches: it says so.
+        wm.opaline_preset_filter = "no such words"
+        Self.layout = Layout()
+        ui.OPALINE_PT_preset_chooser.draw(Self(), ctx_for(mat, self.sc))
+        self.assertIn("No preset matches 'no such words'", Self.layout.log["labels"])
+        wm.opaline_preset_filter = ""
+        # The material panel opens the chooser and shows the category.
+        rec = Rec()
+        ui.draw_material_settings(rec, ctx_for(mat, self.sc), mat)
+        self.assertIn("Category: Reference (Kurt et al. plugin)", rec.log["labels"])
+
+
+class TestPreviewPanel(Base):
+    def test_registered_and_draws(self):
+        from opaline import ui
+        import opaline.presets as P
+        panel = ui.OPALINE_PT_material_preview
+        self.assertEqual(getattr(bpy.types, panel.bl_idname, None), panel)   # registered
+        self.assertEqual(panel.bl_context, "material")
+        self.assertEqual(panel.bl_label, "Preview")
+        mat = bpy.data.materials.new("m")
+        ctx = ctx_for(mat, self.sc)
+        self.assertTrue(panel.poll(ctx))
+        ctx.engine = 'CYCLES'
+        self.assertFalse(panel.poll(ctx))
+        ctx.engine = 'OPALINE'
+        # One Preview panel under opaline: Blender's renders nothing without an engine preview.
+        blender_preview = getattr(bpy.types, "MATERIAL_PT_preview", None)
+        self.assertNotIn('OPALINE', getattr(blender_preview, "COMPAT_ENGINES", None) or set())
+        drawn = []
+
+        class Layout(Rec):
+            def template_icon(self, icon_value=0, **kw):
+                drawn.append(icon_value)
+
+        def draw():
+            class Self:
+                layout = Layout()
+            drawn.clear()
+            panel.draw(Self(), ctx)
+            return Self.layout.log["labels"]
+        self.assertIn("opaline subsurface is off for this material", draw())
+        self.assertEqual(drawn, [])
+        folder = self.presets()
+        mat.opaline.enabled = True
+        self.assertTrue(draw()[0].startswith("No albedo map to show"))
+        mat.opaline.preset = "SVD_S10_Chessboard4x4"
+        labels = draw()
+        png = os.path.join(folder, "SVD_S10_Chessboard4x4.png")
+        self.assertEqual(drawn, [P.image_icon(png)])
+        # The thumbnail is the preset's albedo map (icon ids are 0 in the background).
+        self.assertEqual(tuple(P._PREVIEWS[png].image_size), (4, 4))
+        self.assertIn("Albedo map of SVD_S10_Chessboard4x4", labels)
+        # A material file: the NAME.png beside it.
+        mat.opaline.kind = 'FILE'
+        mat.opaline.filepath = os.path.join(folder, "TUCKER_T15_P7_Chessboard4x4.opm")
+        labels = draw()
+        self.assertEqual(drawn, [P.image_icon(os.path.join(
+            folder, "TUCKER_T15_P7_Chessboard4x4.png"))])
+        self.assertIn("Albedo map of TUCKER_T15_P7_Chessboard4x4.png", labels)
+
+
 if __name__ == "__main__":
-    S.run_tests(TestPanels, TestRenderSettings, TestNoUV, TestPresetChooser, TestPreviewNodes)
+    S.run_tests(TestPanels, TestRenderSettings, TestNoUV, TestPresetChooser, TestPreviewNodes,
+                TestPresetCategories, TestPreviewPanel)

@@ -1,6 +1,7 @@
 """A scene shaped like the one in Önel, Kurt and Öztürk's slides: a spot light above, a mesh with
 the SVD_S10_Chess4x4 preset, a diffuse floor. Exported and checked element by element; then
-validated and rendered by opaline-render (skipped when it is not built)."""
+validated and rendered by opaline-render (skipped when it is not built): the floor's radiance
+against its closed form, the object's against the figures measured when the test was written."""
 
 import math
 import os
@@ -14,6 +15,10 @@ import addon_support as S  # noqa: E402
 import bpy  # noqa: E402
 
 PRESET = "SVD_S10_Chess4x4"
+# The object's mean radiance (RGB) around its centre in test_render, measured when the test was
+# written: with the shared spot.obj mesh and with the sphere that stands in for it.
+OBJECT_MESH = (0.5080, 0.4556, 0.4251)
+OBJECT_SPHERE = (0.1601, 0.0908, 0.0525)
 
 
 def build(preset_folder):
@@ -54,6 +59,8 @@ def build(preset_folder):
 class TestSlidesScene(unittest.TestCase):
     def setUp(self):
         self.dir = S.tmpdir("slides")
+        shared = os.environ.get("OPALINE_SHARED_DIR", "")
+        self.mesh = bool(shared) and os.path.isfile(os.path.join(shared, "meshes", "spot.obj"))
         self.xml = os.path.join(self.dir, "slides.xml")
         real = S.presets_dir()
         if real and os.path.isfile(os.path.join(real, PRESET + ".opm")):
@@ -89,7 +96,7 @@ class TestSlidesScene(unittest.TestCase):
         S.need_renderer(self)
         self.assertTrue(self.real, "opaline-render is built but the preset %s is not in "
                         "OPALINE_PRESETS_DIR (%s)" % (PRESET, S.presets_dir()))
-        build(None)
+        sc, ob = build(None)
         S.export(self.xml)
         S.check_xml(self, self.xml)
         out = S.render_cli(self, self.xml, os.path.join(self.dir, "slides.pfm"), samples=4)
@@ -98,6 +105,41 @@ class TestSlidesScene(unittest.TestCase):
         vals = [v for r in rows for v in r]
         self.assertTrue(all(math.isfinite(v) and v >= 0 for v in vals))
         self.assertGreater(sum(vals) / len(vals), 1e-3, "the slides scene rendered black")
+
+        from bpy_extras.object_utils import world_to_camera_view
+        from mathutils import Vector
+
+        def window(p, r=1):
+            """Mean RGB over the (2r + 1)^2 pixels around where world point p is seen."""
+            uv = world_to_camera_view(sc, sc.camera, Vector(p))
+            cx, cy = int(uv.x * w), int((1.0 - uv.y) * h)
+            self.assertTrue(r <= cx < w - r and r <= cy < h - r, (p, cx, cy))
+            px = [rows[y][3 * x + c] for y in range(cy - r, cy + r + 1)
+                  for x in range(cx - r, cx + r + 1) for c in range(3)]
+            return [sum(px[c::3]) / (len(px) // 3) for c in range(3)]
+
+        # The white floor, away from the object and its shadow, against the closed form of the
+        # spot over a Lambertian plane: I = P / (4 pi) (Cycles' convention), L = I cos / (pi d^2).
+        # The object's light on the floor adds a few percent.
+        intensity = 2000.0 / (4.0 * math.pi)
+        for x, y in ((-2.5, 0.5), (2.5, 0.5)):
+            d2 = x * x + y * y + 64.0
+            expect = intensity * (8.0 / math.sqrt(d2)) / (math.pi * d2)
+            got = window((x, y, -1.0))
+            print("floor at (%g, %g): %s, closed form %.4f" % (
+                x, y, " ".join("%.4f" % v for v in got), expect))
+            for v in got:
+                self.assertLess(abs(v - expect), 0.10 * expect, "the floor is off")
+        # The translucent object, around its centre, against the figures measured when this
+        # test was written (the shared spot.obj mesh, or the sphere that stands in for it).
+        centre = ob.matrix_world @ (sum((Vector(c) for c in ob.bound_box), Vector()) / 8.0)
+        got = window(centre)
+        expect = OBJECT_MESH if self.mesh else OBJECT_SPHERE
+        print("object (%s): %s, expected %s" % ("spot.obj" if self.mesh else "sphere",
+                                               " ".join("%.4f" % v for v in got),
+                                               " ".join("%.4f" % v for v in expect)))
+        for v, e in zip(got, expect):
+            self.assertLess(abs(v - e), 0.25 * e, "the translucent object is off")
 
 
 if __name__ == "__main__":

@@ -35,19 +35,10 @@ static inline float *ds_at(ds_spec *d, int c, int64_t row, int col)
     return d->v + ((size_t)c * d->w * d->h + (size_t)row) * (size_t)(d->k * d->k) + col;
 }
 
-/* splitmix64: the next of a deterministic sequence of 64-bit values. */
-static inline uint64_t ds_splitmix(uint64_t *s)
-{
-    uint64_t x = (*s += 0x9e3779b97f4a7c15ull);
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-    return x ^ (x >> 31);
-}
-
 /* A deterministic uniform deviate in [0, 1). */
 static inline double ds_uniform(uint64_t *s)
 {
-    return (double)(ds_splitmix(s) >> 11) * 0x1.0p-53;
+    return (double)(op_splitmix64(s) >> 11) * 0x1.0p-53;
 }
 
 /* A smooth kernel-like profile: a Gaussian of width s around the kernel centre. */

@@ -4,9 +4,9 @@
 #include "test_support.h"
 
 #include "commands.h"
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_diffusion.h"
-#include "media.h"
+#include "opaline.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -39,16 +39,16 @@ static void generate(const op_dataset_spec *s, op_dataset *d)
  * closed-form total diffuse reflectance. */
 static void dipole_sums_to_closed_form(void **state)
 {
-    const op_medium *m = op_medium_find("skin1");
+    const op_medium *m = op_medium_lookup("skin1");
     assert_non_null(m);
     for (int c = 0; c < 3; c++) {
         op_dipole d;
-        op_dipole_init(&d, m->sigma_s[c], m->sigma_a[c], OP_MEDIUM_ETA);
+        op_dipole_init(&d, m->sigma_s[c], m->sigma_a[c], m->eta);
         double sum = 0;
         for (int y = -60; y <= 60; y++)
             for (int x = -60; x <= 60; x++)
                 sum += op_dipole_pixel(&d, x * 0.5, y * 0.5, 0.5, 0.5, abs(x) + abs(y) < 6 ? 10 : 3);
-        double total = op_dipole_total(m->sigma_s[c], m->sigma_a[c], OP_MEDIUM_ETA);
+        double total = op_dipole_total(m->sigma_s[c], m->sigma_a[c], m->eta);
         assert_true(fabs(sum - total) < 0.01 * total);
     }
 }
@@ -57,12 +57,12 @@ static void dipole_sums_to_closed_form(void **state)
 static void homogeneous_is_the_dipole(void **state)
 {
     op_dataset_spec s = small_spec("homogeneous", 5, 4, 7, 0.5, 0.4);
-    s.media[0] = s.media[1] = op_medium_find("KETCHUP");
+    s.media[0] = s.media[1] = op_medium_lookup("KETCHUP");
     op_dataset d;
     generate(&s, &d);
     for (int c = 0; c < 3; c++) {
         op_dipole dp;
-        op_dipole_init(&dp, s.media[0]->sigma_s[c], s.media[0]->sigma_a[c], OP_MEDIUM_ETA);
+        op_dipole_init(&dp, s.media[0]->sigma_s[c], s.media[0]->sigma_a[c], s.media[0]->eta);
         for (int dy = -3; dy <= 3; dy++)
             for (int dx = -3; dx <= 3; dx++) {
                 double want = op_dipole_pixel(&dp, abs(dx) * 1.0, abs(dy) * 1.0, 1.0, 1.0,

@@ -4,9 +4,9 @@
  * sources say. */
 #include "test_support.h"
 
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_layout.h"
-#include "media.h"
+#include "opaline.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -17,7 +17,7 @@ static const char *preset_datasets[] = {"carrara-marble", "jade", "layered-wax",
 
 static const op_medium *medium(const char *name)
 {
-    const op_medium *m = op_medium_find(name);
+    const op_medium *m = op_medium_lookup(name);
     assert_non_null(m);
     return m;
 }

@@ -4,10 +4,10 @@
  * results whatever the thread count. */
 #include "test_support.h"
 
-#include "dataset.h"
+#include "dataset_generate.h"
 #include "dataset_diffusion.h"
 #include "dataset_montecarlo.h"
-#include "media.h"
+#include "opaline.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -36,10 +36,12 @@ static void run_mc(const op_layout *l, int k, uint64_t photons, uint64_t seed, i
  * transport mean free paths (1.5 mm; 1/sigma_t' <= 0.46 mm) the rings of the kernel agree with
  * the pixel-integrated dipole within 8 % (measured: within 4 %); the total diffuse reflectance
  * agrees with the closed form within 3 % (measured: 1.2 %). Normal incidence, the dipole's own
- * setting. */
+ * setting. The rings are checked at eta 1.3 (the layout's one eta), where these bounds were
+ * measured: the dipole's near-field error grows with eta (at Marble's own 1.5, ring 3 is 15 %
+ * off); the total at Marble's own 1.5 is checked too (the generator reads the medium's eta). */
 static void homogeneous_matches_dipole(void **state)
 {
-    const op_medium *m = op_medium_find("marble");
+    const op_medium *m = op_medium_lookup("marble");
     const double pix = 0.5;
     const int K = 17, h = K / 2;
     op_layout l;
@@ -48,14 +50,24 @@ static void homogeneous_matches_dipole(void **state)
     OP_ASSERT_OK(st, err);
     op_dataset d;
     op_mc_stats s;
+    assert_true(m->eta == 1.5);
+    run_mc_inc(&l, K, 20000, 12, 2, OP_MC_NORMAL, &d, &s);
+    for (int c = 0; c < 3; c++) {
+        double closed = op_dipole_total(m->sigma_s[c], m->sigma_a[c], m->eta);
+        if (fabs(s.total_reflectance[c] - closed) > 0.03 * closed)
+            fail_msg("channel %d at eta 1.5: total reflectance %.4f, closed form %.4f", c,
+                     s.total_reflectance[c], closed);
+    }
+    op_dataset_free(&d);
+    const double eta = l.eta = 1.3;
     run_mc_inc(&l, K, 60000, 11, 2, OP_MC_NORMAL, &d, &s);
     for (int c = 0; c < 3; c++) {
-        double closed = op_dipole_total(m->sigma_s[c], m->sigma_a[c], OP_MEDIUM_ETA);
+        double closed = op_dipole_total(m->sigma_s[c], m->sigma_a[c], eta);
         if (fabs(s.total_reflectance[c] - closed) > 0.03 * closed)
             fail_msg("channel %d: total reflectance %.4f, closed form %.4f", c,
                      s.total_reflectance[c], closed);
         op_dipole dp;
-        op_dipole_init(&dp, m->sigma_s[c], m->sigma_a[c], OP_MEDIUM_ETA);
+        op_dipole_init(&dp, m->sigma_s[c], m->sigma_a[c], eta);
         for (int r = 3; r <= h; r++) {
             double mc = 0, se2 = 0, dip = 0;
             for (int dy = -h; dy <= h; dy++)
@@ -85,8 +97,8 @@ static void reciprocity_within_error(void **state)
 {
     op_layout l;
     op_error err = {0};
-    op_status st = op_layout_chessboard(&l, 8, 8, 0.8, 0.8, 4, op_medium_find("marble"),
-                                        op_medium_find("ketchup"), &err);
+    op_status st = op_layout_chessboard(&l, 8, 8, 0.8, 0.8, 4, op_medium_lookup("marble"),
+                                        op_medium_lookup("ketchup"), &err);
     OP_ASSERT_OK(st, err);
     op_dataset d;
     op_mc_stats s;
@@ -125,8 +137,8 @@ static void reproducible_whatever_the_threads(void **state)
 {
     op_layout l;
     op_error err = {0};
-    op_status st = op_layout_veins(&l, 5, 4, 0.5, 0.4, 2, 0.5, 9, op_medium_find("marble"),
-                                   op_medium_find("vein"), &err);
+    op_status st = op_layout_veins(&l, 5, 4, 0.5, 0.4, 2, 0.5, 9, op_medium_lookup("marble"),
+                                   op_medium_lookup("vein"), &err);
     OP_ASSERT_OK(st, err);
     op_dataset a, b, c;
     op_mc_stats sa, sb, sc;
@@ -150,7 +162,7 @@ static void reproducible_whatever_the_threads(void **state)
  * either medium, by far more than the standard errors. 1 mm pixels, squares of 2 x 2. */
 static void heterogeneity_shows(void **state)
 {
-    const op_medium *a = op_medium_find("marble"), *b = op_medium_find("skin1");
+    const op_medium *a = op_medium_lookup("marble"), *b = op_medium_lookup("skin1");
     op_layout chess, ha, hb;
     op_error err = {0};
     op_status st = op_layout_chessboard(&chess, 8, 8, 0.8, 0.8, 4, a, b, &err);

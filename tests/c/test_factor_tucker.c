@@ -220,7 +220,7 @@ static void error_never_grows_with_degree(void **state)
             op_tucker_result r;
             op_error err = {0};
             OP_ASSERT_OK(op_tucker_factor(ch, 3, rows, cols, atoi(cases[k].terms), degrees[i], 1,
-                                          &opt, &r, &err),
+                                          &opt, 2, &r, &err),
                          err);
             double storage = sqrt(r.fit.storage_sq / r.fit.data_sq);
             print_message("  %s P=%2d: storage error %.3g, largest coefficient %.3g, "

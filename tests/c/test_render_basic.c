@@ -49,37 +49,60 @@ static void test_white_furnace(void **state)
     op_renderer_free(r);
 }
 
+/* A scene seen straight down from z = 4 with up = +y (world +x is to the right of the image and
+ * +y up), fov degrees across a 40 x height film (box filter, 16 stratified samples, the direct
+ * integrator by default), over a rectangle at z = 0 scaled by scale that carries bsdf, lit by
+ * emitter. Returns its path. */
+static const char *plane_scene(double fov, int height, double scale, const char *emitter,
+                               const char *bsdf)
+{
+    char text[4096];
+    snprintf(text, sizeof text,
+             "<scene version=\"0.6.0\">"
+             " <sensor type=\"perspective\"><float name=\"fov\" value=\"%g\"/>"
+             "  <transform name=\"toWorld\"><lookat origin=\"0,0,4\" target=\"0,0,0\" "
+             "   up=\"0,1,0\"/></transform>"
+             "  <sampler type=\"stratified\"><integer name=\"sampleCount\" value=\"16\"/>"
+             "  </sampler>"
+             "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"40\"/>"
+             "   <integer name=\"height\" value=\"%d\"/><rfilter type=\"box\"/></film></sensor>"
+             " %s"
+             " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"%g\"/>"
+             "  </transform>%s</shape>"
+             "</scene>",
+             fov, height, emitter, scale, bsdf);
+    return op_test_write_temp("scene.xml", text);
+}
+
+/* The point (*px, *py, 0) that the centre of pixel (x, y) of a plane_scene image sees. */
+static void plane_point(const op_image *img, double fov, int x, int y, double *px, double *py)
+{
+    double tx = tan(0.5 * fov * M_PI / 180.0), ty = tx * img->height / img->width;
+    double sx = 2.0 * (x + 0.5) / img->width - 1.0, sy = 2.0 * (y + 0.5) / img->height - 1.0;
+    *px = 4.0 * sx * tx;
+    *py = -4.0 * sy * ty;
+}
+
 static void test_lambertian_plane(void **state)
 {
     (void)state;
-    /* Camera straight down from z = 4 with up = +y: world +x is to the right of the image and
-     * +y up. A point light at (0.5, 0, 1) of intensity 2 over a plane of albedo 0.6:
+    /* A point light at (0.5, 0, 1) of intensity 2 over a plane of albedo 0.6:
      * L(x) = 0.6 / pi * I * h / d^3. The light's offset to +x pins the orientation. */
-    const char *path = op_test_write_temp("scene.xml", 
-        "<scene version=\"0.6.0\">"
-        " <integrator type=\"direct\"/>"
-        " <sensor type=\"perspective\"><float name=\"fov\" value=\"60\"/>"
-        "  <transform name=\"toWorld\"><lookat origin=\"0,0,4\" target=\"0,0,0\" up=\"0,1,0\"/>"
-        "  </transform><sampler type=\"stratified\"><integer name=\"sampleCount\" value=\"16\"/>"
-        "  </sampler>"
-        "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"40\"/>"
-        "   <integer name=\"height\" value=\"30\"/><rfilter type=\"box\"/></film></sensor>"
-        " <emitter type=\"point\"><point name=\"position\" x=\"0.5\" y=\"0\" z=\"1\"/>"
-        "  <rgb name=\"intensity\" value=\"2\"/></emitter>"
-        " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
-        "  <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.6\"/></bsdf></shape>"
-        "</scene>");
+    const char *path = plane_scene(
+        60, 30, 10,
+        "<emitter type=\"point\"><point name=\"position\" x=\"0.5\" y=\"0\" z=\"1\"/>"
+        " <rgb name=\"intensity\" value=\"2\"/></emitter>",
+        "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.6\"/></bsdf>");
     op_renderer *r = op_test_render(path, 0, 2, 0);
     const op_image *img = op_renderer_image(r);
     int w = img->width, h = img->height;
-    double tx = tan(30.0 * M_PI / 180.0), ty = tx * h / w;
     double worst = 0.0;
     int brightest_x = -1;
     float brightest = -1.0f;
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
-            double sx = 2.0 * (x + 0.5) / w - 1.0, sy = 2.0 * (y + 0.5) / h - 1.0;
-            double px = 4.0 * sx * tx, py = -4.0 * sy * ty;
+            double px, py;
+            plane_point(img, 60, x, y, &px, &py);
             double dx = 0.5 - px, dy = -py, d2 = dx * dx + dy * dy + 1.0;
             double expect = 0.6 / M_PI * 2.0 * 1.0 / (d2 * sqrt(d2));
             float got = img->pixels[4 * (y * w + x)];
@@ -148,6 +171,51 @@ static void test_clamping_and_info(void **state)
     assert_string_equal(info.integrator, "direct");
     assert_int_equal(info.triangles, 12);
     op_scene_free(scene);
+
+    /* What the clamps do, seen in an image: a spot of intensity 1 at height 1 pointing down at a
+     * plane of diffuseReflectance 100, seen from z = 4 over +-60 degrees (the plane out to
+     * about 80 degrees from the spot's axis). Clamped, the reflectance is 1 and the cutoff 90
+     * degrees, so the beam (0.75 cutoff) is 67.5 degrees with a linear falloff to 90 beyond it:
+     * L = 1 / pi * falloff(theta) * cos(theta) / d^2. Unclamped, the image would be 100 times
+     * as bright, and the beam (150 degrees) would light the whole plane without falloff. */
+    path = plane_scene(
+        120, 40, 20,
+        "<emitter type=\"spot\"><transform name=\"toWorld\"><lookat origin=\"0,0,1\" "
+        " target=\"0,0,0\"/></transform><float name=\"cutoffAngle\" value=\"200\"/>"
+        " <spectrum name=\"intensity\" value=\"1\"/></emitter>",
+        "<bsdf type=\"diffuse\"><rgb name=\"diffuseReflectance\" value=\"100, 100, 100\"/>"
+        "</bsdf>");
+    op_renderer *r = op_test_render(path, 0, 2, 0);
+    const op_image *img = op_renderer_image(r);
+    int w = img->width, h = img->height;
+    double worst = 0.0, outer_got = 0.0, outer_full = 0.0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double px, py;
+            plane_point(img, 120, x, y, &px, &py);
+            double d2 = px * px + py * py + 1.0;
+            double theta = atan(sqrt(px * px + py * py)) * 180.0 / M_PI;
+            double fall = theta <= 67.5 ? 1.0 : (90.0 - theta) / 22.5;
+            double full = 1.0 / M_PI / (d2 * sqrt(d2)), expect = fall * full;
+            float got = img->pixels[4 * (y * w + x)];
+            /* the falloff's kink at 67.5 degrees is averaged over a pixel: judge the rest */
+            if (fabs(theta - 67.5) > 2.0) {
+                double rel = fabs(got - expect) / expect;
+                if (rel > worst)
+                    worst = rel;
+            }
+            if (theta > 75.0) {
+                outer_got += got;
+                outer_full += full;
+            }
+        }
+    print_message("  clamped spot on a clamped plane: worst relative error %.4f; beyond 75 "
+                  "degrees %.3f of the unclamped beam\n", worst, outer_got / outer_full);
+    if (worst > 0.05)
+        fail_msg("clamped scene: worst relative error %.4f", worst);
+    /* the falloff between 67.5 and 90 degrees is there: at most (90 - 75) / 22.5 of full */
+    assert_true(outer_full > 0.0 && outer_got < 0.7 * outer_full);
+    op_renderer_free(r);
 }
 
 int main(void)

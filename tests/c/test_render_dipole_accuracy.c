@@ -127,9 +127,10 @@ static void test_spot_every_distance(void **state)
             printf("%-10s  (no absorption: no diffusion length)\n", m->name);
             continue;
         }
-        /* a disk of radius 1.5 L_max lit from 10 a above; the slab covers it and the strip out
+        /* a disk of radius 1.5 L_max (at least 8 L_min, some 50 point spacings) lit from 10 a
+         * above; the slab covers it and the strip out
          * to 4.5 L_max beyond its edge, where the camera looks */
-        double a = 1.5 * lmax, D = 10.0 * a, cut = atan(a / D) * 180.0 / M_PI;
+        double a = fmax(1.5 * lmax, 8.0 * lmin), D = 10.0 * a, cut = atan(a / D) * 180.0 / M_PI;
         double x0 = -1.1 * a, x1 = a + 5.0 * lmax, y = 1.1 * a;
         double s0 = a - 0.2 * lmin, s1 = a + 4.5 * lmax, w = s1 - s0;
         char em[512], text[8192];

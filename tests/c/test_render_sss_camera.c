@@ -16,40 +16,8 @@
  * row of albedo 0.6 / 0.4 / 0.2, varying a little from pixel to pixel (so positions matter). */
 static void write_material(const char *path)
 {
-    op_material_info info;
-    memset(&info, 0, sizeof info);
-    info.method = OP_METHOD_RAW;
-    info.width = info.height = 16;
-    info.kernel = 5;
-    info.channels = 3;
-    info.size_x_cm = info.size_y_cm = 1.0;
-    snprintf(info.name, sizeof info.name, "Varied");
-    snprintf(info.generator, sizeof info.generator, "test_render_sss_camera");
-    int K = 5, rows = 16 * 16;
-    float w[25];
-    double sum = 0;
-    for (int y = 0; y < K; y++)
-        for (int x = 0; x < K; x++)
-            sum += w[y * K + x] = (float)exp(-0.5 * ((x - 2) * (x - 2) + (y - 2) * (y - 2)));
-    float *rd = malloc((size_t)rows * K * K * sizeof(float));
-    assert_non_null(rd);
-    op_error err = {0};
-    op_material_writer *wr;
-    op_status st = op_material_writer_open(path, &info, &wr, &err);
-    OP_ASSERT_OK(st, err);
-    static const char *tags[3] = {"RD.R", "RD.G", "RD.B"};
     static const double albedo[3] = {0.6, 0.4, 0.2};
-    for (int c = 0; c < 3; c++) {
-        for (int r = 0; r < rows; r++)
-            for (int k = 0; k < K * K; k++)
-                rd[(size_t)r * K * K + k] =
-                    (float)(albedo[c] * (0.8 + 0.2 * ((r * 7) % 5) / 4.0) * w[k] / sum);
-        st = op_material_writer_add(wr, tags[c], rd, (uint64_t)rows * K * K * sizeof(float), &err);
-        OP_ASSERT_OK(st, err);
-    }
-    st = op_material_writer_commit(wr, &err);
-    OP_ASSERT_OK(st, err);
-    free(rd);
+    op_test_write_gaussian_raw(path, albedo, 1);
 }
 
 /* The camera looks down from z = 4 (fov 20: it sees |x|, |y| < 0.71 of the plane z = 0) over a

@@ -4,7 +4,9 @@
 #include "test_support.h"
 
 #include <fcntl.h>
+#include <limits.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -682,9 +684,37 @@ static void realistic_scene(void **state)
     op_desc_free(root);
 }
 
+/* op_array_grow, behind every growing array of the reader and builder: makes index n writable,
+ * zero-fills what it adds, and refuses (leaving the array as it was) counts whose int or
+ * byte size would overflow. */
+static void array_grow(void **state)
+{
+    (void)state;
+    int *a = NULL, cap = 0;
+    assert_true(op_array_grow((void **)&a, &cap, 0, sizeof *a));
+    assert_int_equal(cap, 8);
+    for (int i = 0; i < cap; i++)
+        assert_int_equal(a[i], 0);
+    a[7] = 5;
+    assert_true(op_array_grow((void **)&a, &cap, 7, sizeof *a)); /* fits: unchanged */
+    assert_int_equal(cap, 8);
+    assert_true(op_array_grow((void **)&a, &cap, 100, sizeof *a)); /* past one doubling */
+    assert_int_equal(cap, 128);
+    assert_int_equal(a[7], 5);
+    for (int i = 8; i < cap; i++)
+        assert_int_equal(a[i], 0);
+    int *before = a;
+    assert_false(op_array_grow((void **)&a, &cap, INT_MAX, sizeof *a));
+    assert_false(op_array_grow((void **)&a, &cap, -1, sizeof *a));
+    assert_false(op_array_grow((void **)&a, &cap, 1 << 29, SIZE_MAX / 4)); /* bytes overflow */
+    assert_true(a == before && cap == 128);
+    free(a);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(array_grow),
         cmocka_unit_test(values_and_structure),
         cmocka_unit_test(colours),
         cmocka_unit_test(transforms),

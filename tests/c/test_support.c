@@ -115,3 +115,40 @@ double op_test_image_rmse(const op_image *a, const op_image *b)
         }
     return sqrt(s / ((ch < 3 ? ch : 3) * (double)n));
 }
+
+void op_test_write_gaussian_raw(const char *path, const double albedo[3], int vary)
+{
+    op_material_info info;
+    memset(&info, 0, sizeof info);
+    info.method = OP_METHOD_RAW;
+    info.width = info.height = 16;
+    info.kernel = 5;
+    info.channels = 3;
+    info.size_x_cm = info.size_y_cm = 1.0;
+    snprintf(info.name, sizeof info.name, "Gaussian");
+    snprintf(info.generator, sizeof info.generator, "op_test_write_gaussian_raw");
+    int K = 5, rows = 16 * 16;
+    float w[25];
+    double sum = 0;
+    for (int y = 0; y < K; y++)
+        for (int x = 0; x < K; x++)
+            sum += w[y * K + x] = (float)exp(-0.5 * ((x - 2) * (x - 2) + (y - 2) * (y - 2)));
+    float *rd = malloc((size_t)rows * K * K * sizeof(float));
+    assert_non_null(rd);
+    op_error err = {0};
+    op_material_writer *wr;
+    op_status st = op_material_writer_open(path, &info, &wr, &err);
+    OP_ASSERT_OK(st, err);
+    static const char *tags[3] = {"RD.R", "RD.G", "RD.B"};
+    for (int c = 0; c < 3; c++) {
+        for (int r = 0; r < rows; r++)
+            for (int k = 0; k < K * K; k++)
+                rd[(size_t)r * K * K + k] =
+                    (float)(albedo[c] * (vary ? 0.8 + 0.2 * ((r * 7) % 5) / 4.0 : 1.0) * w[k] / sum);
+        st = op_material_writer_add(wr, tags[c], rd, (uint64_t)rows * K * K * sizeof(float), &err);
+        OP_ASSERT_OK(st, err);
+    }
+    st = op_material_writer_commit(wr, &err);
+    OP_ASSERT_OK(st, err);
+    free(rd);
+}

@@ -27,6 +27,10 @@ const char *op_test_write_temp(const char *suffix, const char *text);
 op_renderer *op_test_render(const char *path, int spp, int threads, uint64_t seed);
 /* The same, returning a copy of the image (free it with op_image_free). */
 op_image op_test_render_image(const char *path, int spp, int threads, uint64_t seed);
+/* Writes to path a raw material of 16 x 16 pixels, kernel 5, 1 x 1 cm, whose every row is the
+ * same normalized Gaussian (sigma 1 pixel) times albedo[c] in channel c; with vary, row r is
+ * further scaled by 0.8 + 0.2 ((7 r) mod 5) / 4 (so that positions matter). */
+void op_test_write_gaussian_raw(const char *path, const double albedo[3], int vary);
 /* RMSE over the R, G, B channels of two images of the same size and channel count. */
 double op_test_image_rmse(const op_image *a, const op_image *b);
 /* Fails the test with the error's message unless st is OP_OK. */

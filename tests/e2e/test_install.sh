@@ -34,7 +34,7 @@ cmake --install "$BUILD" --prefix "$T/first" >"$T/install.log" ||
 mkdir -p "$T/moved"
 mv "$T/first" "$T/moved/prefix"
 P=$T/moved/prefix
-for f in bin/opaline-render bin/opaline-factor share/opaline/presets/$PRESET.opm \
+for f in bin/opaline-render bin/opaline-factor bin/opaline-cluster share/opaline/presets/$PRESET.opm \
          share/opaline/presets/$PRESET.png share/opaline/presets/$PRESET.json \
          share/opaline/blender_addon/opaline/__init__.py \
          share/opaline/blender_addon/opaline-blender-addon.zip \

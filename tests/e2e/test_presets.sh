@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The preset library as built: every recipe in presets/ is documented in docs/presets.md, and
 # every documented preset is in $OPALINE_PRESETS_DIR with its .opm, .png (thumbnail) and .json
-# (report), and the documented pixels, physical size, file size and error match what the
-# build made. Reads the built presets only (the build makes them), so it is fast.
+# (report), and the documented pixels, physical size, file size, error and category match what
+# the build made (the category: the recipe's, copied beside the preset as NAME.recipe). Reads
+# the built presets only (the build makes them), so it is fast.
 set -euo pipefail
 SRC=${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}
 BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
@@ -81,7 +82,22 @@ for name, cells in sorted(rows.items()):
     # Another compiler or libm moves the error a little, never by a fifth.
     if abs(got - doc_err) > 0.2 * doc_err + 0.05:
         problems.append("%s: documented error %s, the report says %.2f %%" % (name, err, got))
-    print("%-28s %-8s %5.2f MB  error %5.2f %%  %s" % (name, report["method"], size_mb, got, want_pixels))
+    # The category: the recipe's, documented in the last column, and the recipe copied beside
+    # the preset (where the Blender add-on reads it).
+    recipe = os.path.join(src, "presets", name + ".recipe")
+    cat = None
+    if os.path.isfile(recipe):
+        text = open(recipe, encoding="utf-8").read()
+        m = re.search(r"^[ \t]*category[ \t]*=(.*)$", text, re.M)
+        cat = m.group(1).strip() if m and m.group(1).strip() else None
+        copy = os.path.join(built, name + ".recipe")
+        if not os.path.isfile(copy) or open(copy, encoding="utf-8").read() != text:
+            problems.append("%s: the build did not copy presets/%s.recipe beside the preset" % (name, name))
+    if cat is None:
+        problems.append("%s: presets/%s.recipe has no category" % (name, name))
+    elif cells[-1] != cat:
+        problems.append("%s: documented category '%s', the recipe says '%s'" % (name, cells[-1], cat))
+    print("%-28s %-8s %5.2f MB  error %5.2f %%  %-14s %s" % (name, report["method"], size_mb, got, want_pixels, cat))
 if problems:
     sys.exit("\n".join(problems))
 print("%d presets documented and built" % len(rows))

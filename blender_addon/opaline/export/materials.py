@@ -14,6 +14,9 @@ Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-add
                                  Cycles' emission strength is radiance) over a black diffuse
 - anything else / no nodes    -> diffuse with the material's viewport colour (with a warning)
 - no material                 -> diffuse 0.8 (Cycles' default surface)
+A material with opaline subsurface gets, beside its <subsurface>, the surface reflection of
+sheen_for (from its Principled BSDF, or the "Surface sheen" setting): dielectric or a GGX
+roughdielectric.
 Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
 A Diffuse Color / Base Color linked to an Image Texture node exports a bitmap texture
 (textures.py); other linked inputs are not followed: the default value is used and a warning
@@ -237,6 +240,38 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None
         e.integer("irrSamples", prepass[0])
         e.integer("maxPoints", prepass[1])
     return e
+
+
+def sheen_for(mat, warn):
+    """The <bsdf> giving the surface reflection of a translucent material (beside its
+    <subsurface>; docs/subsurface-rendering.md), or None: from the Principled BSDF (IOR from its
+    F0, alpha = Roughness^2) or from the opaline settings (sheen 'ON'); a dielectric when smooth
+    (alpha below 0.001), else a GGX roughdielectric."""
+    s = mat.opaline
+    if s.sheen == 'OFF':
+        return None
+    if s.sheen == 'ON':
+        ior, rough = s.sheen_ior, s.sheen_roughness
+    else:
+        node = _surface_node(mat)
+        if node is None or node.bl_idname != "ShaderNodeBsdfPrincipled":
+            return None
+        label = "material %s" % mat.name
+        f0 = principled_f0(node, warn, label)
+        if f0 <= 8e-6:
+            return None
+        ior = ior_from_f0(f0)
+        rough = float(_input(node, ["Roughness"], warn, label))
+    alpha = rough * rough
+    if alpha < 1e-3:
+        b = Element("bsdf", {"type": "dielectric"})
+    else:
+        b = Element("bsdf", {"type": "roughdielectric"})
+        b.string("distribution", "ggx")
+        b.float("alpha", min(alpha, 1.0))
+    b.float("intIOR", max(ior, 1.0001))
+    b.float("extIOR", 1.0)
+    return b
 
 
 def _method_of_file(path):

@@ -334,6 +334,9 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                                                collector)
             if sub is not None:
                 s.add(sub)
+                sheen = materials_mod.sheen_for(mat, warn)
+                if sheen is not None:
+                    s.add(sheen)
                 if (key in no_uv_keys and sub.attrs[0][1] != "dipole" and
                         orig.name not in uvless):
                     uvless.add(orig.name)

@@ -1,0 +1,91 @@
+"""Render on Cluster (Render panel, cluster.py): shown only when the preferences name
+opaline-cluster; exports the frames with the materials collected beside them, runs the real
+opaline-cluster submit against a fake sbatch (OPALINE_SBATCH: records its arguments, prints a
+job id) and reports the job id; the partition and extra sbatch arguments reach sbatch; a
+missing command is an error naming it. The real cluster is tested by tests/e2e/test_cluster.sh."""
+
+import glob
+import os
+import sys
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import addon_support as S  # noqa: E402
+
+import bpy  # noqa: E402
+
+
+class TestClusterButton(unittest.TestCase):
+    def setUp(self):
+        S.need_renderer(self)
+        self.cluster = os.path.join(os.path.dirname(S.renderer()), "opaline-cluster")
+        if not os.access(self.cluster, os.X_OK):
+            raise unittest.SkipTest("opaline-cluster is not built")
+        pdir = S.presets_dir()
+        if pdir is None or not os.path.isfile(os.path.join(pdir, "SVD_S10_Chess4x4.opm")):
+            raise unittest.SkipTest("the presets are not built (OPALINE_PRESETS_DIR)")
+        self.dir = S.tmpdir("cluster")
+        sc = S.empty_scene((16, 12))
+        sc.render.engine = 'OPALINE'
+        S.add_camera((0, -6, 1), rotation_euler=(1.4, 0, 0))
+        S.add_light('POINT', (0, -2, 3))
+        bpy.ops.mesh.primitive_cube_add()
+        ob = bpy.context.object
+        mat = bpy.data.materials.new("jade")
+        mat.opaline.enabled = True
+        mat.opaline.preset = "SVD_S10_Chess4x4"
+        ob.data.materials.append(mat)
+        bpy.ops.object.mode_set(mode='EDIT')
+        bpy.ops.uv.smart_project()
+        bpy.ops.object.mode_set(mode='OBJECT')
+        sc.frame_start, sc.frame_end = 1, 2
+        self.log = os.path.join(self.dir, "sbatch.log")
+        fake = os.path.join(self.dir, "fake-sbatch")
+        with open(fake, "w") as f:
+            f.write('#!/bin/sh\necho "$@" >> "%s"\necho 4242\n' % self.log)
+        os.chmod(fake, 0o755)
+        os.environ["OPALINE_SBATCH"] = fake
+
+    def tearDown(self):
+        os.environ.pop("OPALINE_SBATCH", None)
+
+    def test_submit(self):
+        from opaline import cluster
+        p = S.prefs()
+        p.cluster_command = ""
+        self.assertFalse(cluster.OPALINE_PT_render_cluster.poll(bpy.context))
+        p.cluster_command = self.cluster
+        p.cluster_partition = "render"
+        p.cluster_sbatch_args = "--account=lab --time=1:00:00"
+        self.assertTrue(cluster.OPALINE_PT_render_cluster.poll(bpy.context))
+        out = os.path.join(self.dir, "shot")
+        r = bpy.ops.render.opaline_cluster(animation=True, folder=out, tiles=2, threads=1)
+        self.assertEqual(r, {'FINISHED'})
+        self.assertEqual(bpy.context.window_manager["opaline_cluster_job"], "4242")
+        xmls = sorted(glob.glob(os.path.join(out, "scenes", "*.xml")))
+        self.assertEqual([os.path.basename(x) for x in xmls], ["scene_0001.xml", "scene_0002.xml"])
+        text = open(xmls[0]).read()
+        self.assertIn('value="materials/SVD_S10_Chess4x4.opm"', text)
+        self.assertNotIn(S.presets_dir(), text)
+        self.assertTrue(os.path.isfile(os.path.join(out, "scenes", "materials",
+                                                    "SVD_S10_Chess4x4.opm")))
+        calls = open(self.log).read().splitlines()
+        render = [c for c in calls if "--job-name opaline-render" in c]
+        self.assertEqual(len(render), 1, calls)
+        for want in ("--array 0,1,2,3", "--cpus-per-task 1", "--partition render",
+                     "--account=lab", "--time=1:00:00"):
+            self.assertIn(want, render[0])
+        self.assertTrue(any("--job-name opaline-merge" in c and "--dependency afterok:4242" in c
+                            for c in calls), calls)
+        self.assertTrue(os.path.isfile(os.path.join(out, "opaline-cluster.json")))
+
+    def test_missing_command(self):
+        p = S.prefs()
+        p.cluster_command = os.path.join(self.dir, "no-such-opaline-cluster")
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.render.opaline_cluster(folder=os.path.join(self.dir, "x"))
+        self.assertIn("no-such-opaline-cluster", str(cm.exception))
+
+
+if __name__ == "__main__":
+    S.run_tests(TestClusterButton)
