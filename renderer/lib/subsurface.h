@@ -3,7 +3,8 @@
  * Before the camera pass, points are laid over every translucent shape (area-uniform, about
  * `density` per material pixel area, capped), the irradiance E_i at each is estimated with the
  * path tracer, and the exitance at each point j is gathered from the points i within the
- * material's kernel footprint: M_j = sum_i E_i A_i Rd(pixel(i), offset(i -> j)) / A_pixel.
+ * material's kernel footprint: M_j = sum_i E_i A_i Rd(pixel(i), offset(i -> j)) / A_pixel (the
+ * dipole: over a tree of the points, near pairs exact and far clusters aggregated, sss_tree.h).
  * The camera pass interpolates M between the points near a hit; the radiance leaving is M / pi.
  *
  * The work follows what the camera needs: a first pass traces one camera segment (through masks
