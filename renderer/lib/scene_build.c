@@ -43,7 +43,7 @@ void op_scene_limits_init(op_scene_limits *lim)
     lim->image_pixels = 1LL << 27;
     lim->kernel = 255;
     lim->sss_points = 50000000;
-    lim->sss_max_points = 50000000; /* no cap below sss-points: one point per material pixel */
+    lim->sss_max_points = 250000; /* the quality cap per shape: a shape that needs more is coarser, with a warning */
 }
 
 op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_error *err)
