@@ -113,6 +113,29 @@ static inline uint64_t op_hash64(uint64_t x)
     return op_splitmix64(&x);
 }
 
+/* Little-endian integers in byte buffers, as every opaline file and stream stores them. */
+static inline uint32_t op_get_le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static inline uint64_t op_get_le64(const unsigned char *p)
+{
+    return (uint64_t)op_get_le32(p) | (uint64_t)op_get_le32(p + 4) << 32;
+}
+
+static inline void op_put_le32(unsigned char *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static inline void op_put_le64(unsigned char *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
+}
+
 /* Seconds on the monotonic clock (CLOCK_MONOTONIC) from an arbitrary origin: for durations. */
 double op_monotonic_seconds(void);
 

@@ -90,29 +90,7 @@ op_method op_method_from_name(const char *name)
     return OP_METHOD_COUNT;
 }
 
-/* ------------------------------------------------------------ little-endian helpers */
-
-static uint32_t get_u32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static uint64_t get_u64(const unsigned char *p)
-{
-    return (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
-}
-
-static void put_u32(unsigned char *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-
-static void put_u64(unsigned char *p, uint64_t v)
-{
-    put_u32(p, (uint32_t)v);
-    put_u32(p + 4, (uint32_t)(v >> 32));
-}
+/* ------------------------------------------------------------ section tags */
 
 static int valid_tag(const char *tag)
 {
@@ -148,7 +126,7 @@ uint32_t op_material_section_crc(const op_material *m, const char *tag)
     for (uint32_t i = 0; i < m->nsections; i++) {
         const unsigned char *e = m->table + (size_t)i * OPM_ENTRY_SIZE;
         if (strncmp((const char *)e, tag, 8) == 0)
-            return get_u32(e + 24);
+            return op_get_le32(e + 24);
     }
     return 0;
 }
@@ -159,8 +137,8 @@ const void *op_material_section(const op_material *m, const char *tag, uint64_t 
         const unsigned char *e = m->table + (size_t)i * OPM_ENTRY_SIZE;
         if (strncmp((const char *)e, tag, 8) == 0) {
             if (bytes)
-                *bytes = get_u64(e + 16);
-            return m->base + get_u64(e + 8);
+                *bytes = op_get_le64(e + 16);
+            return m->base + op_get_le64(e + 8);
         }
     }
     return NULL;
@@ -341,7 +319,7 @@ static op_status check_entry(const op_material *m, uint32_t i, const unsigned ch
         if (!memcmp(e, m->table + (size_t)j * OPM_ENTRY_SIZE, 8))
             return op_error_set(err, OP_ERR_FORMAT, "%s: sections %u and %u have the same tag "
                                 "'%s'", path, j, i, shown);
-    uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
+    uint64_t off = op_get_le64(e + 8), size = op_get_le64(e + 16);
     if (off % OPM_ALIGN)
         return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' starts at byte %llu, not a "
                             "multiple of %u", path, shown, (unsigned long long)off, OPM_ALIGN);
@@ -379,16 +357,16 @@ static op_status check_container(op_material *m, op_error *err)
     const char *path = m->path;
     if (m->size < OPM_HEADER_SIZE || memcmp(b, OPM_MAGIC, 8) != 0)
         return op_error_set(err, OP_ERR_FORMAT, "%s: not an opaline material file", path);
-    if (!checksum_ok(get_u32(b + 36), op_crc32(0, b, 36)))
+    if (!checksum_ok(op_get_le32(b + 36), op_crc32(0, b, 36)))
         return op_error_set(err, OP_ERR_FORMAT, "%s: header checksum mismatch (corrupt file)",
                             path);
-    uint32_t version = get_u32(b + 8);
+    uint32_t version = op_get_le32(b + 8);
     if (version != OPM_VERSION)
         return op_error_set(err, OP_ERR_FORMAT,
                             "%s: format version %u, this opaline reads version %u", path, version,
                             OPM_VERSION);
-    uint32_t count = get_u32(b + 12);
-    uint64_t declared = get_u64(b + 16), table = get_u64(b + 24);
+    uint32_t count = op_get_le32(b + 12);
+    uint64_t declared = op_get_le64(b + 16), table = op_get_le64(b + 24);
     if (declared != m->size)
         return op_error_set(err, OP_ERR_FORMAT,
                             "%s: file is %llu bytes but its header says %llu (truncated?)", path,
@@ -400,7 +378,7 @@ static op_status check_container(op_material *m, op_error *err)
         return op_error_set(err, OP_ERR_FORMAT, "%s: the section table (%u entries at byte %llu) "
                             "does not lie between the header and the end of the %llu-byte file",
                             path, count, (unsigned long long)table, (unsigned long long)m->size);
-    if (!checksum_ok(get_u32(b + 32), op_crc32(0, b + table, (size_t)count * OPM_ENTRY_SIZE)))
+    if (!checksum_ok(op_get_le32(b + 32), op_crc32(0, b + table, (size_t)count * OPM_ENTRY_SIZE)))
         return op_error_set(err, OP_ERR_FORMAT, "%s: section table checksum mismatch", path);
     m->table = b + table;
     m->nsections = count;
@@ -409,8 +387,8 @@ static op_status check_container(op_material *m, op_error *err)
         op_status st = check_entry(m, i, e, table, err);
         if (st != OP_OK)
             return st;
-        uint64_t off = get_u64(e + 8), size = get_u64(e + 16);
-        if (!checksum_ok(get_u32(e + 24), section_crc(m, b + off, size)))
+        uint64_t off = op_get_le64(e + 8), size = op_get_le64(e + 16);
+        if (!checksum_ok(op_get_le32(e + 24), section_crc(m, b + off, size)))
             return op_error_set(err, OP_ERR_FORMAT,
                                 "%s: section '%.8s' checksum mismatch (corrupt file)", path,
                                 (const char *)e);
@@ -565,9 +543,9 @@ op_status op_material_writer_add(op_material_writer *w, const char *tag, const v
     unsigned char *e = w->table + (size_t)w->count++ * OPM_ENTRY_SIZE;
     memset(e, 0, OPM_ENTRY_SIZE);
     memcpy(e, tag, strnlen(tag, 8));
-    put_u64(e + 8, w->pos);
-    put_u64(e + 16, bytes);
-    put_u32(e + 24, op_crc32(0, data, (size_t)bytes));
+    op_put_le64(e + 8, w->pos);
+    op_put_le64(e + 16, bytes);
+    op_put_le32(e + 24, op_crc32(0, data, (size_t)bytes));
     op_output_write(w->out, data, (size_t)bytes);
     w->pos += bytes;
     return OP_OK;
@@ -587,12 +565,12 @@ static op_status write_table_and_header(op_material_writer *w, op_error *err)
     uint64_t total = table + table_bytes;
     unsigned char header[OPM_HEADER_SIZE] = {0};
     memcpy(header, OPM_MAGIC, 8);
-    put_u32(header + 8, OPM_VERSION);
-    put_u32(header + 12, w->count);
-    put_u64(header + 16, total);
-    put_u64(header + 24, table);
-    put_u32(header + 32, op_crc32(0, w->table, table_bytes));
-    put_u32(header + 36, op_crc32(0, header, 36));
+    op_put_le32(header + 8, OPM_VERSION);
+    op_put_le32(header + 12, w->count);
+    op_put_le64(header + 16, total);
+    op_put_le64(header + 24, table);
+    op_put_le32(header + 32, op_crc32(0, w->table, table_bytes));
+    op_put_le32(header + 36, op_crc32(0, header, 36));
     FILE *f = op_output_stream(w->out);
     if (fflush(f) != 0 || fseek(f, 0, SEEK_SET) != 0)
         return op_error_set(err, OP_ERR_IO, "cannot write material header: %s", strerror(errno));

@@ -78,18 +78,6 @@ typedef struct stream {
     int error; /* errno of the first failed write; nothing is written after it */
 } stream;
 
-static void put_u32(unsigned char *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-
-static void put_u64(unsigned char *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-
 static int host_le(void)
 {
     uint16_t one = 1;
@@ -117,8 +105,8 @@ static void record_start(stream *s, uint32_t type, uint64_t n)
 {
     unsigned char h[16];
     memcpy(h, "OPTS", 4);
-    put_u32(h + 4, type);
-    put_u64(h + 8, n);
+    op_put_le32(h + 4, type);
+    op_put_le64(h + 8, n);
     put(s, h, sizeof h);
 }
 
@@ -144,10 +132,10 @@ static void on_tile(void *user, const op_render_tile *t)
     stream *s = user; /* the renderer serializes tile callbacks; the lock orders them with progress */
     size_t nf = (size_t)t->w * t->h * 4;
     unsigned char head[16];
-    put_u32(head, (uint32_t)t->x);
-    put_u32(head + 4, (uint32_t)t->y);
-    put_u32(head + 8, (uint32_t)t->w);
-    put_u32(head + 12, (uint32_t)t->h);
+    op_put_le32(head, (uint32_t)t->x);
+    op_put_le32(head + 4, (uint32_t)t->y);
+    op_put_le32(head + 8, (uint32_t)t->w);
+    op_put_le32(head + 12, (uint32_t)t->h);
     pthread_mutex_lock(&s->lock);
     record_start(s, 2, sizeof head + 4 * (uint64_t)nf);
     put(s, head, sizeof head);
@@ -160,7 +148,7 @@ static void on_tile(void *user, const op_render_tile *t)
             for (size_t k = 0; k < m; k++) {
                 uint32_t v;
                 memcpy(&v, &t->rgba[i + k], 4);
-                put_u32(b + 4 * k, v);
+                op_put_le32(b + 4 * k, v);
             }
             put(s, b, 4 * m);
         }
@@ -181,8 +169,8 @@ static void on_progress(void *user, const char *label, double fraction, double e
     unsigned char p[12 + 255];
     uint64_t bits;
     memcpy(&bits, &fraction, 8);
-    put_u64(p, bits);
-    put_u32(p + 8, (uint32_t)n);
+    op_put_le64(p, bits);
+    op_put_le32(p + 8, (uint32_t)n);
     memcpy(p + 12, label, n);
     pthread_mutex_lock(&s->lock);
     record(s, 3, p, 12 + n);
@@ -197,7 +185,7 @@ static void on_log(void *user, op_log_level level, const char *message)
     stream *s = user;
     size_t n = strlen(message);
     unsigned char p[4];
-    put_u32(p, (uint32_t)level);
+    op_put_le32(p, (uint32_t)level);
     pthread_mutex_lock(&s->lock);
     record_start(s, 5, 4 + (uint64_t)n);
     put(s, p, 4);
@@ -595,9 +583,9 @@ int main(int argc, char **argv)
         opt.progress = on_progress;
         opt.progress_user = &s;
         unsigned char p[12];
-        put_u32(p, (uint32_t)info.width);
-        put_u32(p + 4, (uint32_t)info.height);
-        put_u32(p + 8, 4);
+        op_put_le32(p, (uint32_t)info.width);
+        op_put_le32(p + 4, (uint32_t)info.height);
+        op_put_le32(p + 8, 4);
         record(&s, 1, p, sizeof p);
     }
     op_renderer *r = op_renderer_new(&opt);
@@ -638,7 +626,7 @@ int main(int argc, char **argv)
         code = op_exit_code(OP_ERR_CANCELLED);
     if (stream_mode) {
         unsigned char p[4];
-        put_u32(p, (uint32_t)code);
+        op_put_le32(p, (uint32_t)code);
         int failed_before = s.error != 0;
         pthread_mutex_lock(&s.lock);
         record(&s, 4, p, sizeof p);

@@ -207,38 +207,16 @@ op_status op_sss_key(const op_scene *s, uint64_t seed, unsigned char key[OP_SSS_
 
 /* ------------------------------------------------------------ the file */
 
-static void put_u32(unsigned char *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-
-static void put_u64(unsigned char *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-
-static uint32_t get_u32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static uint64_t get_u64(const unsigned char *p)
-{
-    return (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
-}
-
 static void put_f32(unsigned char *p, float f)
 {
     uint32_t b;
     memcpy(&b, &f, 4);
-    put_u32(p, b);
+    op_put_le32(p, b);
 }
 
 static float get_f32(const unsigned char *p)
 {
-    uint32_t b = get_u32(p);
+    uint32_t b = op_get_le32(p);
     float f;
     memcpy(&f, &b, 4);
     return f;
@@ -264,7 +242,7 @@ static op_status parse_body(const char *path, const unsigned char *b, uint64_t n
         if (n - at < 12)
             return op_error_set(err, OP_ERR_FORMAT, "%s: corrupt pre-pass cache (shape %d cut "
                                 "short)", path, s);
-        uint32_t np = get_u32(b + at), ne = get_u32(b + at + 4), nm = get_u32(b + at + 8);
+        uint32_t np = op_get_le32(b + at), ne = op_get_le32(b + at + 4), nm = op_get_le32(b + at + 8);
         at += 12;
         if (np > INT32_MAX || ne > np || nm > np || n - at < np + 12 * ((uint64_t)ne + nm))
             return op_error_set(err, OP_ERR_FORMAT, "%s: corrupt pre-pass cache (shape %d: %u "
@@ -347,20 +325,20 @@ op_status op_sss_store_load(const char *path, const unsigned char key[OP_SSS_KEY
         st = not_ours(path, "not an opaline pre-pass cache (no OPLNSSSC header)", err);
     } else if (n < 12) {
         st = not_ours(path, "a truncated pre-pass cache", err);
-    } else if (get_u32(b + 8) != OP_SSS_CACHE_VERSION) {
+    } else if (op_get_le32(b + 8) != OP_SSS_CACHE_VERSION) {
         op_log(OP_LOG_INFO, "pre-pass cache %s: format version %u, this renderer writes %u: "
-               "recomputing", path, get_u32(b + 8), OP_SSS_CACHE_VERSION);
+               "recomputing", path, op_get_le32(b + 8), OP_SSS_CACHE_VERSION);
     } else if (n < HEADER_BYTES) {
         st = not_ours(path, "a truncated pre-pass cache (shorter than its header)", err);
-    } else if (get_u64(b + 48) != XXH3_64bits(b, 48)) {
+    } else if (op_get_le64(b + 48) != XXH3_64bits(b, 48)) {
         st = not_ours(path, "a corrupt pre-pass cache (its header's checksum does not match)",
                       err);
-    } else if (get_u64(b + 32) != n - HEADER_BYTES) {
+    } else if (op_get_le64(b + 32) != n - HEADER_BYTES) {
         st = not_ours(path, "a truncated or extended pre-pass cache (its size does not match its "
                       "header)", err);
-    } else if (get_u64(b + 40) != XXH3_64bits(b + HEADER_BYTES, n - HEADER_BYTES)) {
+    } else if (op_get_le64(b + 40) != XXH3_64bits(b + HEADER_BYTES, n - HEADER_BYTES)) {
         st = not_ours(path, "a corrupt pre-pass cache (its checksum does not match)", err);
-    } else if (memcmp(b + 16, key, OP_SSS_KEY_BYTES) != 0 || get_u32(b + 12) != (uint32_t)nshapes) {
+    } else if (memcmp(b + 16, key, OP_SSS_KEY_BYTES) != 0 || op_get_le32(b + 12) != (uint32_t)nshapes) {
         op_log(OP_LOG_INFO, "pre-pass cache %s: key differs (the scene, its files, the seed or "
                "the limits changed): recomputing", path);
     } else {
@@ -398,9 +376,9 @@ op_status op_sss_store_save(const char *path, const unsigned char key[OP_SSS_KEY
             ne += (sv->has[i] & OP_SSS_HAS_E) != 0;
             nm += (sv->has[i] & OP_SSS_HAS_M) != 0;
         }
-        put_u32(p, (uint32_t)sv->n);
-        put_u32(p + 4, ne);
-        put_u32(p + 8, nm);
+        op_put_le32(p, (uint32_t)sv->n);
+        op_put_le32(p + 4, ne);
+        op_put_le32(p + 8, nm);
         p += 12;
         if (sv->n > 0)
             memcpy(p, sv->has, (size_t)sv->n);
@@ -421,12 +399,12 @@ op_status op_sss_store_save(const char *path, const unsigned char key[OP_SSS_KEY
     }
     memset(buf, 0, HEADER_BYTES);
     memcpy(buf, MAGIC, sizeof MAGIC);
-    put_u32(buf + 8, OP_SSS_CACHE_VERSION);
-    put_u32(buf + 12, (uint32_t)store->nshapes);
+    op_put_le32(buf + 8, OP_SSS_CACHE_VERSION);
+    op_put_le32(buf + 12, (uint32_t)store->nshapes);
     memcpy(buf + 16, key, OP_SSS_KEY_BYTES);
-    put_u64(buf + 32, body);
-    put_u64(buf + 40, XXH3_64bits(buf + HEADER_BYTES, (size_t)body));
-    put_u64(buf + 48, XXH3_64bits(buf, 48));
+    op_put_le64(buf + 32, body);
+    op_put_le64(buf + 40, XXH3_64bits(buf + HEADER_BYTES, (size_t)body));
+    op_put_le64(buf + 48, XXH3_64bits(buf, 48));
     op_output *out;
     op_status st = op_output_open(path, &out, err);
     if (st == OP_OK) {
