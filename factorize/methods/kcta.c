@@ -183,23 +183,38 @@ static void gram_solve(const double *g, int n, const double *b, double *y, doubl
     }
 }
 
-/* ------------------------------------------------------------ the stages */
+/* ------------------------------------------------------------ passes over the rows */
+
+/* Rows per gemm of a clustering pass (their projections onto every cluster at once). */
+#define SUB_ROWS 64
+/* Lanes of the per-row sums (fixed, so that the result does not depend on the machine). */
+#define LANES 16
 
 typedef struct work {
     const float *a;
     int64_t rows;
     int n, C, K, T, CT;
+    int threads;      /* op_parallel_for's count (<= 0: every core) */
     op_kcta_model *md;
     const op_rsvd_options *svd;
-    float *vall;    /* n x CT */
-    double *gram;   /* CT x CT */
-    float *proj;    /* block x CT */
-    double *rowerr; /* rows */
+    float *vall;      /* n x CT: every basis side by side, the operand of the clustering gemm */
+    float *vt;        /* C x T x n: every basis transposed, for the per-row loops */
+    double *gram;     /* CT x CT: V_all^T V_all (only the diagonal blocks when K = 1) */
+    double *rowerr;   /* rows: each row's squared error after the last pass */
     int64_t *mem_row; /* rows * K member lists, grouped by cluster */
     int *mem_slot;
     int64_t *mem_start; /* C + 1 */
-    float *x;           /* a cluster's rows (residuals), x_rows x n, kept across iterations */
-    int64_t x_rows;     /* so that its pages are faulted in once, not at every iteration */
+    float *x;           /* a cluster's rows (residuals), x_rows x n, kept across refits */
+    int64_t x_rows;
+    /* A pass's sums, per stripe of rows (a task), reduced in stripe order: for every cluster
+     * the T x n sum of r y^T over its members (r the row's residual, y the member's
+     * coefficients) and the T x T sum of y y^T. */
+    int nstripes;
+    size_t acc_stride; /* doubles per cluster: T n + T T */
+    double *acc;       /* nstripes x C x acc_stride */
+    double *scratch;   /* per thread: SUB_ROWS x CT floats of projections, then the solver's */
+    size_t scratch_stride;
+    int nthreads;
 } work;
 
 /* w->x with room for m rows of n, or NULL when out of memory. */
@@ -213,98 +228,208 @@ static float *rows_buffer(work *w, int64_t m)
     return w->x;
 }
 
-#define PROJ_BLOCK 4096
+/* sum_j x_j y_j in float over LANES fixed lanes (vectorizes without reassociation). */
+static float dot_lanes(const float *x, const float *y, int n)
+{
+    float s[LANES] = {0};
+    int j = 0;
+    for (; j + LANES <= n; j += LANES)
+        for (int l = 0; l < LANES; l++)
+            s[l] += x[j + l] * y[j + l];
+    for (int l = 0; j < n; j++, l++)
+        s[l] += x[j] * y[j];
+    for (int h = LANES / 2; h > 0; h /= 2)
+        for (int l = 0; l < h; l++)
+            s[l] += s[l + h];
+    return s[0];
+}
 
-/* The clustering stage: greedy search with optimal projection for every row. Fills idx, coef
- * and rowerr (the squared error of every row, computed in the reduced space). */
-static void clustering_stage(work *w)
+/* sum_j x_j^2 in double over LANES fixed lanes. */
+static double sq_lanes(const float *x, int n)
+{
+    double s[LANES] = {0};
+    int j = 0;
+    for (; j + LANES <= n; j += LANES)
+        for (int l = 0; l < LANES; l++)
+            s[l] += (double)x[j + l] * x[j + l];
+    for (int l = 0; j < n; j++, l++)
+        s[l] += (double)x[j] * x[j];
+    for (int h = LANES / 2; h > 0; h /= 2)
+        for (int l = 0; l < h; l++)
+            s[l] += s[l + h];
+    return s[0];
+}
+
+/* Refreshes vall, vt and gram from md->basis (after the bases changed). */
+static void bases_changed(work *w)
+{
+    const int n = w->n, C = w->C, T = w->T, CT = w->CT;
+    const float *b = w->md->basis;
+    for (int c = 0; c < C; c++)
+        for (int j = 0; j < n; j++)
+            for (int t = 0; t < T; t++) {
+                float v = b[((size_t)c * n + j) * T + t];
+                w->vall[(size_t)j * CT + c * T + t] = v;
+                w->vt[((size_t)c * T + t) * n + j] = v;
+            }
+    /* The Gram matrix of the bases, in double: the cross terms of Theorem 3. With K = 1 only
+     * a cluster's own block is ever used. */
+    for (int p = 0; p < CT; p++)
+        for (int q = w->K == 1 ? p - p % T : 0; q < (w->K == 1 ? p - p % T + T : CT); q++) {
+            double s = 0;
+            const float *vp = w->vt + (size_t)p * n, *vq = w->vt + (size_t)q * n;
+            for (int j = 0; j < n; j++)
+                s += (double)vp[j] * vq[j];
+            w->gram[(size_t)p * CT + q] = s;
+        }
+}
+
+typedef struct pass_job {
+    work *w;
+    int assign; /* pick every row's clusters (the clustering stage), else keep them */
+} pass_job;
+
+/* One row of a pass: its clusters (the greedy search of section 4.2 when assigning), their
+ * optimal coefficients (Theorem 4), its residual r, its squared error, and the sums for the
+ * bases' update. p holds the row's projections onto every cluster (assigning) or room for
+ * them (CT values). */
+static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, double *acc)
 {
     const int n = w->n, C = w->C, K = w->K, T = w->T, CT = w->CT;
     op_kcta_model *md = w->md;
-    for (int c = 0; c < C; c++)
-        for (int j = 0; j < n; j++)
-            for (int t = 0; t < T; t++)
-                w->vall[(size_t)j * CT + c * T + t] = md->basis[((size_t)c * n + j) * T + t];
-    /* The Gram matrix of all cluster bases, in double: the cross terms of Theorem 3. */
-    for (int p = 0; p < CT; p++)
-        for (int q = p; q < CT; q++) {
-            double s = 0;
-            for (int j = 0; j < n; j++)
-                s += (double)w->vall[(size_t)j * CT + p] * w->vall[(size_t)j * CT + q];
-            w->gram[(size_t)p * CT + q] = w->gram[(size_t)q * CT + p] = s;
-        }
-    int KT = K * T;
-    double y[4096], b[4096], gs[4096], scratch[2 * 4096 + 2 * 64 + 64];
+    const float *ai = w->a + i * n;
+    double *y = sc, *b = y + 64, *gs = b + 64, *solve = gs + 4096;
+    float *r = (float *)(solve + 2 * 4096 + 2 * 64);
+    float yf[64];
     int sel[64];
-    for (int64_t i0 = 0; i0 < w->rows; i0 += PROJ_BLOCK) {
-        int64_t nb = w->rows - i0 < PROJ_BLOCK ? w->rows - i0 : PROJ_BLOCK;
-        /* Projections of the rows onto every cluster: the first term of (13). */
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)nb, CT, n, 1.0f,
-                    w->a + i0 * n, n, w->vall, CT, 0.0f, w->proj, CT);
-        for (int64_t ii = 0; ii < nb; ii++) {
-            int64_t i = i0 + ii;
-            const float *p = w->proj + ii * CT;
-            for (int k = 0; k < K; k++) {
-                int best = -1;
-                double bestscore = -1;
-                for (int c = 0; c < C; c++) {
-                    int taken = 0;
-                    for (int s = 0; s < k; s++)
-                        taken |= sel[s] == c;
-                    if (taken)
-                        continue;
-                    double score = 0;
-                    for (int t = 0; t < T; t++) {
-                        const double *g = w->gram + (size_t)(c * T + t) * CT;
-                        double r = p[c * T + t];
-                        for (int s = 0; s < k; s++)
-                            for (int u = 0; u < T; u++)
-                                r -= g[sel[s] * T + u] * y[s * T + u];
-                        score += r * r;
-                    }
-                    if (score > bestscore) {
-                        bestscore = score;
-                        best = c;
-                    }
-                }
-                for (int c = 0; best < 0 && c < C; c++) { /* only if every score was NaN */
-                    int taken = 0;
-                    for (int s = 0; s < k; s++)
-                        taken |= sel[s] == c;
-                    best = taken ? -1 : c;
-                }
-                sel[k] = best;
-                /* Theorem 4: the optimal projection onto all k + 1 selected clusters. */
-                int m = (k + 1) * T;
-                for (int s = 0; s <= k; s++)
-                    for (int t = 0; t < T; t++) {
-                        b[s * T + t] = p[sel[s] * T + t];
-                        for (int s2 = 0; s2 <= k; s2++)
-                            for (int u = 0; u < T; u++)
-                                gs[(s * T + t) * m + s2 * T + u] =
-                                    w->gram[(size_t)(sel[s] * T + t) * CT + sel[s2] * T + u];
-                    }
-                gram_solve(gs, m, b, y, scratch);
-            }
-            const float *ai = w->a + i * n;
-            double e = 0, yb = 0, ygy = 0;
-            for (int j = 0; j < n; j++)
-                e += (double)ai[j] * ai[j];
-            for (int q = 0; q < KT; q++) {
-                yb += y[q] * b[q];
-                double s = 0;
-                for (int q2 = 0; q2 < KT; q2++)
-                    s += gs[q * KT + q2] * y[q2];
-                ygy += y[q] * s;
-            }
-            w->rowerr[i] = fmax(0.0, e - 2 * yb + ygy);
-            for (int s = 0; s < K; s++) {
-                md->idx[i * K + s] = (uint32_t)sel[s];
-                for (int t = 0; t < T; t++)
-                    md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
-            }
+    if (!assign) {
+        for (int s = 0; s < K; s++) {
+            sel[s] = (int)md->idx[i * K + s];
+            for (int t = 0; t < T; t++)
+                p[sel[s] * T + t] = dot_lanes(ai, w->vt + ((size_t)sel[s] * T + t) * n, n);
         }
     }
+    for (int k = 0; k < K; k++) {
+        if (assign) {
+            int best = -1;
+            double bestscore = -1;
+            for (int c = 0; c < C; c++) {
+                int taken = 0;
+                for (int s = 0; s < k; s++)
+                    taken |= sel[s] == c;
+                if (taken)
+                    continue;
+                double score = 0;
+                for (int t = 0; t < T; t++) {
+                    const double *g = w->gram + (size_t)(c * T + t) * CT;
+                    double rr = p[c * T + t];
+                    for (int s = 0; s < k; s++)
+                        for (int u = 0; u < T; u++)
+                            rr -= g[sel[s] * T + u] * y[s * T + u];
+                    score += rr * rr;
+                }
+                if (score > bestscore) {
+                    bestscore = score;
+                    best = c;
+                }
+            }
+            for (int c = 0; best < 0 && c < C; c++) { /* only if every score was NaN */
+                int taken = 0;
+                for (int s = 0; s < k; s++)
+                    taken |= sel[s] == c;
+                best = taken ? -1 : c;
+            }
+            sel[k] = best;
+        } else if (k < K - 1) {
+            continue; /* the clusters are known: one solve for all of them */
+        }
+        /* Theorem 4: the optimal projection onto all k + 1 selected clusters. */
+        int m = (k + 1) * T;
+        for (int s = 0; s <= k; s++)
+            for (int t = 0; t < T; t++) {
+                b[s * T + t] = p[sel[s] * T + t];
+                for (int s2 = 0; s2 <= k; s2++)
+                    for (int u = 0; u < T; u++)
+                        gs[(s * T + t) * m + s2 * T + u] =
+                            w->gram[(size_t)(sel[s] * T + t) * CT + sel[s2] * T + u];
+            }
+        gram_solve(gs, m, b, y, solve);
+    }
+    /* The stored (float) coefficients, the residual they leave, and its norm. */
+    memcpy(r, ai, (size_t)n * sizeof *r);
+    for (int s = 0; s < K; s++) {
+        md->idx[i * K + s] = (uint32_t)sel[s];
+        for (int t = 0; t < T; t++) {
+            float v = (float)y[s * T + t];
+            yf[s * T + t] = v;
+            md->coef[((size_t)i * K + s) * T + t] = v;
+            const float *vc = w->vt + ((size_t)sel[s] * T + t) * n;
+            for (int j = 0; j < n; j++)
+                r[j] -= v * vc[j];
+        }
+    }
+    w->rowerr[i] = sq_lanes(r, n);
+    /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
+     * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
+     * sums of r y^T and y y^T. */
+    for (int s = 0; s < K; s++) {
+        double *rc = acc + (size_t)sel[s] * w->acc_stride, *gc = rc + (size_t)T * n;
+        for (int t = 0; t < T; t++) {
+            double v = yf[s * T + t];
+            for (int j = 0; j < n; j++)
+                rc[(size_t)t * n + j] += v * r[j];
+            for (int u = 0; u < T; u++)
+                gc[t * T + u] += v * yf[s * T + u];
+        }
+    }
+}
+
+/* One stripe of rows (a task): blocks of SUB_ROWS rows, each projected onto every cluster by
+ * one gemm when assigning. */
+static void pass_task(void *user, int task, int thread)
+{
+    pass_job *j = user;
+    work *w = j->w;
+    const int n = w->n, CT = w->CT;
+    int64_t r0 = w->rows * task / w->nstripes, r1 = w->rows * (task + 1) / w->nstripes;
+    double *acc = w->acc + (size_t)task * w->C * w->acc_stride;
+    double *sc = w->scratch + (size_t)thread * w->scratch_stride;
+    float *proj = (float *)(sc + 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + (n + 1) / 2);
+    memset(acc, 0, (size_t)w->C * w->acc_stride * sizeof *acc);
+    for (int64_t i0 = r0; i0 < r1; i0 += SUB_ROWS) {
+        int64_t nb = r1 - i0 < SUB_ROWS ? r1 - i0 : SUB_ROWS;
+        if (j->assign) /* projections onto every cluster: the first term of (13) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)nb, CT, n, 1.0f,
+                        w->a + i0 * n, n, w->vall, CT, 0.0f, proj, CT);
+        for (int64_t q = 0; q < nb; q++)
+            pass_row(w, j->assign, i0 + q, j->assign ? proj + q * CT : proj, sc, acc);
+    }
+}
+
+/* A pass over every row: assigning (the clustering stage) or with the clusters kept. Sets
+ * idx, coef, rowerr, *total (the model's squared error, summed in row order) and the update
+ * sums (reduced into stripe 0's). The result is the same for any thread count. */
+static op_status pass(work *w, int assign, double *total, op_error *err)
+{
+    pass_job j = {w, assign};
+    /* Tasks call gemm themselves: OpenBLAS's own threads would only compete with them. */
+    int blas = openblas_get_num_threads();
+    openblas_set_num_threads(1);
+    op_status st = op_parallel_for(w->threads, w->nstripes, pass_task, &j, NULL, err);
+    openblas_set_num_threads(blas);
+    if (st != OP_OK)
+        return st;
+    size_t len = (size_t)w->C * w->acc_stride;
+    for (int s = 1; s < w->nstripes; s++) {
+        const double *src = w->acc + s * len;
+        for (size_t q = 0; q < len; q++)
+            w->acc[q] += src[q];
+    }
+    double e = 0;
+    for (int64_t i = 0; i < w->rows; i++)
+        e += w->rowerr[i];
+    *total = e;
+    return OP_OK;
 }
 
 /* Groups the (row, slot) pairs by cluster into the member lists. */
@@ -329,6 +454,96 @@ static void build_members(work *w)
     free(fill);
 }
 
+/* Section 4.3 as one step of subspace iteration per cluster, warm-started from its basis:
+ * V_c <- orth(M_c V_c), M_c = X_c^T X_c the Gram matrix of the members' residuals with the
+ * other clusters fixed, from the last pass's sums (M_c V_c = R_c^T + V_c G_c). For a PSD M
+ * the step never lowers tr(V^T M V), the energy the basis captures, and repeated steps
+ * converge to M_c's leading T-dimensional subspace, the rank-T truncated SVD of the paper.
+ * Clusters flagged in skip (refitted from scratch) and empty ones keep their basis. */
+static void update_bases(work *w, const unsigned char *skip)
+{
+    const int n = w->n, T = w->T;
+    double *z = malloc((size_t)n * T * sizeof *z);
+    if (!z)
+        return; /* the bases stay: a valid (if unimproved) model */
+    for (int c = 0; c < w->C; c++) {
+        if (w->mem_start[c + 1] == w->mem_start[c] || (skip && skip[c]))
+            continue;
+        const double *rc = w->acc + (size_t)c * w->acc_stride, *gc = rc + (size_t)T * n;
+        float *v = w->md->basis + (size_t)c * n * T;
+        for (int j = 0; j < n; j++)
+            for (int t = 0; t < T; t++) {
+                double s = rc[(size_t)t * n + j];
+                for (int u = 0; u < T; u++)
+                    s += (double)v[(size_t)j * T + u] * gc[u * T + t];
+                z[(size_t)j * T + t] = s;
+            }
+        /* Gram-Schmidt, twice; a column that vanishes keeps the old direction instead. */
+        int ok = 1;
+        for (int t = 0; t < T && ok; t++) {
+            for (int attempt = 0; attempt < 2; attempt++) {
+                double before = 0;
+                for (int j = 0; j < n; j++)
+                    before += z[(size_t)j * T + t] * z[(size_t)j * T + t];
+                for (int pass2 = 0; pass2 < 2; pass2++)
+                    for (int u = 0; u < t; u++) {
+                        double d = 0;
+                        for (int j = 0; j < n; j++)
+                            d += z[(size_t)j * T + u] * z[(size_t)j * T + t];
+                        for (int j = 0; j < n; j++)
+                            z[(size_t)j * T + t] -= d * z[(size_t)j * T + u];
+                    }
+                double nn = 0;
+                for (int j = 0; j < n; j++)
+                    nn += z[(size_t)j * T + t] * z[(size_t)j * T + t];
+                if (before > 0 && nn > 1e-12 * before && nn > 0) {
+                    nn = 1 / sqrt(nn);
+                    for (int j = 0; j < n; j++)
+                        z[(size_t)j * T + t] *= nn;
+                    break;
+                }
+                if (attempt == 1) {
+                    ok = 0;
+                    break;
+                }
+                for (int j = 0; j < n; j++)
+                    z[(size_t)j * T + t] = v[(size_t)j * T + t];
+            }
+        }
+        if (!ok)
+            continue; /* degenerate: the basis stays */
+        for (size_t q = 0; q < (size_t)n * T; q++)
+            v[q] = (float)z[q];
+    }
+    free(z);
+}
+
+/* Section 4.3 done in full for one cluster: the rank-T truncated SVD of its members'
+ * residuals (the other clusters fixed). For clusters whose membership a split changed. */
+static op_status refit_cluster(work *w, int c, op_error *err)
+{
+    const int n = w->n, T = w->T, K = w->K;
+    op_kcta_model *md = w->md;
+    int64_t m0 = w->mem_start[c], m = w->mem_start[c + 1] - m0;
+    if (m == 0)
+        return OP_OK;
+    float *x = rows_buffer(w, m);
+    if (!x)
+        return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
+    for (int64_t q = 0; q < m; q++) {
+        int64_t i = w->mem_row[m0 + q];
+        float *xr = x + q * n;
+        memcpy(xr, w->a + i * n, (size_t)n * sizeof *xr);
+        for (int k = 0; k < K; k++) {
+            if (k == w->mem_slot[m0 + q])
+                continue;
+            const float *v = md->basis + (size_t)md->idx[i * K + k] * n * T;
+            cblas_sgemv(CblasRowMajor, CblasNoTrans, n, T, -1.0f, v, T,
+                        md->coef + ((size_t)i * K + k) * T, 1, 1.0f, xr, 1);
+        }
+    }
+    return subspace_of(x, m, n, T, w->svd, md->basis + (size_t)c * n * T, err);
+}
 /* Section 4.2.3: the SVD of each cluster's coefficient block Y_c = U' S W^T (through the
  * eigen-decomposition of Y_c^T Y_c, T x T); V_c <- V_c W, Y_c <- Y_c W, which leaves every
  * reconstruction unchanged and orders each cluster's basis by energy. Returns the sum of the
@@ -412,8 +627,9 @@ static int by_error_desc(const void *pa, const void *pb)
 
 /* Section 5.3: every empty cluster takes the worse half (by row error) of the members of the
  * cluster with the largest total error. The moved slots' coefficients become 0; the update
- * stage fits them. Returns the number of clusters refilled. */
-static int split_empty(work *w)
+ * stage fits them; both clusters are flagged in touched. Returns the number of clusters
+ * refilled. */
+static int split_empty(work *w, unsigned char *touched)
 {
     const int C = w->C, K = w->K, T = w->T;
     op_kcta_model *md = w->md;
@@ -455,76 +671,11 @@ static int split_empty(work *w)
                            (size_t)T * sizeof(float));
                 }
         free(rows);
+        touched[s] = touched[e] = 1;
         splits++;
         build_members(w);
     }
     return splits;
-}
-
-/* Section 4.3: each cluster in turn, on its members only, gets the rank-T truncated SVD of
- * their residuals with the other clusters fixed; the new basis replaces the old one only when
- * it captures at least as much of the residuals. Members' coefficients become the projection
- * of their residuals. The total error never increases. */
-static op_status update_stage(work *w, op_error *err)
-{
-    const int n = w->n, T = w->T, K = w->K;
-    op_kcta_model *md = w->md;
-    op_status st = OP_OK;
-    int64_t maxm = 0;
-    for (int c = 0; c < w->C; c++)
-        if (w->mem_start[c + 1] - w->mem_start[c] > maxm)
-            maxm = w->mem_start[c + 1] - w->mem_start[c];
-    float *x = rows_buffer(w, maxm ? maxm : 1);
-    float *ynew = malloc((size_t)(maxm ? maxm : 1) * T * sizeof *ynew);
-    float *yold = malloc((size_t)(maxm ? maxm : 1) * T * sizeof *yold);
-    float *vnew = malloc((size_t)n * T * sizeof *vnew);
-    if (!x || !ynew || !yold || !vnew) {
-        st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
-        goto done;
-    }
-    for (int c = 0; c < w->C && st == OP_OK; c++) {
-        int64_t m0 = w->mem_start[c], m = w->mem_start[c + 1] - m0;
-        if (m == 0)
-            continue;
-        for (int64_t q = 0; q < m; q++) {
-            int64_t i = w->mem_row[m0 + q];
-            float *xr = x + q * n;
-            memcpy(xr, w->a + i * n, (size_t)n * sizeof *xr);
-            for (int k = 0; k < K; k++) {
-                if (k == w->mem_slot[m0 + q])
-                    continue;
-                const float *v = md->basis + (size_t)md->idx[i * K + k] * n * T;
-                cblas_sgemv(CblasRowMajor, CblasNoTrans, n, T, -1.0f, v, T,
-                            md->coef + ((size_t)i * K + k) * T, 1, 1.0f, xr, 1);
-            }
-        }
-        float *vold = md->basis + (size_t)c * n * T;
-        st = subspace_of(x, m, n, T, w->svd, vnew, err);
-        if (st != OP_OK)
-            break;
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, T, n, 1.0f, x, n, vnew, T,
-                    0.0f, ynew, T);
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, T, n, 1.0f, x, n, vold, T,
-                    0.0f, yold, T);
-        double enew = 0, eold = 0;
-        for (int64_t q = 0; q < m * T; q++) {
-            enew += (double)ynew[q] * ynew[q];
-            eold += (double)yold[q] * yold[q];
-        }
-        const float *ych = yold;
-        if (enew >= eold) {
-            memcpy(vold, vnew, (size_t)n * T * sizeof *vold);
-            ych = ynew;
-        }
-        for (int64_t q = 0; q < m; q++)
-            memcpy(md->coef + ((size_t)w->mem_row[m0 + q] * K + w->mem_slot[m0 + q]) * T,
-                   ych + q * T, (size_t)T * sizeof(float));
-    }
-done:
-    free(ynew);
-    free(yold);
-    free(vnew);
-    return st;
 }
 
 /* Section 5.1: k-means (k-means++ seeding from a fixed seed, Lloyd iterations) of the rows in
@@ -676,53 +827,91 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     md->idx = malloc(ni * sizeof *md->idx);
     float *sb = malloc(nb * sizeof *sb), *sc = malloc(nc * sizeof *sc);
     uint32_t *si = malloc(ni * sizeof *si);
-    work w = {a, rows, cols, C, K, T, C * T, md, &opt->svd, NULL, NULL, NULL, NULL, NULL, NULL,
-              NULL, NULL, 0};
-    int64_t pb = rows < PROJ_BLOCK ? rows : PROJ_BLOCK;
+    unsigned char *touched = malloc((size_t)C);
+    work w = {.a = a, .rows = rows, .n = cols, .C = C, .K = K, .T = T, .CT = C * T,
+              .threads = opt->threads, .md = md, .svd = &opt->svd};
+    /* Stripes: enough for the threads to share the rows, few enough that their sums stay
+     * small; a function of the sizes only, so that the result is the same for any thread
+     * count. */
+    w.acc_stride = (size_t)T * cols + (size_t)T * T;
+    int64_t stripes = ((int64_t)1 << 24) / ((int64_t)C * (int64_t)w.acc_stride);
+    stripes = stripes < 1 ? 1 : stripes > 16 ? 16 : stripes;
+    if (stripes > (rows + SUB_ROWS - 1) / SUB_ROWS)
+        stripes = (rows + SUB_ROWS - 1) / SUB_ROWS;
+    w.nstripes = (int)stripes;
+    w.nthreads = op_parallel_threads(opt->threads);
+    if (w.nthreads > w.nstripes)
+        w.nthreads = w.nstripes;
+    w.scratch_stride = 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + ((size_t)cols + 1) / 2 +
+                       ((size_t)SUB_ROWS * C * T + 1) / 2 + 8;
     w.vall = malloc((size_t)cols * C * T * sizeof *w.vall);
+    w.vt = malloc((size_t)cols * C * T * sizeof *w.vt);
     w.gram = malloc((size_t)C * T * C * T * sizeof *w.gram);
-    w.proj = malloc((size_t)pb * C * T * sizeof *w.proj);
     w.rowerr = malloc((size_t)rows * sizeof *w.rowerr);
     w.mem_row = malloc(ni * sizeof *w.mem_row);
     w.mem_slot = malloc(ni * sizeof *w.mem_slot);
     w.mem_start = malloc((size_t)(C + 1) * sizeof *w.mem_start);
+    w.acc = malloc((size_t)w.nstripes * C * w.acc_stride * sizeof *w.acc);
+    w.scratch = malloc((size_t)w.nthreads * w.scratch_stride * sizeof *w.scratch);
     op_status st = OP_OK;
-    if (!md->basis || !md->coef || !md->idx || !sb || !sc || !si || !w.vall || !w.gram ||
-        !w.proj || !w.rowerr || !w.mem_row || !w.mem_slot || !w.mem_start) {
+    if (!md->basis || !md->coef || !md->idx || !sb || !sc || !si || !touched || !w.vall ||
+        !w.vt || !w.gram || !w.rowerr || !w.mem_row || !w.mem_slot || !w.mem_start || !w.acc ||
+        !w.scratch) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows", (long long)rows);
         goto done;
     }
+    double t0 = op_monotonic_seconds();
     if ((st = initialize(&w, err)) != OP_OK)
         goto done;
     op_progress_advance(progress, 1);
-    double prev = INFINITY;
+    bases_changed(&w);
+    double prev;
+    if ((st = pass(&w, 1, &prev, err)) != OP_OK)
+        goto done;
+    build_members(&w);
+    op_log(OP_LOG_DEBUG, "kcta initialization: squared error %.9g (%.3f s)", prev,
+           op_monotonic_seconds() - t0);
     int reported = 0; /* iterations whose progress unit was advanced */
+    const char *lenv = getenv("KCTA_LIGHT");
+    int light = lenv ? atoi(lenv) : 0;
     for (int it = 0; it < opt->max_iters; it++) {
-        if (it > 0) {
-            memcpy(sb, md->basis, nb * sizeof *sb);
-            memcpy(sc, md->coef, nc * sizeof *sc);
-            memcpy(si, md->idx, ni * sizeof *si);
-        }
-        clustering_stage(&w);
-        build_members(&w);
-        double core = postprocess(&w);
-        int splits = split_empty(&w);
-        if ((st = update_stage(&w, err)) != OP_OK)
+        double t1 = op_monotonic_seconds();
+        memcpy(sb, md->basis, nb * sizeof *sb);
+        memcpy(sc, md->coef, nc * sizeof *sc);
+        memcpy(si, md->idx, ni * sizeof *si);
+        memset(touched, 0, (size_t)C);
+        int splits = split_empty(&w, touched);
+        update_bases(&w, touched);
+        for (int c = 0; c < C && st == OP_OK; c++)
+            if (touched[c])
+                st = refit_cluster(&w, c, err);
+        if (st != OP_OK)
             goto done;
-        double e = op_kcta_error(a, md);
+        bases_changed(&w);
+        double e;
+        for (int l = 0; l < light; l++) {
+            if ((st = pass(&w, 0, &e, err)) != OP_OK)
+                goto done;
+            update_bases(&w, NULL);
+            bases_changed(&w);
+        }
+        if ((st = pass(&w, 1, &e, err)) != OP_OK)
+            goto done;
+        build_members(&w);
         if (!isfinite(e)) {
             st = op_error_set(err, OP_ERR_NUMERIC, "kcta: iteration %d: error is not finite",
                               it + 1);
             goto done;
         }
-        op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, core norm %.6g, %d empty "
-               "cluster(s) split", it + 1, e, core, splits);
+        op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, %d empty cluster(s) split "
+               "(%.3f s)", it + 1, e, splits, op_monotonic_seconds() - t1);
         op_progress_advance(progress, 1);
         reported++;
         if (e > prev) {
             memcpy(md->basis, sb, nb * sizeof *sb);
             memcpy(md->coef, sc, nc * sizeof *sc);
             memcpy(md->idx, si, ni * sizeof *si);
+            build_members(&w);
             md->restored = 1;
             op_log(OP_LOG_DEBUG, "kcta: the error rose; restored iteration %d", it);
             break;
@@ -730,12 +919,14 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         md->splits += splits;
         md->iterations = it + 1;
         md->history[md->nhistory++] = e;
-        if (isfinite(prev) && prev - e <= opt->tol * prev)
+        if (prev - e <= opt->tol * prev)
             break;
         prev = e;
     }
     /* the iterations that convergence made unnecessary are done too */
     op_progress_advance(progress, (uint64_t)(opt->max_iters - reported));
+    double core = postprocess(&w);
+    op_log(OP_LOG_DEBUG, "kcta: core norm %.6g", core);
     /* Coefficients must be finite for the file; a basis is orthonormal by construction. */
     for (size_t q = 0; q < nc; q++)
         if (!isfinite(md->coef[q])) {
@@ -746,13 +937,16 @@ done:
     free(sb);
     free(sc);
     free(si);
+    free(touched);
     free(w.vall);
+    free(w.vt);
     free(w.gram);
-    free(w.proj);
     free(w.rowerr);
     free(w.mem_row);
     free(w.mem_slot);
     free(w.mem_start);
+    free(w.acc);
+    free(w.scratch);
     free(w.x);
     if (st != OP_OK)
         op_kcta_free(md);

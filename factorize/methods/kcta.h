@@ -34,6 +34,8 @@ typedef struct op_kcta_options {
     int max_iters;  /* iterations of the two stages (>= 0; 0 keeps the initialization's
                        clustering stage only) */
     double tol;     /* stop when the relative decrease of the error is below this */
+    int threads;    /* threads of the passes over the rows (<= 0: every core); the result
+                       is the same for any count */
     op_rsvd_options svd; /* for the truncated SVDs */
 } op_kcta_options;
 
