@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define KMEANS_ITERS 25
 
@@ -187,8 +188,6 @@ static void gram_solve(const double *g, int n, const double *b, double *y, doubl
 
 /* Rows per gemm of a clustering pass (their projections onto every cluster at once). */
 #define SUB_ROWS 64
-/* Lanes of the per-row sums (fixed, so that the result does not depend on the machine). */
-#define LANES 16
 
 typedef struct work {
     const float *a;
@@ -211,7 +210,8 @@ typedef struct work {
      * coefficients) and the T x T sum of y y^T. */
     int nstripes;
     size_t acc_stride; /* doubles per cluster: T n + T T */
-    double *acc;       /* nstripes x C x acc_stride */
+    float *acc;        /* nstripes x C x acc_stride */
+    double *sum;       /* C x acc_stride: their total */
     double *scratch;   /* per thread: SUB_ROWS x CT floats of projections, then the solver's */
     size_t scratch_stride;
     int nthreads;
@@ -226,38 +226,6 @@ static float *rows_buffer(work *w, int64_t m)
         w->x_rows = w->x ? m : 0;
     }
     return w->x;
-}
-
-/* sum_j x_j y_j in float over LANES fixed lanes (vectorizes without reassociation). */
-static float dot_lanes(const float *x, const float *y, int n)
-{
-    float s[LANES] = {0};
-    int j = 0;
-    for (; j + LANES <= n; j += LANES)
-        for (int l = 0; l < LANES; l++)
-            s[l] += x[j + l] * y[j + l];
-    for (int l = 0; j < n; j++, l++)
-        s[l] += x[j] * y[j];
-    for (int h = LANES / 2; h > 0; h /= 2)
-        for (int l = 0; l < h; l++)
-            s[l] += s[l + h];
-    return s[0];
-}
-
-/* sum_j x_j^2 in double over LANES fixed lanes. */
-static double sq_lanes(const float *x, int n)
-{
-    double s[LANES] = {0};
-    int j = 0;
-    for (; j + LANES <= n; j += LANES)
-        for (int l = 0; l < LANES; l++)
-            s[l] += (double)x[j + l] * x[j + l];
-    for (int l = 0; j < n; j++, l++)
-        s[l] += (double)x[j] * x[j];
-    for (int h = LANES / 2; h > 0; h /= 2)
-        for (int l = 0; l < h; l++)
-            s[l] += s[l + h];
-    return s[0];
 }
 
 /* Refreshes vall, vt and gram from md->basis (after the bases changed). */
@@ -293,7 +261,7 @@ typedef struct pass_job {
  * optimal coefficients (Theorem 4), its residual r, its squared error, and the sums for the
  * bases' update. p holds the row's projections onto every cluster (assigning) or room for
  * them (CT values). */
-static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, double *acc)
+static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float *acc)
 {
     const int n = w->n, C = w->C, K = w->K, T = w->T, CT = w->CT;
     op_kcta_model *md = w->md;
@@ -305,8 +273,8 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, doubl
     if (!assign) {
         for (int s = 0; s < K; s++) {
             sel[s] = (int)md->idx[i * K + s];
-            for (int t = 0; t < T; t++)
-                p[sel[s] * T + t] = dot_lanes(ai, w->vt + ((size_t)sel[s] * T + t) * n, n);
+            cblas_sgemv(CblasRowMajor, CblasNoTrans, T, n, 1.0f, w->vt + (size_t)sel[s] * T * n,
+                        n, ai, 1, 0.0f, p + sel[s] * T, 1);
         }
     }
     for (int k = 0; k < K; k++) {
@@ -359,28 +327,21 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, doubl
     memcpy(r, ai, (size_t)n * sizeof *r);
     for (int s = 0; s < K; s++) {
         md->idx[i * K + s] = (uint32_t)sel[s];
-        for (int t = 0; t < T; t++) {
-            float v = (float)y[s * T + t];
-            yf[s * T + t] = v;
-            md->coef[((size_t)i * K + s) * T + t] = v;
-            const float *vc = w->vt + ((size_t)sel[s] * T + t) * n;
-            for (int j = 0; j < n; j++)
-                r[j] -= v * vc[j];
-        }
+        for (int t = 0; t < T; t++)
+            yf[s * T + t] = md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
+        cblas_sgemv(CblasRowMajor, CblasTrans, T, n, -1.0f, w->vt + (size_t)sel[s] * T * n, n,
+                    yf + s * T, 1, 1.0f, r, 1);
     }
-    w->rowerr[i] = sq_lanes(r, n);
+    w->rowerr[i] = cblas_dsdot(n, r, 1, r, 1);
     /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
      * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
      * sums of r y^T and y y^T. */
     for (int s = 0; s < K; s++) {
-        double *rc = acc + (size_t)sel[s] * w->acc_stride, *gc = rc + (size_t)T * n;
-        for (int t = 0; t < T; t++) {
-            double v = yf[s * T + t];
-            for (int j = 0; j < n; j++)
-                rc[(size_t)t * n + j] += v * r[j];
+        float *rc = acc + (size_t)sel[s] * w->acc_stride, *gc = rc + (size_t)T * n;
+        cblas_sger(CblasRowMajor, T, n, 1.0f, yf + s * T, 1, r, 1, rc, n);
+        for (int t = 0; t < T; t++)
             for (int u = 0; u < T; u++)
-                gc[t * T + u] += v * yf[s * T + u];
-        }
+                gc[t * T + u] += yf[s * T + t] * yf[s * T + u];
     }
 }
 
@@ -392,7 +353,7 @@ static void pass_task(void *user, int task, int thread)
     work *w = j->w;
     const int n = w->n, CT = w->CT;
     int64_t r0 = w->rows * task / w->nstripes, r1 = w->rows * (task + 1) / w->nstripes;
-    double *acc = w->acc + (size_t)task * w->C * w->acc_stride;
+    float *acc = w->acc + (size_t)task * w->C * w->acc_stride;
     double *sc = w->scratch + (size_t)thread * w->scratch_stride;
     float *proj = (float *)(sc + 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + (n + 1) / 2);
     memset(acc, 0, (size_t)w->C * w->acc_stride * sizeof *acc);
@@ -420,10 +381,11 @@ static op_status pass(work *w, int assign, double *total, op_error *err)
     if (st != OP_OK)
         return st;
     size_t len = (size_t)w->C * w->acc_stride;
-    for (int s = 1; s < w->nstripes; s++) {
-        const double *src = w->acc + s * len;
-        for (size_t q = 0; q < len; q++)
-            w->acc[q] += src[q];
+    for (size_t q = 0; q < len; q++) {
+        double v = 0;
+        for (int s = 0; s < w->nstripes; s++)
+            v += w->acc[s * len + q];
+        w->sum[q] = v;
     }
     double e = 0;
     for (int64_t i = 0; i < w->rows; i++)
@@ -469,7 +431,7 @@ static void update_bases(work *w, const unsigned char *skip)
     for (int c = 0; c < w->C; c++) {
         if (w->mem_start[c + 1] == w->mem_start[c] || (skip && skip[c]))
             continue;
-        const double *rc = w->acc + (size_t)c * w->acc_stride, *gc = rc + (size_t)T * n;
+        const double *rc = w->sum + (size_t)c * w->acc_stride, *gc = rc + (size_t)T * n;
         float *v = w->md->basis + (size_t)c * n * T;
         for (int j = 0; j < n; j++)
             for (int t = 0; t < T; t++) {
@@ -852,25 +814,29 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     w.mem_slot = malloc(ni * sizeof *w.mem_slot);
     w.mem_start = malloc((size_t)(C + 1) * sizeof *w.mem_start);
     w.acc = malloc((size_t)w.nstripes * C * w.acc_stride * sizeof *w.acc);
+    w.sum = malloc((size_t)C * w.acc_stride * sizeof *w.sum);
     w.scratch = malloc((size_t)w.nthreads * w.scratch_stride * sizeof *w.scratch);
     op_status st = OP_OK;
     if (!md->basis || !md->coef || !md->idx || !sb || !sc || !si || !touched || !w.vall ||
         !w.vt || !w.gram || !w.rowerr || !w.mem_row || !w.mem_slot || !w.mem_start || !w.acc ||
+        !w.sum ||
         !w.scratch) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows", (long long)rows);
         goto done;
     }
     double t0 = op_monotonic_seconds();
+    op_log(OP_LOG_DEBUG, "kcta start cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
     if ((st = initialize(&w, err)) != OP_OK)
         goto done;
     op_progress_advance(progress, 1);
+    op_log(OP_LOG_DEBUG, "kcta init cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
     bases_changed(&w);
     double prev;
     if ((st = pass(&w, 1, &prev, err)) != OP_OK)
         goto done;
     build_members(&w);
-    op_log(OP_LOG_DEBUG, "kcta initialization: squared error %.9g (%.3f s)", prev,
-           op_monotonic_seconds() - t0);
+    op_log(OP_LOG_DEBUG, "kcta initialization: squared error %.9g (%.3f s, cpu %.3f)", prev,
+           op_monotonic_seconds() - t0, (double)clock() / CLOCKS_PER_SEC);
     int reported = 0; /* iterations whose progress unit was advanced */
     const char *lenv = getenv("KCTA_LIGHT");
     int light = lenv ? atoi(lenv) : 0;
@@ -904,7 +870,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
             goto done;
         }
         op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, %d empty cluster(s) split "
-               "(%.3f s)", it + 1, e, splits, op_monotonic_seconds() - t1);
+               "(%.3f s, cpu %.3f)", it + 1, e, splits, op_monotonic_seconds() - t1, (double)clock() / CLOCKS_PER_SEC);
         op_progress_advance(progress, 1);
         reported++;
         if (e > prev) {
@@ -946,6 +912,7 @@ done:
     free(w.mem_slot);
     free(w.mem_start);
     free(w.acc);
+    free(w.sum);
     free(w.scratch);
     free(w.x);
     if (st != OP_OK)
