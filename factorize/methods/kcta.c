@@ -760,6 +760,148 @@ done:
     return st;
 }
 
+/* Sets up w for the rows x cols matrix a and the model md (whose arrays the caller owns):
+ * stripes, scratch and the pass buffers. */
+static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
+                            const op_kcta_options *opt, op_kcta_model *md, op_error *err)
+{
+    const int C = opt->clusters, K = opt->km, T = opt->terms;
+    *w = (work){.a = a, .rows = rows, .n = cols, .C = C, .K = K, .T = T, .CT = C * T,
+                .threads = opt->threads, .md = md, .svd = &opt->svd};
+    /* Stripes: enough for the threads to share the rows, few enough that their sums stay
+     * small; a function of the sizes only, so that the result is the same for any thread
+     * count. */
+    w->acc_stride = (size_t)T * cols + (size_t)T * T;
+    int64_t stripes = ((int64_t)1 << 24) / ((int64_t)C * (int64_t)w->acc_stride);
+    stripes = stripes < 1 ? 1 : stripes > 16 ? 16 : stripes;
+    if (stripes > (rows + SUB_ROWS - 1) / SUB_ROWS)
+        stripes = (rows + SUB_ROWS - 1) / SUB_ROWS;
+    w->nstripes = (int)stripes;
+    w->nthreads = op_parallel_threads(opt->threads);
+    if (w->nthreads > w->nstripes)
+        w->nthreads = w->nstripes;
+    w->scratch_stride = 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + ((size_t)cols + 1) / 2 +
+                        ((size_t)SUB_ROWS * C * T + 1) / 2 + 8;
+    size_t ni = (size_t)rows * K;
+    w->vall = malloc((size_t)cols * C * T * sizeof *w->vall);
+    w->vt = malloc((size_t)cols * C * T * sizeof *w->vt);
+    w->gram = malloc((size_t)C * T * C * T * sizeof *w->gram);
+    w->rowerr = malloc((size_t)rows * sizeof *w->rowerr);
+    w->mem_row = malloc(ni * sizeof *w->mem_row);
+    w->mem_slot = malloc(ni * sizeof *w->mem_slot);
+    w->mem_start = malloc((size_t)(C + 1) * sizeof *w->mem_start);
+    w->acc = malloc((size_t)w->nstripes * C * w->acc_stride * sizeof *w->acc);
+    w->sum = malloc((size_t)C * w->acc_stride * sizeof *w->sum);
+    w->scratch = malloc((size_t)w->nthreads * w->scratch_stride * sizeof *w->scratch);
+    if (!w->vall || !w->vt || !w->gram || !w->rowerr || !w->mem_row || !w->mem_slot ||
+        !w->mem_start || !w->acc || !w->sum || !w->scratch)
+        return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
+                            (long long)rows);
+    return OP_OK;
+}
+
+static void work_end(work *w)
+{
+    free(w->vall);
+    free(w->vt);
+    free(w->gram);
+    free(w->rowerr);
+    free(w->mem_row);
+    free(w->mem_slot);
+    free(w->mem_start);
+    free(w->acc);
+    free(w->sum);
+    free(w->scratch);
+    free(w->x);
+}
+
+/* Algorithm 1 from the current bases: a clustering pass, then up to max_iters iterations of
+ * (split empty clusters, update the bases, clustering pass), each recorded in the model's
+ * history; an iteration that raises the error is undone and ends the loop, as does a relative
+ * decrease of at most tol. Advances progress (may be NULL) by one per iteration done. */
+static op_status iterate(work *w, int max_iters, double tol, op_progress *progress,
+                         int *reported, op_error *err)
+{
+    op_kcta_model *md = w->md;
+    const int C = w->C;
+    size_t nb = (size_t)C * w->n * w->T, nc = (size_t)w->rows * w->K * w->T,
+           ni = (size_t)w->rows * w->K;
+    float *sb = malloc(nb * sizeof *sb), *sc = malloc(nc * sizeof *sc);
+    uint32_t *si = malloc(ni * sizeof *si);
+    unsigned char *touched = malloc((size_t)C);
+    op_status st = OP_OK;
+    double prev, t0 = op_monotonic_seconds();
+    if (!sb || !sc || !si || !touched) {
+        st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
+                          (long long)w->rows);
+        goto done;
+    }
+    bases_changed(w);
+    if ((st = pass(w, 1, &prev, err)) != OP_OK)
+        goto done;
+    build_members(w);
+    op_log(OP_LOG_DEBUG, "kcta, %lld rows: squared error %.9g (%.3f s, cpu %.3f)",
+           (long long)w->rows, prev, op_monotonic_seconds() - t0,
+           (double)clock() / CLOCKS_PER_SEC);
+    for (int it = 0; it < max_iters; it++) {
+        double t1 = op_monotonic_seconds();
+        memcpy(sb, md->basis, nb * sizeof *sb);
+        memcpy(sc, md->coef, nc * sizeof *sc);
+        memcpy(si, md->idx, ni * sizeof *si);
+        memset(touched, 0, (size_t)C);
+        int splits = split_empty(w, touched);
+        update_bases(w, touched);
+        for (int c = 0; c < C && st == OP_OK; c++)
+            if (touched[c])
+                st = refit_cluster(w, c, err);
+        if (st != OP_OK)
+            goto done;
+        bases_changed(w);
+        double e;
+        if ((st = pass(w, 1, &e, err)) != OP_OK)
+            goto done;
+        build_members(w);
+        if (!isfinite(e)) {
+            st = op_error_set(err, OP_ERR_NUMERIC, "kcta: iteration %d: error is not finite",
+                              it + 1);
+            goto done;
+        }
+        op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, %d empty cluster(s) split "
+               "(%.3f s, cpu %.3f)", it + 1, e, splits, op_monotonic_seconds() - t1,
+               (double)clock() / CLOCKS_PER_SEC);
+        if (progress)
+            op_progress_advance(progress, 1);
+        if (reported)
+            (*reported)++;
+        if (e > prev) {
+            memcpy(md->basis, sb, nb * sizeof *sb);
+            memcpy(md->coef, sc, nc * sizeof *sc);
+            memcpy(md->idx, si, ni * sizeof *si);
+            build_members(w);
+            md->restored = 1;
+            op_log(OP_LOG_DEBUG, "kcta: the error rose; restored iteration %d", it);
+            break;
+        }
+        md->splits += splits;
+        md->iterations = it + 1;
+        md->history[md->nhistory++] = e;
+        if (prev - e <= tol * prev)
+            break;
+        prev = e;
+    }
+done:
+    free(sb);
+    free(sc);
+    free(si);
+    free(touched);
+    return st;
+}
+
+/* Rows in the sample that finds the clusters before the whole matrix is used: every S-th
+ * row, S = rows / max(SAMPLE_ROWS, SAMPLE_PER_CLUSTER * C) (1: no sample stage). */
+#define SAMPLE_ROWS 16384
+#define SAMPLE_PER_CLUSTER 256
+
 op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_options *opt,
                          op_kcta_model *md, op_progress *progress, op_error *err)
 {
@@ -787,108 +929,57 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     md->basis = malloc(nb * sizeof *md->basis);
     md->coef = malloc(nc * sizeof *md->coef);
     md->idx = malloc(ni * sizeof *md->idx);
-    float *sb = malloc(nb * sizeof *sb), *sc = malloc(nc * sizeof *sc);
-    uint32_t *si = malloc(ni * sizeof *si);
-    unsigned char *touched = malloc((size_t)C);
-    work w = {.a = a, .rows = rows, .n = cols, .C = C, .K = K, .T = T, .CT = C * T,
-              .threads = opt->threads, .md = md, .svd = &opt->svd};
-    /* Stripes: enough for the threads to share the rows, few enough that their sums stay
-     * small; a function of the sizes only, so that the result is the same for any thread
-     * count. */
-    w.acc_stride = (size_t)T * cols + (size_t)T * T;
-    int64_t stripes = ((int64_t)1 << 24) / ((int64_t)C * (int64_t)w.acc_stride);
-    stripes = stripes < 1 ? 1 : stripes > 16 ? 16 : stripes;
-    if (stripes > (rows + SUB_ROWS - 1) / SUB_ROWS)
-        stripes = (rows + SUB_ROWS - 1) / SUB_ROWS;
-    w.nstripes = (int)stripes;
-    w.nthreads = op_parallel_threads(opt->threads);
-    if (w.nthreads > w.nstripes)
-        w.nthreads = w.nstripes;
-    w.scratch_stride = 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + ((size_t)cols + 1) / 2 +
-                       ((size_t)SUB_ROWS * C * T + 1) / 2 + 8;
-    w.vall = malloc((size_t)cols * C * T * sizeof *w.vall);
-    w.vt = malloc((size_t)cols * C * T * sizeof *w.vt);
-    w.gram = malloc((size_t)C * T * C * T * sizeof *w.gram);
-    w.rowerr = malloc((size_t)rows * sizeof *w.rowerr);
-    w.mem_row = malloc(ni * sizeof *w.mem_row);
-    w.mem_slot = malloc(ni * sizeof *w.mem_slot);
-    w.mem_start = malloc((size_t)(C + 1) * sizeof *w.mem_start);
-    w.acc = malloc((size_t)w.nstripes * C * w.acc_stride * sizeof *w.acc);
-    w.sum = malloc((size_t)C * w.acc_stride * sizeof *w.sum);
-    w.scratch = malloc((size_t)w.nthreads * w.scratch_stride * sizeof *w.scratch);
+    work w = {0};
     op_status st = OP_OK;
-    if (!md->basis || !md->coef || !md->idx || !sb || !sc || !si || !touched || !w.vall ||
-        !w.vt || !w.gram || !w.rowerr || !w.mem_row || !w.mem_slot || !w.mem_start || !w.acc ||
-        !w.sum ||
-        !w.scratch) {
+    if (!md->basis || !md->coef || !md->idx) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows", (long long)rows);
         goto done;
     }
-    double t0 = op_monotonic_seconds();
+    int64_t want = (int64_t)C * SAMPLE_PER_CLUSTER > SAMPLE_ROWS ? (int64_t)C * SAMPLE_PER_CLUSTER
+                                                                 : SAMPLE_ROWS;
+    const char *senv = getenv("KCTA_SAMPLE");
+    int64_t S = senv ? atoi(senv) : rows / want;
     op_log(OP_LOG_DEBUG, "kcta start cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
-    if ((st = initialize(&w, err)) != OP_OK)
-        goto done;
-    op_progress_advance(progress, 1);
-    op_log(OP_LOG_DEBUG, "kcta init cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
-    bases_changed(&w);
-    double prev;
-    if ((st = pass(&w, 1, &prev, err)) != OP_OK)
-        goto done;
-    build_members(&w);
-    op_log(OP_LOG_DEBUG, "kcta initialization: squared error %.9g (%.3f s, cpu %.3f)", prev,
-           op_monotonic_seconds() - t0, (double)clock() / CLOCKS_PER_SEC);
-    int reported = 0; /* iterations whose progress unit was advanced */
-    const char *lenv = getenv("KCTA_LIGHT");
-    int light = lenv ? atoi(lenv) : 0;
-    for (int it = 0; it < opt->max_iters; it++) {
-        double t1 = op_monotonic_seconds();
-        memcpy(sb, md->basis, nb * sizeof *sb);
-        memcpy(sc, md->coef, nc * sizeof *sc);
-        memcpy(si, md->idx, ni * sizeof *si);
-        memset(touched, 0, (size_t)C);
-        int splits = split_empty(&w, touched);
-        update_bases(&w, touched);
-        for (int c = 0; c < C && st == OP_OK; c++)
-            if (touched[c])
-                st = refit_cluster(&w, c, err);
+    if (S >= 2) {
+        /* The sample stage: initialization and iterations on every S-th row (a copy). */
+        int64_t rs = (rows + S - 1) / S;
+        float *as = malloc((size_t)rs * cols * sizeof *as);
+        op_kcta_model ms = {.rows = rs, .cols = cols, .clusters = C, .km = K, .terms = T,
+                            .basis = md->basis};
+        ms.idx = malloc((size_t)rs * K * sizeof *ms.idx);
+        ms.coef = malloc((size_t)rs * K * T * sizeof *ms.coef);
+        work ws = {0};
+        if (!as || !ms.idx || !ms.coef)
+            st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
+                              (long long)rows);
+        else {
+            for (int64_t q = 0; q < rs; q++)
+                memcpy(as + q * cols, a + q * S * cols, (size_t)cols * sizeof *as);
+            st = work_begin(&ws, as, rs, cols, opt, &ms, err);
+        }
+        if (st == OP_OK)
+            st = initialize(&ws, err);
+        op_log(OP_LOG_DEBUG, "kcta init cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
+        if (st == OP_OK)
+            st = iterate(&ws, opt->max_iters, opt->tol, NULL, NULL, err);
+        work_end(&ws);
+        free(as);
+        free(ms.idx);
+        free(ms.coef);
         if (st != OP_OK)
             goto done;
-        bases_changed(&w);
-        double e;
-        for (int l = 0; l < light; l++) {
-            if ((st = pass(&w, 0, &e, err)) != OP_OK)
-                goto done;
-            update_bases(&w, NULL);
-            bases_changed(&w);
-        }
-        if ((st = pass(&w, 1, &e, err)) != OP_OK)
+        if ((st = work_begin(&w, a, rows, cols, opt, md, err)) != OP_OK)
             goto done;
-        build_members(&w);
-        if (!isfinite(e)) {
-            st = op_error_set(err, OP_ERR_NUMERIC, "kcta: iteration %d: error is not finite",
-                              it + 1);
+    } else {
+        if ((st = work_begin(&w, a, rows, cols, opt, md, err)) != OP_OK ||
+            (st = initialize(&w, err)) != OP_OK)
             goto done;
-        }
-        op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, %d empty cluster(s) split "
-               "(%.3f s, cpu %.3f)", it + 1, e, splits, op_monotonic_seconds() - t1, (double)clock() / CLOCKS_PER_SEC);
-        op_progress_advance(progress, 1);
-        reported++;
-        if (e > prev) {
-            memcpy(md->basis, sb, nb * sizeof *sb);
-            memcpy(md->coef, sc, nc * sizeof *sc);
-            memcpy(md->idx, si, ni * sizeof *si);
-            build_members(&w);
-            md->restored = 1;
-            op_log(OP_LOG_DEBUG, "kcta: the error rose; restored iteration %d", it);
-            break;
-        }
-        md->splits += splits;
-        md->iterations = it + 1;
-        md->history[md->nhistory++] = e;
-        if (prev - e <= opt->tol * prev)
-            break;
-        prev = e;
     }
+    op_progress_advance(progress, 1);
+    int reported = 0; /* iterations whose progress unit was advanced */
+    st = iterate(&w, opt->max_iters, opt->tol, progress, &reported, err);
+    if (st != OP_OK)
+        goto done;
     /* the iterations that convergence made unnecessary are done too */
     op_progress_advance(progress, (uint64_t)(opt->max_iters - reported));
     double core = postprocess(&w);
@@ -900,21 +991,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
             break;
         }
 done:
-    free(sb);
-    free(sc);
-    free(si);
-    free(touched);
-    free(w.vall);
-    free(w.vt);
-    free(w.gram);
-    free(w.rowerr);
-    free(w.mem_row);
-    free(w.mem_slot);
-    free(w.mem_start);
-    free(w.acc);
-    free(w.sum);
-    free(w.scratch);
-    free(w.x);
+    work_end(&w);
     if (st != OP_OK)
         op_kcta_free(md);
     return st;
