@@ -187,7 +187,7 @@ static void gram_solve(const double *g, int n, const double *b, double *y, doubl
 /* ------------------------------------------------------------ passes over the rows */
 
 /* Rows per gemm of a clustering pass (their projections onto every cluster at once). */
-#define SUB_ROWS 64
+#define SUB_ROWS 1024
 
 typedef struct work {
     const float *a;
@@ -977,7 +977,8 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     }
     op_progress_advance(progress, 1);
     int reported = 0; /* iterations whose progress unit was advanced */
-    st = iterate(&w, opt->max_iters, opt->tol, progress, &reported, err);
+    const char *tenv = getenv("KCTA_TOL");
+    st = iterate(&w, opt->max_iters, tenv ? atof(tenv) : opt->tol, progress, &reported, err);
     if (st != OP_OK)
         goto done;
     /* the iterations that convergence made unnecessary are done too */
