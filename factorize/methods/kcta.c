@@ -7,14 +7,13 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define KMEANS_ITERS 25
 
 op_kcta_options op_kcta_defaults(void)
 {
-    return (op_kcta_options){.clusters = 8, .km = 2, .terms = 4, .max_iters = 10, .tol = 1e-4,
-                             .svd = op_rsvd_defaults()};
+    return (op_kcta_options){.clusters = 8, .km = 2, .terms = 4, .max_iters = 10, .tol = 1e-3,
+                             .threads = 0, .sample_rows = 0, .svd = op_rsvd_defaults()};
 }
 
 void op_kcta_free(op_kcta_model *model)
@@ -421,15 +420,15 @@ static void build_members(work *w)
  * other clusters fixed, from the last pass's sums (M_c V_c = R_c^T + V_c G_c). For a PSD M
  * the step never lowers tr(V^T M V), the energy the basis captures, and repeated steps
  * converge to M_c's leading T-dimensional subspace, the rank-T truncated SVD of the paper.
- * Clusters flagged in skip (refitted from scratch) and empty ones keep their basis. */
-static void update_bases(work *w, const unsigned char *skip)
+ * Empty clusters keep their basis. */
+static void update_bases(work *w)
 {
     const int n = w->n, T = w->T;
     double *z = malloc((size_t)n * T * sizeof *z);
     if (!z)
         return; /* the bases stay: a valid (if unimproved) model */
     for (int c = 0; c < w->C; c++) {
-        if (w->mem_start[c + 1] == w->mem_start[c] || (skip && skip[c]))
+        if (w->mem_start[c + 1] == w->mem_start[c])
             continue;
         const double *rc = w->sum + (size_t)c * w->acc_stride, *gc = rc + (size_t)T * n;
         float *v = w->md->basis + (size_t)c * n * T;
@@ -815,10 +814,31 @@ static void work_end(work *w)
     free(w->x);
 }
 
-/* Algorithm 1 from the current bases: a clustering pass, then up to max_iters iterations of
- * (split empty clusters, update the bases, clustering pass), each recorded in the model's
- * history; an iteration that raises the error is undone and ends the loop, as does a relative
- * decrease of at most tol. Advances progress (may be NULL) by one per iteration done. */
+/* After a clustering pass: splits the empty clusters (section 5.3), gives each split cluster
+ * and its donor the truncated SVD of its new members, then redoes the pass with the clusters
+ * kept, so that coefficients, errors and update sums match the new clusters. */
+static op_status settle(work *w, double *e, int *splits, unsigned char *touched, op_error *err)
+{
+    memset(touched, 0, (size_t)w->C);
+    *splits = split_empty(w, touched);
+    if (*splits == 0)
+        return OP_OK;
+    op_status st = OP_OK;
+    for (int c = 0; c < w->C && st == OP_OK; c++)
+        if (touched[c])
+            st = refit_cluster(w, c, err);
+    if (st != OP_OK)
+        return st;
+    bases_changed(w);
+    if ((st = pass(w, 0, e, err)) == OP_OK)
+        build_members(w);
+    return st;
+}
+
+/* Algorithm 1 from the current bases: a clustering pass (history[0]), then up to max_iters
+ * iterations of (update the bases, clustering pass), each recorded in the model's history; an
+ * iteration that raises the error is undone and ends the loop, as does a relative decrease of
+ * at most tol. Advances progress (may be NULL) and *reported by one per iteration done. */
 static op_status iterate(work *w, int max_iters, double tol, op_progress *progress,
                          int *reported, op_error *err)
 {
@@ -831,6 +851,7 @@ static op_status iterate(work *w, int max_iters, double tol, op_progress *progre
     unsigned char *touched = malloc((size_t)C);
     op_status st = OP_OK;
     double prev, t0 = op_monotonic_seconds();
+    int splits;
     if (!sb || !sc || !si || !touched) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
                           (long long)w->rows);
@@ -840,35 +861,32 @@ static op_status iterate(work *w, int max_iters, double tol, op_progress *progre
     if ((st = pass(w, 1, &prev, err)) != OP_OK)
         goto done;
     build_members(w);
-    op_log(OP_LOG_DEBUG, "kcta, %lld rows: squared error %.9g (%.3f s, cpu %.3f)",
-           (long long)w->rows, prev, op_monotonic_seconds() - t0,
-           (double)clock() / CLOCKS_PER_SEC);
-    for (int it = 0; it < max_iters; it++) {
+    if ((st = settle(w, &prev, &splits, touched, err)) != OP_OK)
+        goto done;
+    md->splits += splits;
+    md->history[md->nhistory++] = prev;
+    op_log(OP_LOG_DEBUG, "kcta, %lld rows: squared error %.9g, %d empty cluster(s) split "
+           "(%.3f s)", (long long)w->rows, prev, splits, op_monotonic_seconds() - t0);
+    for (int it = 0; it < max_iters && md->nhistory <= OP_KCTA_MAX_HISTORY; it++) {
         double t1 = op_monotonic_seconds();
         memcpy(sb, md->basis, nb * sizeof *sb);
         memcpy(sc, md->coef, nc * sizeof *sc);
         memcpy(si, md->idx, ni * sizeof *si);
-        memset(touched, 0, (size_t)C);
-        int splits = split_empty(w, touched);
-        update_bases(w, touched);
-        for (int c = 0; c < C && st == OP_OK; c++)
-            if (touched[c])
-                st = refit_cluster(w, c, err);
-        if (st != OP_OK)
-            goto done;
+        update_bases(w);
         bases_changed(w);
         double e;
         if ((st = pass(w, 1, &e, err)) != OP_OK)
             goto done;
         build_members(w);
+        if ((st = settle(w, &e, &splits, touched, err)) != OP_OK)
+            goto done;
         if (!isfinite(e)) {
             st = op_error_set(err, OP_ERR_NUMERIC, "kcta: iteration %d: error is not finite",
                               it + 1);
             goto done;
         }
         op_log(OP_LOG_DEBUG, "kcta iteration %d: squared error %.9g, %d empty cluster(s) split "
-               "(%.3f s, cpu %.3f)", it + 1, e, splits, op_monotonic_seconds() - t1,
-               (double)clock() / CLOCKS_PER_SEC);
+               "(%.3f s)", it + 1, e, splits, op_monotonic_seconds() - t1);
         if (progress)
             op_progress_advance(progress, 1);
         if (reported)
@@ -897,8 +915,7 @@ done:
     return st;
 }
 
-/* Rows in the sample that finds the clusters before the whole matrix is used: every S-th
- * row, S = rows / max(SAMPLE_ROWS, SAMPLE_PER_CLUSTER * C) (1: no sample stage). */
+/* The sample stage's default size (kcta.h): max(SAMPLE_ROWS, SAMPLE_PER_CLUSTER * C) rows. */
 #define SAMPLE_ROWS 16384
 #define SAMPLE_PER_CLUSTER 256
 
@@ -935,11 +952,10 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows", (long long)rows);
         goto done;
     }
-    int64_t want = (int64_t)C * SAMPLE_PER_CLUSTER > SAMPLE_ROWS ? (int64_t)C * SAMPLE_PER_CLUSTER
-                                                                 : SAMPLE_ROWS;
-    const char *senv = getenv("KCTA_SAMPLE");
-    int64_t S = senv ? atoi(senv) : rows / want;
-    op_log(OP_LOG_DEBUG, "kcta start cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
+    int64_t want = opt->sample_rows > 0 ? opt->sample_rows
+                   : (int64_t)C * SAMPLE_PER_CLUSTER > SAMPLE_ROWS ? (int64_t)C * SAMPLE_PER_CLUSTER
+                                                                   : SAMPLE_ROWS;
+    int64_t S = rows / want;
     if (S >= 2) {
         /* The sample stage: initialization and iterations on every S-th row (a copy). */
         int64_t rs = (rows + S - 1) / S;
@@ -959,7 +975,6 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         }
         if (st == OP_OK)
             st = initialize(&ws, err);
-        op_log(OP_LOG_DEBUG, "kcta init cpu %.3f", (double)clock() / CLOCKS_PER_SEC);
         if (st == OP_OK)
             st = iterate(&ws, opt->max_iters, opt->tol, NULL, NULL, err);
         work_end(&ws);
@@ -977,8 +992,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     }
     op_progress_advance(progress, 1);
     int reported = 0; /* iterations whose progress unit was advanced */
-    const char *tenv = getenv("KCTA_TOL");
-    st = iterate(&w, opt->max_iters, tenv ? atof(tenv) : opt->tol, progress, &reported, err);
+    st = iterate(&w, opt->max_iters, opt->tol, progress, &reported, err);
     if (st != OP_OK)
         goto done;
     /* the iterations that convergence made unnecessary are done too */

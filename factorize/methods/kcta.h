@@ -7,20 +7,30 @@
  * The algorithm alternates (paper, Algorithm 1):
  *  - the clustering stage (section 4.2): for every row, a greedy search picks its K_m clusters
  *    one at a time, each maximizing the norm of the projection of the row's residual onto the
- *    cluster subspace (Theorems 1 and 3), computed in the reduced space from A V_all and the
- *    Gram matrix V_all^T V_all; after every pick the coefficients of all picked clusters are
- *    the optimal projection (Theorem 4: a Gram system, solved by a pseudo-inverse). Then the
- *    post-processing SVD of each cluster's coefficient block (section 4.2.3), which rotates
- *    basis and coefficients without changing the approximation, and the splitting of empty
- *    clusters (section 5.3);
- *  - the update stage (section 4.3): one cluster at a time, on its members only, the rank-T
- *    truncated SVD of the members' residuals with the other clusters fixed (membership fixed);
- *    the new basis is kept only if it is at least as good as the old one.
+ *    cluster subspace (Theorems 1 and 3), computed in the reduced space from A V_all (one gemm
+ *    per block of rows) and the Gram matrix V_all^T V_all; after every pick the coefficients
+ *    of all picked clusters are the optimal projection (Theorem 4: a Gram system, solved by a
+ *    pseudo-inverse). The same pass over the rows computes each row's residual r and its
+ *    exact squared error, and sums per cluster r y^T and y y^T (y the member's coefficients);
+ *    empty clusters are then split (section 5.3);
+ *  - the update stage (section 4.3): each cluster's basis V_c becomes orth(M_c V_c), M_c the
+ *    Gram matrix of its members' residuals with the other clusters fixed, from those sums
+ *    (M_c V_c = sum r y^T + V_c sum y y^T): one step of subspace iteration towards the rank-T
+ *    truncated SVD of the paper, warm-started from the current basis, so that an iteration
+ *    reads the matrix once. A split cluster and its donor get the truncated SVD in full.
+ * Every iteration is thus one pass over the rows. The post-processing SVD of each cluster's
+ * coefficient block (section 4.2.3), which rotates basis and coefficients without changing
+ * the approximation, is done once at the end.
  * Initialization (section 5.1): k-means (k-means++ seeding, fixed seed) of the rows in the
  * space of the global leading right singular vectors, then one CTA step (per-cluster truncated
- * SVD). When an iteration ends with a larger total error than the previous one, the previous
- * iteration is restored and the iteration stops (section 5.3), so the error never increases.
- * With K_m = 1 this is CTA: hard clustering with a truncated SVD per cluster. */
+ * SVD). On a large matrix (at least twice sample_rows rows) the initialization and a first run
+ * of the iterations use every S-th row only (S = rows / sample_rows), and the iterations on the
+ * whole matrix start from their bases. When an iteration ends with a larger total error than
+ * the previous one, the previous iteration is restored and the iteration stops (section 5.3),
+ * so the error never increases.
+ * The result is the same for any thread count: the passes split the rows into stripes fixed
+ * by the sizes alone and add the stripes' sums in order.
+ * With K_m = 1 this is CTA: hard clustering with a rank-T subspace per cluster. */
 #ifndef OP_FACTOR_KCTA_H
 #define OP_FACTOR_KCTA_H
 
@@ -31,15 +41,17 @@ typedef struct op_kcta_options {
     int clusters;   /* C >= 1 */
     int km;         /* K_m, 1 <= K_m <= C */
     int terms;      /* T, rank of each cluster, 1 <= T <= cols */
-    int max_iters;  /* iterations of the two stages (>= 0; 0 keeps the initialization's
-                       clustering stage only) */
-    double tol;     /* stop when the relative decrease of the error is below this */
+    int max_iters;  /* iterations of the two stages, 1 to OP_KCTA_MAX_HISTORY (the sample
+                       stage, when there is one, runs as many again on the sample) */
+    double tol;     /* stop once an iteration lowers the error by at most this fraction */
     int threads;    /* threads of the passes over the rows (<= 0: every core); the result
                        is the same for any count */
+    int64_t sample_rows; /* rows of the sample stage (0: max(16384, 256 C)) */
     op_rsvd_options svd; /* for the truncated SVDs */
 } op_kcta_options;
 
-/* C = 8, K_m = 2, T = 4, 10 iterations, tol 1e-4, op_rsvd_defaults(). */
+/* C = 8, K_m = 2, T = 4, 10 iterations, tol 1e-3, every core, the default sample,
+ * op_rsvd_defaults(). */
 op_kcta_options op_kcta_defaults(void);
 
 #define OP_KCTA_MAX_HISTORY 256
@@ -53,9 +65,10 @@ typedef struct op_kcta_model {
     int iterations;   /* iterations accepted (a restored one does not count) */
     int restored;     /* 1 when the last iteration raised the error and was undone */
     int splits;       /* empty clusters refilled by splitting */
-    /* Total squared error sum_i ||a_i - a^_i||^2: [0] after initialization's clustering
-     * stage, then after every accepted iteration; non-increasing. */
-    double history[OP_KCTA_MAX_HISTORY];
+    /* Total squared error sum_i ||a_i - a^_i||^2 on the whole matrix: [0] after the first
+     * clustering stage (from the initial bases), then after every accepted iteration
+     * (nhistory = iterations + 1); non-increasing, the last one the model's. */
+    double history[OP_KCTA_MAX_HISTORY + 1];
     int nhistory;
 } op_kcta_model;
 

@@ -150,7 +150,7 @@ static void error_never_increases(void **state)
         print_message("  K_m = %d: %d iterations%s, error %.6g -> %.6g\n", km, md.iterations,
                       md.restored ? " (then one restored)" : "", md.history[0],
                       md.history[md.nhistory - 1]);
-        assert_int_equal(md.nhistory, md.iterations);
+        assert_int_equal(md.nhistory, md.iterations + 1);
         for (int i = 1; i < md.nhistory; i++)
             assert_true(md.history[i] <= md.history[i - 1]);
         /* the reported history ends at the model's true error */
