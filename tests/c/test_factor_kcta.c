@@ -1,7 +1,8 @@
 /* test_factor_kcta.c - K-clustered tensor approximation: with K_m = 1 it is CTA (hard
  * clustering, the optimal truncated SVD per cluster), the error never increases across
- * iterations, data made of known cluster subspaces is recovered, empty clusters are refilled,
- * and the method works end to end through `opaline-factor factor --method kcta`. */
+ * iterations, the result is the same for any thread count (sample stage or not), data made of
+ * known cluster subspaces is recovered, empty clusters are refilled, and the method works end to
+ * end through `opaline-factor factor --method kcta`. */
 #include "factor_test_util.h"
 
 #include "kcta.h"
@@ -165,6 +166,44 @@ static void error_never_increases(void **state)
             }
         op_kcta_free(&md);
     }
+    free(a);
+}
+
+/* The passes split the rows into stripes fixed by the sizes alone: 1 and 3 threads give the
+ * same bytes, with and without the sample stage, for K_m = 1 and 2; the history is
+ * non-increasing and ends at the model's true error in both stages' cases. */
+static void same_for_any_thread_count(void **state)
+{
+    const int rows = 5000, n = 49;
+    float *a = kernel_rows(rows, 7, 2e-2);
+    for (int km = 1; km <= 2; km++)
+        for (int sample = 0; sample <= 1; sample++) {
+            op_kcta_options opt = op_kcta_defaults();
+            opt.clusters = 6;
+            opt.km = km;
+            opt.terms = 2;
+            opt.sample_rows = sample ? 1000 : 0; /* every 5th row first */
+            op_kcta_model m1, m3;
+            op_error err = {0};
+            opt.threads = 1;
+            OP_ASSERT_OK(op_kcta_factor(a, rows, n, &opt, &m1, NULL, &err), err);
+            opt.threads = 3;
+            OP_ASSERT_OK(op_kcta_factor(a, rows, n, &opt, &m3, NULL, &err), err);
+            print_message("  K_m = %d, %s sample: %d iterations, error %.6g -> %.6g\n", km,
+                          sample ? "with a" : "no", m1.iterations, m1.history[0],
+                          m1.history[m1.nhistory - 1]);
+            assert_int_equal(m1.nhistory, m3.nhistory);
+            assert_memory_equal(m1.history, m3.history, (size_t)m1.nhistory * sizeof(double));
+            assert_memory_equal(m1.basis, m3.basis, (size_t)6 * n * 2 * sizeof(float));
+            assert_memory_equal(m1.idx, m3.idx, (size_t)rows * km * sizeof(uint32_t));
+            assert_memory_equal(m1.coef, m3.coef, (size_t)rows * km * 2 * sizeof(float));
+            for (int i = 1; i < m1.nhistory; i++)
+                assert_true(m1.history[i] <= m1.history[i - 1]);
+            assert_true(fabs(model_sq_error(a, &m1) - m1.history[m1.nhistory - 1]) <=
+                        1e-6 * m1.history[0]);
+            op_kcta_free(&m1);
+            op_kcta_free(&m3);
+        }
     free(a);
 }
 
@@ -338,6 +377,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(km1_is_cta),
         cmocka_unit_test(error_never_increases),
+        cmocka_unit_test(same_for_any_thread_count),
         cmocka_unit_test(recovers_known_subspaces),
         cmocka_unit_test(empty_clusters_are_split),
         cmocka_unit_test(end_to_end),
