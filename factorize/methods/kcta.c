@@ -214,6 +214,8 @@ typedef struct work {
     double *scratch;   /* per thread: SUB_ROWS x CT floats of projections, then the solver's */
     size_t scratch_stride;
     int nthreads;
+    int guard;         /* K_m > 1: a clustering pass keeps a row's previous clusters when
+                          they capture more of it than the greedy search's (idx is valid) */
 } work;
 
 /* w->x with room for m rows of n, or NULL when out of memory. */
@@ -321,6 +323,40 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float
                             w->gram[(size_t)(sel[s] * T + t) * CT + sel[s2] * T + u];
             }
         gram_solve(gs, m, b, y, solve);
+    }
+    if (assign && w->guard) {
+        /* The greedy search is not optimal for K_m > 1: keep the previous clusters when their
+         * optimal projection captures more (b^T y, the least-squares fit's energy). */
+        int old[64], same = 1;
+        double yo[64], bo[64] = {0}, go[4096];
+        for (int s = 0; s < K; s++) {
+            old[s] = (int)md->idx[i * K + s];
+            int found = 0;
+            for (int s2 = 0; s2 < K; s2++)
+                found |= old[s] == sel[s2];
+            same &= found;
+        }
+        if (!same) {
+            const int m = K * T;
+            for (int s = 0; s < K; s++)
+                for (int t = 0; t < T; t++) {
+                    bo[s * T + t] = p[old[s] * T + t];
+                    for (int s2 = 0; s2 < K; s2++)
+                        for (int u = 0; u < T; u++)
+                            go[(s * T + t) * m + s2 * T + u] =
+                                w->gram[(size_t)(old[s] * T + t) * CT + old[s2] * T + u];
+                }
+            gram_solve(go, m, bo, yo, solve);
+            double en = 0, eo = 0;
+            for (int q = 0; q < m; q++) {
+                en += b[q] * y[q];
+                eo += bo[q] * yo[q];
+            }
+            if (eo > en) {
+                memcpy(sel, old, (size_t)K * sizeof *sel);
+                memcpy(y, yo, (size_t)m * sizeof *y);
+            }
+        }
     }
     /* The stored (float) coefficients, the residual they leave, and its norm. */
     memcpy(r, ai, (size_t)n * sizeof *r);
@@ -479,19 +515,16 @@ static void update_bases(work *w)
     free(z);
 }
 
-/* Section 4.3 done in full for one cluster: the rank-T truncated SVD of its members'
- * residuals (the other clusters fixed). For clusters whose membership a split changed. */
-static op_status refit_cluster(work *w, int c, op_error *err)
+/* Cluster c's members' residuals with the other clusters fixed, as rows of w->x (m rows, the
+ * member lists' order), or NULL when out of memory. */
+static float *gather_residuals(work *w, int c, int64_t *m_out)
 {
     const int n = w->n, T = w->T, K = w->K;
     op_kcta_model *md = w->md;
     int64_t m0 = w->mem_start[c], m = w->mem_start[c + 1] - m0;
-    if (m == 0)
-        return OP_OK;
-    float *x = rows_buffer(w, m);
-    if (!x)
-        return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
-    for (int64_t q = 0; q < m; q++) {
+    float *x = rows_buffer(w, m ? m : 1);
+    *m_out = m;
+    for (int64_t q = 0; x && q < m; q++) {
         int64_t i = w->mem_row[m0 + q];
         float *xr = x + q * n;
         memcpy(xr, w->a + i * n, (size_t)n * sizeof *xr);
@@ -503,7 +536,79 @@ static op_status refit_cluster(work *w, int c, op_error *err)
                         md->coef + ((size_t)i * K + k) * T, 1, 1.0f, xr, 1);
         }
     }
-    return subspace_of(x, m, n, T, w->svd, md->basis + (size_t)c * n * T, err);
+    return x;
+}
+
+/* Section 4.3 done in full for one cluster: the rank-T truncated SVD of its members'
+ * residuals (the other clusters fixed). For clusters whose membership a split changed. */
+static op_status refit_cluster(work *w, int c, op_error *err)
+{
+    int64_t m;
+    float *x = gather_residuals(w, c, &m);
+    if (!x)
+        return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
+    if (m == 0)
+        return OP_OK;
+    return subspace_of(x, m, w->n, w->T, w->svd, w->md->basis + (size_t)c * w->n * w->T, err);
+}
+
+/* Section 4.3 as the paper does it, for K_m > 1 (where updating every basis at once from one
+ * pass's sums can raise the error: the clusters of a row interact): each cluster in turn, on
+ * its members only, gets the rank-T truncated SVD of their residuals with the other clusters
+ * fixed; the new basis replaces the old one only when it captures at least as much of the
+ * residuals. Members' coefficients become the projection of their residuals. The total error
+ * never increases. */
+static op_status update_stage(work *w, op_error *err)
+{
+    const int n = w->n, T = w->T, K = w->K;
+    op_kcta_model *md = w->md;
+    op_status st = OP_OK;
+    int64_t maxm = 1;
+    for (int c = 0; c < w->C; c++)
+        if (w->mem_start[c + 1] - w->mem_start[c] > maxm)
+            maxm = w->mem_start[c + 1] - w->mem_start[c];
+    float *ynew = malloc((size_t)maxm * T * sizeof *ynew);
+    float *yold = malloc((size_t)maxm * T * sizeof *yold);
+    float *vnew = malloc((size_t)n * T * sizeof *vnew);
+    if (!ynew || !yold || !vnew) {
+        st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
+        goto done;
+    }
+    for (int c = 0; c < w->C && st == OP_OK; c++) {
+        int64_t m0 = w->mem_start[c], m;
+        float *x = gather_residuals(w, c, &m);
+        if (!x) {
+            st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
+            break;
+        }
+        if (m == 0)
+            continue;
+        float *vold = md->basis + (size_t)c * n * T;
+        if ((st = subspace_of(x, m, n, T, w->svd, vnew, err)) != OP_OK)
+            break;
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, T, n, 1.0f, x, n, vnew, T,
+                    0.0f, ynew, T);
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, T, n, 1.0f, x, n, vold, T,
+                    0.0f, yold, T);
+        double enew = 0, eold = 0;
+        for (int64_t q = 0; q < m * T; q++) {
+            enew += (double)ynew[q] * ynew[q];
+            eold += (double)yold[q] * yold[q];
+        }
+        const float *ych = yold;
+        if (enew >= eold) {
+            memcpy(vold, vnew, (size_t)n * T * sizeof *vold);
+            ych = ynew;
+        }
+        for (int64_t q = 0; q < m; q++)
+            memcpy(md->coef + ((size_t)w->mem_row[m0 + q] * K + w->mem_slot[m0 + q]) * T,
+                   ych + q * T, (size_t)T * sizeof(float));
+    }
+done:
+    free(ynew);
+    free(yold);
+    free(vnew);
+    return st;
 }
 /* Section 4.2.3: the SVD of each cluster's coefficient block Y_c = U' S W^T (through the
  * eigen-decomposition of Y_c^T Y_c, T x T); V_c <- V_c W, Y_c <- Y_c W, which leaves every
@@ -858,8 +963,10 @@ static op_status iterate(work *w, int max_iters, double tol, op_progress *progre
         goto done;
     }
     bases_changed(w);
+    w->guard = 0;
     if ((st = pass(w, 1, &prev, err)) != OP_OK)
         goto done;
+    w->guard = w->K > 1;
     build_members(w);
     if ((st = settle(w, &prev, &splits, touched, err)) != OP_OK)
         goto done;
@@ -872,7 +979,10 @@ static op_status iterate(work *w, int max_iters, double tol, op_progress *progre
         memcpy(sb, md->basis, nb * sizeof *sb);
         memcpy(sc, md->coef, nc * sizeof *sc);
         memcpy(si, md->idx, ni * sizeof *si);
-        update_bases(w);
+        if (w->K == 1)
+            update_bases(w);
+        else if ((st = update_stage(w, err)) != OP_OK)
+            goto done;
         bases_changed(w);
         double e;
         if ((st = pass(w, 1, &e, err)) != OP_OK)
