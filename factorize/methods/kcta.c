@@ -552,64 +552,6 @@ static op_status refit_cluster(work *w, int c, op_error *err)
     return subspace_of(x, m, w->n, w->T, w->svd, w->md->basis + (size_t)c * w->n * w->T, err);
 }
 
-/* Section 4.3 as the paper does it, for K_m > 1 (where updating every basis at once from one
- * pass's sums can raise the error: the clusters of a row interact): each cluster in turn, on
- * its members only, gets the rank-T truncated SVD of their residuals with the other clusters
- * fixed; the new basis replaces the old one only when it captures at least as much of the
- * residuals. Members' coefficients become the projection of their residuals. The total error
- * never increases. */
-static op_status update_stage(work *w, op_error *err)
-{
-    const int n = w->n, T = w->T, K = w->K;
-    op_kcta_model *md = w->md;
-    op_status st = OP_OK;
-    int64_t maxm = 1;
-    for (int c = 0; c < w->C; c++)
-        if (w->mem_start[c + 1] - w->mem_start[c] > maxm)
-            maxm = w->mem_start[c + 1] - w->mem_start[c];
-    float *ynew = malloc((size_t)maxm * T * sizeof *ynew);
-    float *yold = malloc((size_t)maxm * T * sizeof *yold);
-    float *vnew = malloc((size_t)n * T * sizeof *vnew);
-    if (!ynew || !yold || !vnew) {
-        st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
-        goto done;
-    }
-    for (int c = 0; c < w->C && st == OP_OK; c++) {
-        int64_t m0 = w->mem_start[c], m;
-        float *x = gather_residuals(w, c, &m);
-        if (!x) {
-            st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
-            break;
-        }
-        if (m == 0)
-            continue;
-        float *vold = md->basis + (size_t)c * n * T;
-        if ((st = subspace_of(x, m, n, T, w->svd, vnew, err)) != OP_OK)
-            break;
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, T, n, 1.0f, x, n, vnew, T,
-                    0.0f, ynew, T);
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, T, n, 1.0f, x, n, vold, T,
-                    0.0f, yold, T);
-        double enew = 0, eold = 0;
-        for (int64_t q = 0; q < m * T; q++) {
-            enew += (double)ynew[q] * ynew[q];
-            eold += (double)yold[q] * yold[q];
-        }
-        const float *ych = yold;
-        if (enew >= eold) {
-            memcpy(vold, vnew, (size_t)n * T * sizeof *vold);
-            ych = ynew;
-        }
-        for (int64_t q = 0; q < m; q++)
-            memcpy(md->coef + ((size_t)w->mem_row[m0 + q] * K + w->mem_slot[m0 + q]) * T,
-                   ych + q * T, (size_t)T * sizeof(float));
-    }
-done:
-    free(ynew);
-    free(yold);
-    free(vnew);
-    return st;
-}
 /* Section 4.2.3: the SVD of each cluster's coefficient block Y_c = U' S W^T (through the
  * eigen-decomposition of Y_c^T Y_c, T x T); V_c <- V_c W, Y_c <- Y_c W, which leaves every
  * reconstruction unchanged and orders each cluster's basis by energy. Returns the sum of the
@@ -979,10 +921,7 @@ static op_status iterate(work *w, int max_iters, double tol, op_progress *progre
         memcpy(sb, md->basis, nb * sizeof *sb);
         memcpy(sc, md->coef, nc * sizeof *sc);
         memcpy(si, md->idx, ni * sizeof *si);
-        if (w->K == 1)
-            update_bases(w);
-        else if ((st = update_stage(w, err)) != OP_OK)
-            goto done;
+        update_bases(w);
         bases_changed(w);
         double e;
         if ((st = pass(w, 1, &e, err)) != OP_OK)
