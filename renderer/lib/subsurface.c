@@ -7,7 +7,6 @@
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 
 typedef struct sss_point {
@@ -961,13 +960,6 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
     }
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* The camera-marking phase: which translucent shapes some camera segment reaches (all of them
  * when opt->everywhere), and the segments' hits (*gh rows in cam->rows, owned by the caller
  * and freed with cam_free). */
@@ -1109,7 +1101,7 @@ static op_status irradiance_phase(build_job *job, const op_sss_build_options *op
 op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
                              op_sss_cache **out, op_error *err)
 {
-    double t0 = now_s();
+    double t0 = op_monotonic_seconds();
     op_sss_cache *c = calloc(1, sizeof *c);
     if (!c)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -1122,11 +1114,11 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     cam_job cam;
     int gh = 0;
     op_status st = mark_reached(scene, c, opt, &cam, &gh, err);
-    double tc = now_s();
+    double tc = op_monotonic_seconds();
     if (st == OP_OK)
         st = prepare_shapes(scene, c, opt, &cam, gh, err);
     cam_free(&cam, gh);
-    double tp = now_s();
+    double tp = op_monotonic_seconds();
     build_job job;
     memset(&job, 0, sizeof job);
     job.scene = scene;
@@ -1136,7 +1128,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     job.cancel = opt->cancel;
     if (st == OP_OK)
         st = irradiance_phase(&job, opt, err);
-    double t1 = now_s();
+    double t1 = op_monotonic_seconds();
     /* with a store, every irradiance a scatter needs may be known already */
     int scatter = 0;
     for (int s = 0; s < c->n; s++)
@@ -1145,7 +1137,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         st = scatter_pass(&job, opt, err);
     free(job.task_shape);
     free(job.task_first);
-    double te = now_s();
+    double te = op_monotonic_seconds();
     c->seconds = te - t0;
     if (st == OP_OK && c->n > 0)
         op_log(OP_LOG_INFO, "subsurface pre-pass: %.3f s (camera pass %.3f s, points %.3f s, "
