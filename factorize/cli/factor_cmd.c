@@ -14,14 +14,49 @@
 #include <unistd.h>
 
 
+/* The arguments before any option is read: every method-specific option "not given" (-1). */
+static void args_blank(factor_args *a)
+{
+    memset(a, 0, sizeof *a);
+    a->method = OP_METHOD_COUNT;
+    a->terms = -1;
+    a->degree = -1;
+    a->clusters = a->km = a->iters = -1;
+    a->homog_exp = -1;
+    a->shift = 1;
+    a->log_a = 100.0;
+    a->log_b = 1.0;
+    a->svd = op_rsvd_defaults();
+    a->block_rows = -1;
+}
+
+/* "svd 10, tucker 15, ...": each method's default -T, from its entry's defaults(). */
+static void terms_defaults(char *buf, size_t n)
+{
+    const fit_method *fm;
+    size_t len = 0;
+    buf[0] = '\0';
+    for (size_t i = 0; (fm = op_fit_method(i)) != NULL && len < n; i++) {
+        factor_args t;
+        op_error e = {0};
+        args_blank(&t);
+        t.method = fm->method;
+        if (fm->defaults(&t, &e) != OP_OK || t.terms <= 0)
+            continue;
+        int k = snprintf(buf + len, n - len, "%s%s %s%d", len ? ", " : "",
+                         op_method_name(fm->method), fm->terms_help, t.terms);
+        len += k > 0 ? (size_t)k : 0;
+    }
+}
+
 static void usage(FILE *f)
 {
-    char names[128];
+    char names[128], terms[256];
     op_fit_names(0, "|", "|", names, sizeof names);
+    terms_defaults(terms, sizeof terms);
     fprintf(f,
             "usage: opaline-factor factor IN.opm -o OUT.opm --method %s [options]\n"
-            "  -T N               terms (svd 10, tucker 15, kcta rank per cluster 4, nmf rank "
-            "10)\n"
+            "  -T N               terms (%s)\n"
             "  -P N               tucker polynomial degree (default 7)\n"
             "  -C N               kcta clusters (default 8)\n"
             "  --km N             kcta clusters mixed per row, K_m (default 2)\n"
@@ -49,7 +84,7 @@ static void usage(FILE *f)
             "  -t THREADS         preprocessing and evaluation threads (default: all cores;\n"
             "                     the SVD uses OpenBLAS's own: OPENBLAS_NUM_THREADS)\n"
             "  -v / -q            more / less output on stderr\n",
-            names);
+            names, terms);
 }
 
 
@@ -68,17 +103,7 @@ static op_status parse_number(const char *opt, const char *val, double lo, doubl
 
 static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err)
 {
-    memset(a, 0, sizeof *a);
-    a->method = OP_METHOD_COUNT;
-    a->terms = -1;
-    a->degree = -1;
-    a->clusters = a->km = a->iters = -1;
-    a->homog_exp = -1;
-    a->shift = 1;
-    a->log_a = 100.0;
-    a->log_b = 1.0;
-    a->svd = op_rsvd_defaults();
-    a->block_rows = -1;
+    args_blank(a);
     /* The options taking a number in [lo, hi]: a whole one into ival, or any into dval. */
     const struct {
         const char *name;

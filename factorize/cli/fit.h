@@ -57,6 +57,7 @@ typedef struct fit_method {
     op_method method;
     unsigned options; /* FIT_OPT_* */
     int albedo;       /* stores the row sums of its reconstruction (op_write_albedo) */
+    const char *terms_help; /* what -T counts, for the usage text: "" or e.g. "rank " */
     /* Fills in a's defaults for what was not given (-1) and checks the method's options
      * (OP_ERR_INPUT naming the option). */
     op_status (*defaults)(factor_args *a, op_error *err);

@@ -118,6 +118,7 @@ const fit_method op_fit_kcta = {
     .method = OP_METHOD_KCTA,
     .options = FIT_OPT_CLUSTERS | FIT_OPT_ITERS,
     .albedo = 1,
+    .terms_help = "rank per cluster ",
     .defaults = kcta_defaults,
     .describe = kcta_describe,
     .fit = kcta_fit,

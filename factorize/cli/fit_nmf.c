@@ -81,6 +81,7 @@ const fit_method op_fit_nmf = {
     .method = OP_METHOD_NMF,
     .options = FIT_OPT_ITERS | FIT_OPT_HOMOG,
     .albedo = 1,
+    .terms_help = "rank ",
     .defaults = nmf_defaults,
     .describe = NULL,
     .fit = nmf_fit,

@@ -34,6 +34,7 @@ const fit_method op_fit_raw = {
     .method = OP_METHOD_RAW,
     .options = 0,
     .albedo = 0,
+    .terms_help = "",
     .defaults = raw_defaults,
     .describe = NULL,
     .fit = raw_fit,

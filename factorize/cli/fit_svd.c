@@ -206,6 +206,7 @@ const fit_method op_fit_svd = {
     .method = OP_METHOD_SVD,
     .options = FIT_OPT_BLOCK_ROWS,
     .albedo = 1,
+    .terms_help = "",
     .defaults = svd_defaults,
     .describe = svd_describe,
     .fit = svd_fit,

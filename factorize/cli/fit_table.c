@@ -16,6 +16,11 @@ const fit_method *op_fit_find(op_method m)
     return NULL;
 }
 
+const fit_method *op_fit_method(size_t i)
+{
+    return i < NMETHODS ? methods[i] : NULL;
+}
+
 void op_fit_names(unsigned options, const char *sep, const char *last_sep, char *buf, size_t n)
 {
     size_t count = 0, listed = 0, len = 0;

@@ -45,6 +45,7 @@ const fit_method op_fit_tucker = {
     .method = OP_METHOD_TUCKER,
     .options = 0,
     .albedo = 1,
+    .terms_help = "",
     .defaults = tucker_defaults,
     .describe = NULL,
     .fit = tucker_fit,
