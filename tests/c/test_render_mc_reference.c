@@ -19,7 +19,7 @@
  * The test (seconds): Skin1 red, small kernel, few photons: (b) within 3 standard errors of (a)
  * plus the interpolation bias h^2 / (12 L^2) of the renderer's lookup radius h = 2 pixels
  * (docs/subsurface-rendering.md, "Estimator, bias and parameters"), and the uniform slab within
- * 0.5 % of the row sum. `test_render_mc_reference --table [PHOTONS [MEDIUM]]` (bench/bench_sss_reference.sh)
+ * 1 % of the row sum (the issue's goal for a uniform slab). `test_render_mc_reference --table [PHOTONS [MEDIUM]]` (bench/bench_sss_reference.sh)
  * prints the full table for several media and channels, with the dipole. */
 #include <math.h>
 #include <stdio.h>
@@ -372,9 +372,9 @@ static void test_raw_matches_montecarlo(void **state)
         }
         double ru = r.uni_got[c] / r.rowsum[c] - 1.0;
         printf("   uniform %+6.3f %%\n", 100.0 * ru);
-        if (!(fabs(ru) <= 0.005)) {
+        if (!(fabs(ru) <= 0.01)) {
             failures++;
-            printf("   <- uniform off by more than 0.5 %%\n");
+            printf("   <- uniform off by more than 1 %%\n");
         }
     }
     if (failures)
