@@ -52,19 +52,7 @@ static double diffusion_length(const medium *m, int c)
  * receivers, 2 threads) and returns the scene and cache. */
 static op_sss_cache *prepass(const char *name, const char *text, op_scene **scene, double *seconds)
 {
-    const char *path = op_test_tmp_path(name);
-    op_test_write_text(path, text);
-    op_error err = {0};
-    op_status st = op_scene_load(path, NULL, 0, scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    st = op_sss_cache_build(*scene, &o, &cache, &err);
-    OP_ASSERT_OK(st, err);
-    op_sss_stats stats;
-    op_sss_cache_stats(cache, &stats);
-    *seconds = stats.seconds;
-    return cache;
+    return op_test_sss_prepass(op_test_write_temp(name, text), scene, seconds);
 }
 
 /* The scene: a rectangle [x0, x1] x [y0, y1] in z = 0 of the medium (millimetres, scale 1000),
