@@ -503,39 +503,51 @@ typedef struct cam_job {
 
 enum { CAM_MAX_BOUNCES = 8 };
 
+/* Appends one translucent hit of a camera segment to its row (cam_hit_fn's user). */
+typedef struct cam_add {
+    const op_scene *scene;
+    cam_row *row;
+    atomic_int *nomem;
+} cam_add;
+
+static int cam_hit_fn(void *user, const op_isect *it, float dist, float cosine)
+{
+    cam_add *a = user;
+    cam_row *row = a->row;
+    if (row->n == row->cap) {
+        int nc = row->cap ? 2 * row->cap : 64;
+        cam_hit *h = realloc(row->h, (size_t)nc * sizeof *h);
+        if (!h) {
+            atomic_store(a->nomem, 1);
+            return 0;
+        }
+        row->h = h;
+        row->cap = nc;
+    }
+    cam_hit *h = &row->h[row->n++];
+    h->p = it->p;
+    h->span = dist / fmaxf(cosine, 0.05f);
+    h->sss = a->scene->shapes[it->shape].sss;
+    return 1;
+}
+
 /* Traces the camera segments through the pixel corners of one row of the ray grid. */
 static void camera_task(void *user, int task, int thread)
 {
     (void)thread;
     cam_job *job = user;
     const op_scene *s = job->scene;
-    cam_row *row = &job->rows[task];
+    cam_add add = {s, &job->rows[task], &job->nomem};
     float fy = (float)(task - job->ext);
-    for (int ix = 0; ix < job->gw; ix++) {
+    for (int ix = 0; ix < job->gw && !atomic_load(&job->nomem); ix++) {
         float fx = (float)(ix - job->ext);
         op_v3 org, dir;
-        float tmin, tmax, dist, cosine;
+        float tmin, tmax;
         op_camera_ray(&s->camera, fx, fy, &org, &dir, &tmin, &tmax);
         op_rng rng = op_rng_seed(job->seed ^ 0x43414d4552414d4bull,
                                  (uint64_t)task * (uint64_t)job->gw + (uint64_t)ix, 0);
-        op_isect it;
-        if (!job->transport->camera_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it,
-                                        &dist, &cosine))
-            continue;
-        if (row->n == row->cap) {
-            int nc = row->cap ? 2 * row->cap : 64;
-            cam_hit *h = realloc(row->h, (size_t)nc * sizeof *h);
-            if (!h) {
-                atomic_store(&job->nomem, 1);
-                return;
-            }
-            row->h = h;
-            row->cap = nc;
-        }
-        cam_hit *h = &row->h[row->n++];
-        h->p = it.p;
-        h->span = dist / fmaxf(cosine, 0.05f);
-        h->sss = s->shapes[it.shape].sss;
+        job->transport->camera_hits(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, cam_hit_fn,
+                                    &add);
     }
 }
 
