@@ -208,10 +208,11 @@ typedef struct work {
      * the T x n sum of r y^T over its members (r the row's residual, y the member's
      * coefficients) and the T x T sum of y y^T. */
     int nstripes;
-    size_t acc_stride; /* doubles per cluster: T n + T T */
-    float *acc;        /* nstripes x C x acc_stride */
+    size_t acc_stride; /* values per cluster: T n + T T */
+    float *acc;        /* nstripes x C x acc_stride (float sums within a stripe) */
     double *sum;       /* C x acc_stride: their total */
-    double *scratch;   /* per thread: SUB_ROWS x CT floats of projections, then the solver's */
+    double *scratch;   /* per thread: the Gram solver's doubles, a row's residual (n floats),
+                          SUB_ROWS x CT floats of projections */
     size_t scratch_stride;
     int nthreads;
     int guard;         /* K_m > 1: a clustering pass keeps a row's previous clusters when
