@@ -10,9 +10,10 @@
  *    cluster subspace (Theorems 1 and 3), computed in the reduced space from A V_all (one gemm
  *    per block of rows) and the Gram matrix V_all^T V_all; after every pick the coefficients
  *    of all picked clusters are the optimal projection (Theorem 4: a Gram system, solved by a
- *    pseudo-inverse). The same pass over the rows computes each row's residual r and its
- *    exact squared error, and sums per cluster r y^T and y y^T (y the member's coefficients);
- *    empty clusters are then split (section 5.3);
+ *    pseudo-inverse); for K_m > 1, where the greedy search is not optimal, a row keeps its
+ *    previous clusters when they capture more of it. The same pass computes each row's
+ *    residual r and its exact squared error, and sums per cluster r y^T and y y^T (y the
+ *    member's coefficients); empty clusters are then split (section 5.3);
  *  - the update stage (section 4.3): each cluster's basis V_c becomes orth(M_c V_c), M_c the
  *    Gram matrix of its members' residuals with the other clusters fixed, from those sums
  *    (M_c V_c = sum r y^T + V_c sum y y^T): one step of subspace iteration towards the rank-T
