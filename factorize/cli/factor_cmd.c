@@ -318,6 +318,40 @@ static void scan_channel(const dataset *ds, int c, op_prep_counts *n)
     }
 }
 
+/* Whether a's method counts the dataset's values in its own first pass instead of load_dataset
+ * (the in-memory svd: op_prep_fetch). */
+static int scan_fused(const factor_args *a, const dataset *ds)
+{
+    return a->method == OP_METHOD_SVD && !ds->block_rows;
+}
+
+/* The error for channel c's non-finite values (counted in n) without --sanitize. */
+static op_status nonfinite_error(const factor_args *a, const dataset *ds, int c,
+                                 const op_prep_counts *n, op_error *err)
+{
+    char tag[16];
+    op_channel_tag(tag, sizeof tag, "RD.", &ds->info, c);
+    int64_t i = n->first_nonfinite;
+    float v = ds->rd[c][i];
+    return op_error_set(err, OP_ERR_INPUT,
+                        "%s: section '%s' value %lld (row %lld, column %lld) is %s; %llu values "
+                        "are not finite (--sanitize replaces them by 0)",
+                        a->input, tag, (long long)i, (long long)(i / ds->cols),
+                        (long long)(i % ds->cols), isnan(v) ? "NaN" : "infinite",
+                        (unsigned long long)n->nonfinite);
+}
+
+/* Logs what the scans of the dataset's values found (rep's counts). */
+static void log_counts(const factor_args *a, const op_factor_report *rep)
+{
+    if (rep->nonfinite_replaced)
+        op_log(OP_LOG_WARN, "%s: replaced %llu non-finite values by 0 (--sanitize)", a->input,
+               (unsigned long long)rep->nonfinite_replaced);
+    if (rep->negative_values)
+        op_log(OP_LOG_INFO, "%s: %llu negative values (noise) are factored as 0", a->input,
+               (unsigned long long)rep->negative_values);
+}
+
 static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_report *rep,
                               op_error *err)
 {
@@ -360,27 +394,17 @@ static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_repor
                                 (unsigned long long)(count * sizeof(float)));
         /* The dataset's CRC from its sections' verified ones: no second pass over the data. */
         crc = op_crc32_combine(crc, op_material_section_crc(ds->file, tag), bytes);
+        if (scan_fused(a, ds))
+            continue; /* counted by the svd's first pass over the channel (factor_svd) */
         op_prep_counts n;
         scan_channel(ds, c, &n);
-        if (n.nonfinite && !a->sanitize) {
-            int64_t i = n.first_nonfinite;
-            float v = ds->rd[c][i];
-            return op_error_set(err, OP_ERR_INPUT,
-                                "%s: section '%s' value %lld (row %lld, column %lld) is %s; %llu "
-                                "values are not finite (--sanitize replaces them by 0)",
-                                a->input, tag, (long long)i, (long long)(i / ds->cols),
-                                (long long)(i % ds->cols), isnan(v) ? "NaN" : "infinite",
-                                (unsigned long long)n.nonfinite);
-        }
+        if (n.nonfinite && !a->sanitize)
+            return nonfinite_error(a, ds, c, &n, err);
         rep->nonfinite_replaced += n.nonfinite;
         rep->negative_values += n.negative;
     }
-    if (rep->nonfinite_replaced)
-        op_log(OP_LOG_WARN, "%s: replaced %llu non-finite values by 0 (--sanitize)", a->input,
-               (unsigned long long)rep->nonfinite_replaced);
-    if (rep->negative_values)
-        op_log(OP_LOG_INFO, "%s: %llu negative values (noise) are factored as 0", a->input,
-               (unsigned long long)rep->negative_values);
+    if (!scan_fused(a, ds))
+        log_counts(a, rep);
     rep->dataset_crc = crc;
     return OP_OK;
 }
@@ -400,6 +424,27 @@ static op_status alloc_matrix(const dataset *ds, float **mat, op_error *err)
     return OP_OK;
 }
 
+/* Allocates the per-row shifts and maxima of ds into *shift and *max when a->shift; else sets
+ * both NULL. */
+static op_status alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
+                             float **max, op_error *err)
+{
+    *shift = NULL;
+    *max = NULL;
+    if (!a->shift)
+        return OP_OK;
+    *shift = alloc_or_null((uint64_t)ds->rows * sizeof **shift);
+    *max = alloc_or_null((uint64_t)ds->rows * sizeof **max);
+    if (!*shift || !*max) {
+        free(*shift);
+        free(*max);
+        *shift = NULL;
+        *max = NULL;
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    return OP_OK;
+}
+
 /* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, and
  * log-transformed as the svd method does when with_log, into mat (rows x cols). The per-row
  * shifts and maxima go to *shift and *max, owned by the caller (both NULL when not shifted). */
@@ -407,20 +452,10 @@ static op_status prepare_channel(const factor_args *a, const dataset *ds, int c,
                                  float *mat, uint32_t **shift, float **max, op_error *err)
 {
     int64_t rows = ds->rows;
-    *shift = NULL;
-    *max = NULL;
-    if (a->shift) {
-        *shift = alloc_or_null((uint64_t)rows * sizeof **shift);
-        *max = alloc_or_null((uint64_t)rows * sizeof **max);
-        if (!*shift || !*max) {
-            free(*shift);
-            free(*max);
-            *shift = NULL;
-            *max = NULL;
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        }
-    }
-    op_status st = op_prep_rows(ds->rd[c], rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
+    op_status st = alloc_peaks(a, ds, shift, max, err);
+    if (st != OP_OK)
+        return st;
+    st = op_prep_rows(ds->rd[c], rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
                                 a->log_b, a->threads, mat, err);
     if (st != OP_OK) {
         free(*shift);
@@ -548,19 +583,9 @@ static op_status check_log_transform(const factor_args *a, const svd_rows *t, op
 static op_status stream_peaks(const factor_args *a, const dataset *ds, int c, uint32_t **shift,
                               float **max, op_error *err)
 {
-    *shift = NULL;
-    *max = NULL;
-    if (!a->shift)
-        return OP_OK;
-    *shift = alloc_or_null((uint64_t)ds->rows * sizeof **shift);
-    *max = alloc_or_null((uint64_t)ds->rows * sizeof **max);
-    if (!*shift || !*max) {
-        free(*shift);
-        free(*max);
-        *shift = NULL;
-        *max = NULL;
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    }
+    op_status st = alloc_peaks(a, ds, shift, max, err);
+    if (st != OP_OK || !a->shift)
+        return st;
     for (int64_t r0 = 0; r0 < ds->rows; r0 += ds->block_rows) {
         int64_t nb = ds->rows - r0 < ds->block_rows ? ds->rows - r0 : ds->block_rows;
         const float *src = ds->rd[c] + r0 * ds->cols;
@@ -570,10 +595,51 @@ static op_status stream_peaks(const factor_args *a, const dataset *ds, int c, ui
     return OP_OK;
 }
 
+/* Channel c of the in-memory svd method: its SVD with the preprocessing, the log transform and
+ * the scan of its values fused into the first pass (op_rsvd_fill of op_prep_fetch into mat);
+ * then the check of the transform. The per-row shifts and maxima go to *shift and *max. */
+static op_status svd_channel_fused(const factor_args *a, const dataset *ds, int c, int terms,
+                                   float *mat, uint32_t **shift, float **max, float *us,
+                                   float *v, op_progress *prog, op_factor_report *rep,
+                                   op_error *err)
+{
+    op_status st = alloc_peaks(a, ds, shift, max, err);
+    if (st != OP_OK)
+        return st;
+    op_prep_source p = {.src = ds->rd[c], .rows = ds->rows, .cols = ds->cols, .shift = *shift,
+                        .max = *max, .log_a = a->log_a, .log_b = a->log_b,
+                        .sanitize = a->sanitize};
+    atomic_init(&p.nonfinite, 0);
+    atomic_init(&p.negative, 0);
+    op_row_source src = {op_prep_fetch, &p, 1};
+    op_rsvd_options opt = a->svd;
+    opt.threads = a->threads;
+    st = op_rsvd_fill(&src, mat, ds->rows, ds->cols, terms, &opt, us, v, NULL, prog, err);
+    op_prep_counts n = {atomic_load(&p.nonfinite), atomic_load(&p.negative), -1};
+    if (n.nonfinite && !a->sanitize) {
+        op_prep_scan(ds->rd[c], (uint64_t)ds->rows * (uint64_t)ds->cols, &n);
+        return nonfinite_error(a, ds, c, &n, err);
+    }
+    rep->nonfinite_replaced += n.nonfinite;
+    rep->negative_values += n.negative;
+    if (st == OP_OK || st == OP_ERR_NUMERIC) { /* a refused transform explains a failure */
+        op_error check_err = {0};
+        svd_rows t = {a, ds, c, mat, *shift, *max};
+        op_status check = check_log_transform(a, &t, &check_err);
+        if (check != OP_OK) {
+            if (err)
+                *err = check_err;
+            return check;
+        }
+    }
+    return st == OP_OK ? st : op_error_prefix(err, "channel %d: ", c);
+}
+
 /* The svd method, channel by channel: preprocess, log transform, truncated SVD (in memory, or
  * streaming: every product with the matrix a pass that preprocesses the dataset's rows). */
 static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
-                            section_list *out, double *prep_seconds, op_error *err)
+                            section_list *out, double *prep_seconds, op_factor_report *rep,
+                            op_error *err)
 {
     int64_t rows = ds->rows;
     int cols = ds->cols;
@@ -587,33 +653,45 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
+        float *us = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *us);
+        float *v = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *v);
+        if (!us || !v) {
+            free(us);
+            free(v);
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            break;
+        }
         double t0 = op_monotonic_seconds();
-        st = ds->block_rows ? stream_peaks(a, ds, c, &shift, &max, err)
-                            : prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
+        if (!ds->block_rows) {
+            st = svd_channel_fused(a, ds, c, terms, mat, &shift, &max, us, v, prog, rep, err);
+            op_progress_advance(prog, 1);
+            op_log(OP_LOG_DEBUG, "channel %d: preprocessing and SVD of %lld x %d to rank %d "
+                   "%.3f s", c, (long long)rows, cols, terms, op_monotonic_seconds() - t0);
+            st = channel_add_if(out, st, "U.", ds, c, us,
+                                (uint64_t)rows * (uint64_t)terms * sizeof *us, err);
+            st = channel_add_if(out, st, "V.", ds, c, v,
+                                (uint64_t)cols * (uint64_t)terms * sizeof *v, err);
+            st = add_peaks(out, ds, c, shift, max, st, err);
+            continue;
+        }
+        st = stream_peaks(a, ds, c, &shift, &max, err);
         svd_rows t = {a, ds, c, mat, shift, max};
         if (st == OP_OK)
             st = check_log_transform(a, &t, err);
-        if (ds->block_rows) /* its sampled rows (and the pages the kernel mapped around them) */
-            op_material_release(ds->file, ds->rd[c],
-                                (size_t)rows * (size_t)cols * sizeof *ds->rd[c]);
+        /* its sampled rows (and the pages the kernel mapped around them) */
+        op_material_release(ds->file, ds->rd[c], (size_t)rows * (size_t)cols * sizeof *ds->rd[c]);
         if (st != OP_OK) {
+            free(us);
+            free(v);
             free(shift);
             free(max);
-        }
-        if (st != OP_OK)
             break;
+        }
         op_progress_advance(prog, 1);
         double t1 = op_monotonic_seconds();
         *prep_seconds += t1 - t0;
-        float *us = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *us);
-        float *v = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *v);
-        if (!us || !v)
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         op_row_source src = {fetch_rows, &t, ds->block_rows};
-        if (st == OP_OK)
-            st = ds->block_rows
-                     ? op_rsvd_rows(&src, rows, cols, terms, &a->svd, us, v, NULL, prog, err)
-                     : op_rsvd(mat, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
+        st = op_rsvd_rows(&src, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
         op_log(OP_LOG_DEBUG, "channel %d: preprocessing %.3f s, SVD of %lld x %d to rank %d "
                "%.3f s", c, t1 - t0, (long long)rows, cols, terms, op_monotonic_seconds() - t1);
         if (st != OP_OK) {
@@ -632,6 +710,8 @@ static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
     }
     op_progress_end(prog);
     free(mat);
+    if (st == OP_OK && scan_fused(a, ds))
+        log_counts(a, rep);
     return st;
 }
 
@@ -1058,7 +1138,7 @@ int op_cmd_factor(int argc, char **argv)
     t = op_monotonic_seconds();
     double prep = 0;
     if (a.method == OP_METHOD_SVD)
-        st = factor_svd(&a, &ds, terms, &secs, &prep, &err);
+        st = factor_svd(&a, &ds, terms, &secs, &prep, &rep, &err);
     else if (a.method == OP_METHOD_TUCKER)
         st = factor_tucker(&a, &ds, terms, &secs, &rep, &err);
     else if (a.method == OP_METHOD_KCTA)

@@ -125,6 +125,27 @@ void op_prep_log(float *v, uint64_t n, double a, double b)
         v[i] = log1pf(v[i] * inv_a + bm1);
 }
 
+op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
+{
+    op_prep_source *p = user;
+    const float *src = p->src + r0 * p->cols;
+    uint64_t n = (uint64_t)count * (uint64_t)p->cols;
+    op_prep_counts c;
+    scan_range(src, 0, n, &c);
+    atomic_fetch_add(&p->nonfinite, c.nonfinite);
+    atomic_fetch_add(&p->negative, c.negative);
+    if (c.nonfinite && !p->sanitize)
+        return op_error_set(err, OP_ERR_INPUT, "row %lld holds a non-finite value",
+                            (long long)(r0 + c.first_nonfinite / p->cols));
+    if (p->shift)
+        op_prep_find_peaks(src, count, p->cols, p->shift + r0, p->max + r0);
+    op_prep_apply(src, count, p->cols, p->shift ? p->shift + r0 : NULL,
+                  p->max ? p->max + r0 : NULL, dst);
+    if (p->log_a > 0)
+        op_prep_log(dst, n, p->log_a, p->log_b);
+    return OP_OK;
+}
+
 typedef struct prep_job {
     const float *src;
     int64_t rows;

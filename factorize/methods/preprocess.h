@@ -51,6 +51,24 @@ op_status op_prep_rows_given_peaks(const float *src, int64_t rows, int cols,
                                    const uint32_t *shift, const float *max, double log_a,
                                    double log_b, int threads, float *dst, op_error *err);
 
+/* A matrix preprocessed while it is read (the svd method's fused first pass): op_prep_fetch, an
+ * op_row_source fetch (rsvd.h), writes rows [r0, r0 + count) of op_prep_rows's result for src
+ * and counts the rows' values as op_prep_scan does. Calls for disjoint rows may run at once.
+ * Non-finite values count as 0 when sanitize is set; else a block holding one fails with
+ * OP_ERR_INPUT (op_prep_scan of src then names the first). */
+typedef struct op_prep_source {
+    const float *src;
+    int64_t rows;
+    int cols;
+    uint32_t *shift; /* rows, filled in; NULL: not shifted (max NULL too) */
+    float *max;
+    double log_a, log_b; /* log_a <= 0: no log transform */
+    int sanitize;
+    _Atomic uint64_t nonfinite, negative; /* counted so far */
+} op_prep_source;
+
+op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err);
+
 /* The svd method's value transform, in place: v = ln(v / a + b), with a > 0, b > 0, v >= 0. */
 void op_prep_log(float *v, uint64_t n, double a, double b);
 
