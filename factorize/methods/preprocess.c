@@ -125,24 +125,59 @@ void op_prep_log(float *v, uint64_t n, double a, double b)
         v[i] = log1pf(v[i] * inv_a + bm1);
 }
 
+/* The bits of op_prep_clean(v) as the pool's threads compute it (they flush denormals to 0),
+ * from the bits of v: cleaned values are non-negative, so their bits order as they do. */
+static inline int32_t clean_bits(uint32_t bits)
+{
+    return bits >= 0x00800000u && bits < 0x7f800000u ? (int32_t)bits : 0;
+}
+
 op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
 {
     op_prep_source *p = user;
-    const float *src = p->src + r0 * p->cols;
-    uint64_t n = (uint64_t)count * (uint64_t)p->cols;
-    op_prep_counts c;
-    scan_range(src, 0, n, &c);
-    atomic_fetch_add(&p->nonfinite, c.nonfinite);
-    atomic_fetch_add(&p->negative, c.negative);
-    if (c.nonfinite && !p->sanitize)
+    int n = p->cols;
+    uint64_t nonfinite = 0, negative = 0;
+    int64_t first_bad = -1;
+    for (int64_t r = r0; r < r0 + count; r++) {
+        const float *in = p->src + r * n;
+        float *out = dst + (r - r0) * n;
+        /* one pass over the row for scan_range's counts and op_prep_find_peaks's maximum */
+        uint32_t bad = 0, neg = 0;
+        int32_t top = 0;
+        for (int j = 0; j < n; j++) {
+            uint32_t bits;
+            memcpy(&bits, &in[j], sizeof bits);
+            uint32_t b = (bits & 0x7f800000u) == 0x7f800000u;
+            bad += b;
+            neg += (b ^ 1) & (bits >> 31) & ((bits & 0x7fffffffu) != 0);
+            int32_t c = clean_bits(bits);
+            top = c > top ? c : top;
+        }
+        nonfinite += bad;
+        negative += neg;
+        if (bad && first_bad < 0)
+            first_bad = r;
+        if (p->shift) {
+            int at = 0;
+            while (top > 0 && at < n) { /* the first column holding the maximum */
+                uint32_t bits;
+                memcpy(&bits, &in[at], sizeof bits);
+                if (clean_bits(bits) == top)
+                    break;
+                at++;
+            }
+            p->shift[r] = top > 0 ? (uint32_t)at : 0;
+            memcpy(&p->max[r], &top, sizeof top);
+        }
+        op_prep_apply(in, 1, n, p->shift ? p->shift + r : NULL, p->max ? p->max + r : NULL, out);
+        if (p->log_a > 0)
+            op_prep_log(out, (uint64_t)n, p->log_a, p->log_b);
+    }
+    atomic_fetch_add(&p->nonfinite, nonfinite);
+    atomic_fetch_add(&p->negative, negative);
+    if (nonfinite && !p->sanitize)
         return op_error_set(err, OP_ERR_INPUT, "row %lld holds a non-finite value",
-                            (long long)(r0 + c.first_nonfinite / p->cols));
-    if (p->shift)
-        op_prep_find_peaks(src, count, p->cols, p->shift + r0, p->max + r0);
-    op_prep_apply(src, count, p->cols, p->shift ? p->shift + r0 : NULL,
-                  p->max ? p->max + r0 : NULL, dst);
-    if (p->log_a > 0)
-        op_prep_log(dst, n, p->log_a, p->log_b);
+                            (long long)first_bad);
     return OP_OK;
 }
 
