@@ -72,17 +72,6 @@ void op_column_abs_max(const float *v, int n, int T, double *out);
  * the columns of the transposed factor. */
 float *op_transpose(const float *v, int n, int T);
 #define OP_EVAL_CHUNK 256
-/* eval_row's loops are element-wise over columns: compiled also for AVX2 and AVX-512 (chosen
- * at load time), they give the same bits as the baseline build, as C11 mode contracts no
- * a * b + c into a fused multiply-add (-ffp-contract=off). */
-#if defined(__x86_64__) && defined(__has_attribute)
-#if __has_attribute(target_clones)
-#define OP_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-#endif
-#ifndef OP_VECTOR_CLONES
-#define OP_VECTOR_CLONES
-#endif
 /* out[(col + k) mod n] = v[k] for k < len, col < 2n, len <= n: a chunk of a shifted row. */
 static inline void op_store_shifted(float *out, int n, int col, const float *v, int len)
 {
