@@ -117,10 +117,10 @@ void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shi
     }
 }
 
-/* ln(1 + x) for x >= -1 within about 1e-15 (relative), branch-free and without calls so that
- * loops over it vectorize: ln(u) for u = 1 + x (2^k m, m in [sqrt(1/2), sqrt(2)), ln m =
- * 2 atanh(s) with s = (m - 1) / (m + 1), |s| < 0.172, by its series to s^15), less the rounding
- * of u divided by u. */
+/* ln(1 + x) for x > -1 within about 1e-15 (relative; NaN at x = -1, where ln is -infinity: the
+ * svd's check refuses either), branch-free and without calls so that loops over it vectorize:
+ * ln(u) for u = 1 + x = 2^k m, m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(s) with
+ * s = (m - 1) / (m + 1), |s| < 0.172, by its series to s^15; less the rounding of u over u. */
 static inline double log1p_vec(double x)
 {
     double u = 1.0 + x, c = (u - 1.0) - x;
@@ -141,7 +141,7 @@ static inline double log1p_vec(double x)
     p = p * s2 + 1.0 / 5.0;
     p = p * s2 + 1.0 / 3.0;
     double r = kd * 0.6931471805599453 + (2.0 * s + 2.0 * s * s2 * p - c / u);
-    return u > 0.0 ? r : (u == 0.0 ? -INFINITY : NAN);
+    return r;
 }
 
 OP_VECTOR_CLONES
