@@ -159,6 +159,32 @@ static inline int32_t clean_bits(uint32_t bits)
     return bits >= 0x00800000u && bits < 0x7f800000u ? (int32_t)bits : 0;
 }
 
+/* op_prep_apply's value at_most_one(op_prep_clean(v) / mx) as the pool's threads compute it,
+ * with integer selects (which vectorize; floating compares, which may trap, do not). */
+static inline float scaled_bits(float v, float mx)
+{
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    int32_t c = clean_bits(bits), qb;
+    float cv, q;
+    memcpy(&cv, &c, sizeof cv);
+    q = cv / mx;
+    memcpy(&qb, &q, sizeof qb);
+    qb = qb < 0x3f800000 ? qb : 0x3f800000; /* q >= 0: at most 1 */
+    memcpy(&q, &qb, sizeof q);
+    return q;
+}
+
+/* One row of op_prep_apply with a positive maximum mx and shift s, on a pool thread. */
+static void shift_row(const float *in, int n, int s, float mx, float *out)
+{
+    for (int j = 0; j < n - s; j++)
+        out[j] = scaled_bits(in[j + s], mx);
+    for (int j = n - s; j < n; j++)
+        out[j] = scaled_bits(in[j + s - n], mx);
+}
+
+OP_VECTOR_CLONES
 op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
 {
     op_prep_source *p = user;
@@ -196,7 +222,11 @@ op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_er
             p->shift[r] = top > 0 ? (uint32_t)at : 0;
             memcpy(&p->max[r], &top, sizeof top);
         }
-        op_prep_apply(in, 1, n, p->shift ? p->shift + r : NULL, p->max ? p->max + r : NULL, out);
+        if (p->shift && top > 0)
+            shift_row(in, n, (int)p->shift[r], p->max[r], out);
+        else
+            op_prep_apply(in, 1, n, p->shift ? p->shift + r : NULL, p->max ? p->max + r : NULL,
+                          out);
         if (p->log_a > 0)
             op_prep_log(out, (uint64_t)n, p->log_a, p->log_b);
     }

@@ -8,10 +8,9 @@
  * while it is in cache (in-memory blocks of fixed size are parallel tasks, merged in order, so
  * the result does not depend on the thread count). Power iterations stop early once the rank-k
  * error has converged: its estimate is ||A||_F^2 (measured in the first pass) minus the top-k
- * eigenvalues of Y^T Y, the squared Ritz values of A on span(Z). Products use OpenBLAS's gemm.
- * The result is deterministic for a given seed, and every singular pair's sign is fixed so
- * that the entry of largest magnitude of its right singular vector is
- * positive. */
+ * eigenvalues of Z^T A^T A Z, the squared Ritz values of A on span(Z). Products use
+ * OpenBLAS's gemm. The result is deterministic for a given seed, and every singular pair's sign
+ * is fixed so that the entry of largest magnitude of its right singular vector is positive. */
 #ifndef OP_FACTOR_RSVD_H
 #define OP_FACTOR_RSVD_H
 

@@ -24,14 +24,17 @@ static op_status FN(orthonormalize)(REAL *y, int64_t rows, int cols, REAL *tau, 
     return OP_OK;
 }
 
-/* The energy the top k directions of the n x l matrix z hold: the sum of the k largest
- * eigenvalues of z^T z (the squared Ritz values of A on the subspace z = A^T Y came from).
- * gram (l x l) and eig (l) are scratch. Returns -1 if LAPACK fails (never converged). */
-static double FN(top_energy)(const REAL *z, int64_t n, int l, int k, double *gram, double *eig)
+/* The energy A holds on the top k directions of span(Z), Z (n x l) orthonormal, from W = A^T A Z:
+ * the sum of the k largest eigenvalues of Z^T W = (A Z)^T (A Z) (symmetrized), the squared Ritz
+ * values. gram (l x l) and eig (l) are scratch. Returns -1 if LAPACK fails (never converged). */
+static double FN(top_energy)(const REAL *z, const REAL *w, int64_t n, int l, int k, double *gram,
+                             double *eig)
 {
     for (int i = 0; i < l; i++)
         for (int j = 0; j <= i; j++)
-            gram[(size_t)j * l + i] = DOT((blasint)n, z + (size_t)i * n, 1, z + (size_t)j * n, 1);
+            gram[(size_t)j * l + i] =
+                0.5 * (DOT((blasint)n, z + (size_t)i * n, 1, w + (size_t)j * n, 1) +
+                       DOT((blasint)n, z + (size_t)j * n, 1, w + (size_t)i * n, 1));
     if (LAPACKE_dsyev(LAPACK_COL_MAJOR, 'N', 'L', l, gram, l, eig) != 0)
         return -1.0;
     double e = 0.0;
@@ -260,7 +263,7 @@ static op_status FN(randomized)(FN(source) *A, int64_t m, int64_t n, int k, int 
         op_progress_advance(progress, 1);
         if (it >= q)
             break;
-        double captured = FN(top_energy)(y, m, l, k, xt, sv);
+        double captured = FN(top_energy)(z, w, n, l, k, xt, sv);
         if (it > 1 && converged(captured_prev, captured, norm2, tol, ENERGY_RESOLUTION)) {
             op_progress_advance(progress, (uint64_t)(q - it));
             break;
