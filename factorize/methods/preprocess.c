@@ -163,12 +163,8 @@ static inline int32_t clean_bits(uint32_t bits)
  * with integer selects (which vectorize; floating compares, which may trap, do not). */
 static inline float scaled_bits(float v, float mx)
 {
-    uint32_t bits;
-    memcpy(&bits, &v, sizeof bits);
-    int32_t c = clean_bits(bits), qb;
-    float cv, q;
-    memcpy(&cv, &c, sizeof cv);
-    q = cv / mx;
+    float q = op_prep_clean_pool(v) / mx;
+    int32_t qb;
     memcpy(&qb, &q, sizeof qb);
     qb = qb < 0x3f800000 ? qb : 0x3f800000; /* q >= 0: at most 1 */
     memcpy(&q, &qb, sizeof q);

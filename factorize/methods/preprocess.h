@@ -10,6 +10,7 @@
 #define OP_FACTOR_PREPROCESS_H
 
 #include <stdint.h>
+#include <string.h>
 
 #include "opaline.h"
 
@@ -27,6 +28,17 @@ void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts);
 static inline float op_prep_clean(float v)
 {
     return v > 0.0f && v <= 3.4028234663852886e38f ? v : 0.0f;
+}
+
+/* op_prep_clean as op_parallel_for's tasks compute it (their threads treat denormals as 0),
+ * with integer selects only, so that loops over it vectorize. */
+static inline float op_prep_clean_pool(float v)
+{
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    bits = bits >= 0x00800000u && bits < 0x7f800000u ? bits : 0u;
+    memcpy(&v, &bits, sizeof v);
+    return v;
 }
 
 /* For every row of src (rows x cols, row-major): shift[r] = the first column holding the row's

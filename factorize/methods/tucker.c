@@ -43,24 +43,25 @@ static double storage_error_bound(const double *c, int d)
     return rounding + 2.0 * (d + 1) * (double)FLT_EPSILON * sum;
 }
 
-op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
-                               double *coef, op_polyfit_stats *stats, op_error *err)
+/* Scratch of op_polyfit_chebyshev for n points, nrhs right-hand sides and np coefficients, in
+ * doubles: the design, the right-hand sides, tau, the tails, one fit, LAPACK's workspace (at
+ * least 64 columns a block; the _work calls skip LAPACKE's NaN scan of the inputs, which cost as
+ * much as the factorization: the inputs are finite). */
+static size_t polyfit_scratch(int n, int nrhs, int np)
+{
+    return (size_t)n * (size_t)np + (size_t)n * (size_t)nrhs + (size_t)np + (size_t)n + 1 +
+           (size_t)np + 64 * ((size_t)np + (size_t)nrhs);
+}
+
+/* op_polyfit_chebyshev with scratch (polyfit_scratch doubles). */
+static op_status polyfit(const double *t, const double *y, int n, int nrhs, int degree,
+                         double *coef, op_polyfit_stats *stats, double *scratch, op_error *err)
 {
     int np = degree + 1, kmax = np < n ? np : n;
-    double *a = malloc((size_t)n * (size_t)np * sizeof *a);
-    double *b = malloc((size_t)n * (size_t)nrhs * sizeof *b);
-    double *tau = malloc((size_t)np * sizeof *tau);
-    double *tail = malloc(((size_t)n + 1) * sizeof *tail);
-    double *c = malloc((size_t)np * sizeof *c);
-    /* LAPACK's workspace (at least 64 columns a block); the _work calls skip LAPACKE's NaN scan
-     * of the inputs, which cost as much as the factorization (the inputs are finite). */
+    double *a = scratch, *b = a + (size_t)n * np, *tau = b + (size_t)n * nrhs, *tail = tau + np;
+    double *c = tail + n + 1, *work = c + np;
     lapack_int lwork = 64 * (np + nrhs);
-    double *work = malloc((size_t)lwork * sizeof *work);
     op_status st = OP_OK;
-    if (!a || !b || !tau || !tail || !c || !work) {
-        st = op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
-        goto done;
-    }
     /* Column p of the design matrix is T_p(t_i) (column-major). */
     for (int i = 0; i < n; i++) {
         double tm1 = 1.0, tp = t[i];
@@ -149,12 +150,16 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
         }
     }
 done:
-    free(a);
-    free(b);
-    free(tau);
-    free(tail);
-    free(c);
-    free(work);
+    return st;
+}
+
+op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
+                               double *coef, op_polyfit_stats *stats, op_error *err)
+{
+    double *scratch = malloc(polyfit_scratch(n, nrhs, degree + 1) * sizeof *scratch);
+    op_status st = scratch ? polyfit(t, y, n, nrhs, degree, coef, stats, scratch, err)
+                           : op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
+    free(scratch);
     return st;
 }
 
@@ -171,7 +176,7 @@ static void channel_mean(const float *const *ch, int nch, uint64_t count, float 
 
 /* Rows per task of the colour fits: fixed, so that the merged figures do not depend on the
  * thread count. */
-enum { FIT_ROWS_PER_TASK = 256 };
+enum { FIT_ROWS_PER_TASK = 256, FIT_LANES = 8 };
 
 typedef struct fit_job {
     const float *const *ch;
@@ -186,6 +191,7 @@ typedef struct fit_job {
 
 /* Fits the colour polynomials of one block of rows (one op_parallel_for task): each row's and
  * channel's coefficients go to res, its figures to the task's part. */
+OP_VECTOR_CLONES
 static void fit_task(void *user, int task, int thread)
 {
     const fit_job *j = user;
@@ -205,8 +211,9 @@ static void fit_task(void *user, int task, int thread)
     /* Clenshaw's partial sums across the columns, float and double (vectorized loops) */
     float *fb = malloc(2 * (size_t)n * sizeof *fb);
     double *db = malloc(2 * (size_t)n * sizeof *db);
+    double *scratch = malloc(polyfit_scratch(n, nch, np) * sizeof *scratch);
     op_status st = OP_OK;
-    if (!t || !tf || !y || !coef || !fb || !db)
+    if (!t || !tf || !y || !coef || !fb || !db || !scratch)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
     for (int64_t r = r0; r < r1 && st == OP_OK; r++) {
         const float *u = res->u + r * T;
@@ -220,9 +227,9 @@ static void fit_task(void *user, int task, int thread)
                 tf[jj] += uk * v[jj];
         }
         float lo = INFINITY, hi = -INFINITY;
-        for (int jj = 0; jj < n; jj++) {
-            lo = fminf(lo, tf[jj]);
-            hi = fmaxf(hi, tf[jj]);
+        for (int jj = 0; jj < n; jj++) { /* tf is finite: fminf's and fmaxf's values */
+            lo = tf[jj] < lo ? tf[jj] : lo;
+            hi = tf[jj] > hi ? tf[jj] : hi;
         }
         double mid = 0.5 * ((double)lo + (double)hi);
         float center = (float)mid;
@@ -239,12 +246,20 @@ static void fit_task(void *user, int task, int thread)
         }
         int s = res->shift ? (int)res->shift[r] : 0;
         float mx = res->max ? res->max[r] : 1.0f;
-        for (int c = 0; c < nch; c++)
-            for (int jj = 0; jj < n; jj++) {
-                int col = jj + s < n ? jj + s : jj + s - n;
-                y[(size_t)c * n + jj] = mx > 0.0f ? op_prep_clean(ch[c][r * n + col]) / mx : 0.0;
+        for (int c = 0; c < nch; c++) {
+            double *yc = y + (size_t)c * n;
+            const float *in = ch[c] + r * n;
+            if (!(mx > 0.0f)) {
+                for (int jj = 0; jj < n; jj++)
+                    yc[jj] = 0.0;
+                continue;
             }
-        st = op_polyfit_chebyshev(t, y, n, nch, res->degree, coef, fit, err);
+            for (int jj = 0; jj < n - s; jj++)
+                yc[jj] = op_prep_clean_pool(in[jj + s]) / mx;
+            for (int jj = n - s; jj < n; jj++)
+                yc[jj] = op_prep_clean_pool(in[jj + s - n]) / mx;
+        }
+        st = polyfit(t, y, n, nch, res->degree, coef, fit, scratch, err);
         if (st != OP_OK) {
             op_error_prefix(err, "row %lld: ", (long long)r);
             break;
@@ -275,11 +290,27 @@ static void fit_task(void *user, int task, int thread)
                     d1[jj] = d0;
                 }
             }
-            for (int jj = 0; jj < n; jj++) {
+            /* in FIT_LANES lanes, summed in a fixed order, so that it vectorizes */
+            double ss[FIT_LANES] = {0}, ds[FIT_LANES] = {0};
+            const double *yc = y + (size_t)c * n;
+            int j0 = 0;
+            for (; j0 + FIT_LANES <= n; j0 += FIT_LANES)
+                for (int k = 0; k < FIT_LANES; k++) {
+                    int jj = j0 + k;
+                    double d = (double)(tf[jj] * f1[jj] - f2[jj] + beta[0]) -
+                               (t[jj] * d1[jj] - d2[jj] + cd[0]);
+                    ss[k] += d * d;
+                    ds[k] += yc[jj] * yc[jj];
+                }
+            for (int jj = j0; jj < n; jj++) {
                 double d = (double)(tf[jj] * f1[jj] - f2[jj] + beta[0]) -
                            (t[jj] * d1[jj] - d2[jj] + cd[0]);
-                fit->storage_sq += d * d;
-                fit->data_sq += y[(size_t)c * n + jj] * y[(size_t)c * n + jj];
+                ss[jj - j0] += d * d;
+                ds[jj - j0] += yc[jj] * yc[jj];
+            }
+            for (int k = 0; k < FIT_LANES; k++) {
+                fit->storage_sq += ss[k];
+                fit->data_sq += ds[k];
             }
         }
     }
@@ -291,6 +322,7 @@ static void fit_task(void *user, int task, int thread)
     free(coef);
     free(fb);
     free(db);
+    free(scratch);
 }
 
 /* Fits the colour polynomials of every row, in parallel; res holds the mean's factors. Also
