@@ -319,10 +319,10 @@ static void scan_channel(const dataset *ds, int c, op_prep_counts *n)
 }
 
 /* Whether a's method counts the dataset's values in its own first pass instead of load_dataset
- * (the in-memory svd: op_prep_fetch). */
+ * (the in-memory svd: op_prep_fetch; tucker: res->values). */
 static int scan_fused(const factor_args *a, const dataset *ds)
 {
-    return a->method == OP_METHOD_SVD && !ds->block_rows;
+    return (a->method == OP_METHOD_SVD && !ds->block_rows) || a->method == OP_METHOD_TUCKER;
 }
 
 /* The error for channel c's non-finite values (counted in n) without --sanitize. */
@@ -722,8 +722,20 @@ static op_status factor_tucker(const factor_args *a, const dataset *ds, int term
     op_tucker_result t;
     op_status st = op_tucker_factor(ds->rd, ds->info.channels, ds->rows, ds->cols, terms,
                                     a->degree, a->shift, &a->svd, a->threads, &t, err);
+    if (st == OP_OK && t.values.nonfinite && !a->sanitize) {
+        op_tucker_free(&t);
+        for (int c = 0;; c++) { /* the first channel holding one names it */
+            op_prep_counts n;
+            op_prep_scan(ds->rd[c], (uint64_t)ds->rows * (uint64_t)ds->cols, &n);
+            if (n.nonfinite)
+                return nonfinite_error(a, ds, c, &n, err);
+        }
+    }
     if (st != OP_OK)
         return st;
+    rep->nonfinite_replaced += t.values.nonfinite;
+    rep->negative_values += t.values.negative;
+    log_counts(a, rep);
     rep->has_fit = 1;
     rep->fit_condition = t.fit.cond_max;
     rep->fit_coef_max = t.fit.coef_max;

@@ -163,15 +163,48 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
     return st;
 }
 
-/* The cleaned per-entry mean over the channels. */
-static void channel_mean(const float *const *ch, int nch, uint64_t count, float *mean)
+/* The rows of the preprocessed per-entry mean over the channels, for op_rsvd_fill: the mean of
+ * the cleaned values, shifted and normalized (when shift is not NULL), counting the values as
+ * op_prep_scan does. */
+typedef struct mean_source {
+    const float *const *ch;
+    int nch, cols;
+    uint32_t *shift;
+    float *max;
+    _Atomic uint64_t nonfinite, negative;
+} mean_source;
+
+static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
 {
-    for (uint64_t i = 0; i < count; i++) {
-        float s = 0.0f;
-        for (int c = 0; c < nch; c++)
-            s += op_prep_clean(ch[c][i]);
-        mean[i] = s / (float)nch;
+    mean_source *m = user;
+    int n = m->cols;
+    float *mean = malloc((size_t)n * sizeof *mean);
+    if (!mean)
+        return op_error_set(err, OP_ERR_NOMEM, "tucker: out of memory");
+    op_prep_counts total = {0, 0, -1};
+    for (int64_t r = r0; r < r0 + count; r++) {
+        for (int j = 0; j < n; j++)
+            mean[j] = 0.0f;
+        for (int c = 0; c < m->nch; c++) {
+            const float *in = m->ch[c] + r * n;
+            op_prep_counts part;
+            op_prep_scan_row(in, n, &part);
+            total.nonfinite += part.nonfinite;
+            total.negative += part.negative;
+            for (int j = 0; j < n; j++)
+                mean[j] += op_prep_clean_pool(in[j]);
+        }
+        for (int j = 0; j < n; j++)
+            mean[j] /= (float)m->nch;
+        if (m->shift)
+            op_prep_find_peaks(mean, 1, n, m->shift + r, m->max + r);
+        op_prep_apply(mean, 1, n, m->shift ? m->shift + r : NULL, m->max ? m->max + r : NULL,
+                      dst + (r - r0) * n);
     }
+    atomic_fetch_add(&m->nonfinite, total.nonfinite);
+    atomic_fetch_add(&m->negative, total.negative);
+    free(mean);
+    return OP_OK;
 }
 
 /* Rows per task of the colour fits: fixed, so that the merged figures do not depend on the
@@ -389,7 +422,6 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
     res->degree = degree;
     res->channels = nchannels;
     uint64_t count = (uint64_t)rows * (uint64_t)cols, np = (uint64_t)degree + 1;
-    float *mean = malloc(count * sizeof *mean);
     float *mat = malloc(count * sizeof *mat);
     res->u = malloc((uint64_t)rows * (uint64_t)terms * sizeof *res->u);
     res->v = malloc((uint64_t)cols * (uint64_t)terms * sizeof *res->v);
@@ -400,22 +432,26 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
         res->max = malloc((uint64_t)rows * sizeof *res->max);
     }
     op_status st = OP_OK;
-    if (!mean || !mat || !res->u || !res->v || !res->range || !res->beta ||
+    if (!mat || !res->u || !res->v || !res->range || !res->beta ||
         (shifted && (!res->shift || !res->max)))
         st = op_error_set(err, OP_ERR_NOMEM, "tucker: out of memory");
     if (st == OP_OK) {
-        channel_mean(channels, nchannels, count, mean);
-        if (shifted)
-            op_prep_find_peaks(mean, rows, cols, res->shift, res->max);
-        op_prep_apply(mean, rows, cols, res->shift, res->max, mat);
-        free(mean);
-        mean = NULL;
+        /* the mean made and preprocessed block by block in the SVD's first pass */
+        mean_source src = {.ch = channels, .nch = nchannels, .cols = cols, .shift = res->shift,
+                           .max = res->max};
+        atomic_init(&src.nonfinite, 0);
+        atomic_init(&src.negative, 0);
+        op_row_source rs = {mean_fetch, &src, 1};
+        op_rsvd_options o = opt ? *opt : op_rsvd_defaults();
+        o.threads = threads;
         op_progress *prog = op_progress_begin(
-            "tucker factorization", op_rsvd_progress_units(rows, cols, terms, opt), NULL, NULL);
-        st = op_rsvd(mat, rows, cols, terms, opt, res->u, res->v, NULL, prog, err);
+            "tucker factorization", op_rsvd_progress_units(rows, cols, terms, &o), NULL, NULL);
+        st = op_rsvd_fill(&rs, mat, rows, cols, terms, &o, res->u, res->v, NULL, prog, err);
         op_progress_end(prog);
+        res->values.nonfinite = atomic_load(&src.nonfinite);
+        res->values.negative = atomic_load(&src.negative);
     }
-    free(mean);
+    (void)count;
     free(mat);
     if (st == OP_OK)
         st = fit_rows(channels, nchannels, threads, res, err);
