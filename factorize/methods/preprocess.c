@@ -30,11 +30,6 @@ static void scan_range(const float *src, uint64_t i0, uint64_t i1, op_prep_count
     counts->negative = negative;
 }
 
-void op_prep_scan_row(const float *src, int n, op_prep_counts *counts)
-{
-    scan_range(src, 0, (uint64_t)n, counts);
-}
-
 typedef struct scan_job {
     const float *src;
     uint64_t n, per;

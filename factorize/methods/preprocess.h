@@ -23,8 +23,6 @@ typedef struct op_prep_counts {
 
 /* Counts non-finite and negative values of src[0 .. n). */
 void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts);
-/* op_prep_scan of one row (n values) on the calling thread. */
-void op_prep_scan_row(const float *src, int n, op_prep_counts *counts);
 
 /* The value the factorizations see for an input value: non-finite and negative become 0. */
 static inline float op_prep_clean(float v)

@@ -99,8 +99,10 @@ static op_status polyfit(const double *t, const double *y, int n, int nrhs, int 
     for (int r = 0; r < nrhs; r++) {
         const double *g = b + (size_t)r * n;
         double ymax = 0;
-        for (int i = 0; i < n; i++)
-            ymax = fmax(ymax, fabs(y[(size_t)r * n + i]));
+        for (int i = 0; i < n; i++) { /* y is finite: fmax's value */
+            double v = fabs(y[(size_t)r * n + i]);
+            ymax = v > ymax ? v : ymax;
+        }
         tail[n] = 0;
         for (int k = n - 1; k >= 0; k--)
             tail[k] = tail[k + 1] + g[k] * g[k];
@@ -174,6 +176,7 @@ typedef struct mean_source {
     _Atomic uint64_t nonfinite, negative;
 } mean_source;
 
+OP_VECTOR_CLONES
 static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
 {
     mean_source *m = user;
@@ -181,18 +184,23 @@ static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, o
     float *mean = malloc((size_t)n * sizeof *mean);
     if (!mean)
         return op_error_set(err, OP_ERR_NOMEM, "tucker: out of memory");
-    op_prep_counts total = {0, 0, -1};
+    uint64_t nonfinite = 0, negative = 0;
     for (int64_t r = r0; r < r0 + count; r++) {
         for (int j = 0; j < n; j++)
             mean[j] = 0.0f;
         for (int c = 0; c < m->nch; c++) {
             const float *in = m->ch[c] + r * n;
-            op_prep_counts part;
-            op_prep_scan_row(in, n, &part);
-            total.nonfinite += part.nonfinite;
-            total.negative += part.negative;
-            for (int j = 0; j < n; j++)
+            uint32_t bad = 0, neg = 0;
+            for (int j = 0; j < n; j++) { /* op_prep_scan's counts, on the bits */
+                uint32_t bits;
+                memcpy(&bits, &in[j], sizeof bits);
+                uint32_t b = (bits & 0x7f800000u) == 0x7f800000u;
+                bad += b;
+                neg += (b ^ 1) & (bits >> 31) & ((bits & 0x7fffffffu) != 0);
                 mean[j] += op_prep_clean_pool(in[j]);
+            }
+            nonfinite += bad;
+            negative += neg;
         }
         for (int j = 0; j < n; j++)
             mean[j] /= (float)m->nch;
@@ -201,8 +209,8 @@ static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, o
         op_prep_apply(mean, 1, n, m->shift ? m->shift + r : NULL, m->max ? m->max + r : NULL,
                       dst + (r - r0) * n);
     }
-    atomic_fetch_add(&m->nonfinite, total.nonfinite);
-    atomic_fetch_add(&m->negative, total.negative);
+    atomic_fetch_add(&m->nonfinite, nonfinite);
+    atomic_fetch_add(&m->negative, negative);
     free(mean);
     return OP_OK;
 }
