@@ -21,7 +21,9 @@ typedef enum op_svd_precision { OP_SVD_SINGLE, OP_SVD_DOUBLE } op_svd_precision;
 typedef struct op_rsvd_options {
     int oversample;   /* extra test vectors p (default 10) */
     int power_iters;  /* at most this many power iterations q (default 4; 0 acts as 1) */
-    double power_tol; /* stop iterating once the squared rank-k error estimate improves by at
+    double power_tol; /* stop iterating (from the third iteration on: earlier stops cost
+                         accuracy that shows in the svd method's error on the chessboards)
+                         once the squared rank-k error estimate improves by at
                          most this fraction of itself (default 1e-2: the error itself by
                          about 0.5 %) or by less than the rounding level of the energies
                          (8 FLT_EPSILON ||A||^2 in single precision, 64 DBL_EPSILON in

@@ -264,7 +264,7 @@ static op_status FN(randomized)(FN(source) *A, int64_t m, int64_t n, int k, int 
         if (it >= q)
             break;
         double captured = FN(top_energy)(z, w, n, l, k, xt, sv);
-        if (it > 1 && converged(captured_prev, captured, norm2, tol, ENERGY_RESOLUTION)) {
+        if (it > 2 && converged(captured_prev, captured, norm2, tol, ENERGY_RESOLUTION)) {
             op_progress_advance(progress, (uint64_t)(q - it));
             break;
         }
