@@ -156,14 +156,14 @@ static op_status FN(pass)(FN(source) *a, int64_t m, int64_t n, int l, const REAL
         st = op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for %d blocks of "
                           "%lld rows", tasks, (long long)j.per);
     if (st == OP_OK) {
-        /* the tasks' products single-threaded: the tasks are the parallelism (and OpenBLAS's
-         * idle threads would spin beside them) */
+        /* the tasks' products single-threaded, on the pool's threads only: the tasks are the
+         * parallelism (OpenBLAS's idle threads would spin beside them), and OpenBLAS's own
+         * threads do not flush denormals as the pool's do, so the result would depend on
+         * whether a product ran on them */
         int blas_threads = openblas_get_num_threads();
-        if (threads > 1)
-            openblas_set_num_threads(1);
+        openblas_set_num_threads(1);
         st = op_parallel_for(threads, tasks, FN(pass_task), &j, NULL, err);
-        if (threads > 1)
-            openblas_set_num_threads(blas_threads);
+        openblas_set_num_threads(blas_threads);
     }
     for (int t = 0; st == OP_OK && t < tasks; t++)
         if (j.status[t] != OP_OK) { /* the first failing block's error */
