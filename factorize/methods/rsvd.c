@@ -56,7 +56,7 @@ static int64_t pass_rows(int64_t m, int64_t n)
 {
     int64_t per = ((int64_t)3 << 19) / (n * (int64_t)sizeof(float));
     per = per < 16 ? 16 : per;
-    while ((m + per - 1) / per > 4096)
+    while ((m + per - 1) / per > 1024) /* each task's part of A^T y is n x l */
         per *= 2;
     return per;
 }
