@@ -3,6 +3,7 @@
 
 #include "preprocess.h"
 
+#include <cblas.h>
 #include <float.h>
 #include <lapacke.h>
 #include <math.h>
@@ -388,8 +389,13 @@ static op_status fit_rows(const float *const *ch, int nch, int threads, op_tucke
     if (!vt || !j.parts || !j.status || !j.errs)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
     j.prog = op_progress_begin("tucker colour fit", (uint64_t)res->rows, NULL, NULL);
-    if (st == OP_OK)
+    if (st == OP_OK) {
+        /* LAPACK's small QRs single-threaded in each task: the tasks are the parallelism */
+        int blas_threads = openblas_get_num_threads();
+        openblas_set_num_threads(1);
         st = op_parallel_for(threads, tasks, fit_task, &j, NULL, err);
+        openblas_set_num_threads(blas_threads);
+    }
     op_progress_end(j.prog);
     /* Merged in task order: the first failing row's error, the figures of all. */
     for (int t = 0; st == OP_OK && t < tasks; t++)
