@@ -44,6 +44,50 @@ static double storage_error_bound(const double *c, int d)
     return rounding + 2.0 * (d + 1) * (double)FLT_EPSILON * sum;
 }
 
+enum { SUM_LANES = 8 };
+
+/* max |v[i]| of n finite values: on the bits of |v| (non-negative doubles order as their
+ * bits), in lanes, so that it vectorizes. */
+static double abs_max(const double *v, int n)
+{
+    int64_t m[SUM_LANES] = {0};
+    int i = 0;
+    for (; i + SUM_LANES <= n; i += SUM_LANES)
+        for (int k = 0; k < SUM_LANES; k++) {
+            int64_t b;
+            memcpy(&b, &v[i + k], sizeof b);
+            b &= INT64_MAX;
+            m[k] = b > m[k] ? b : m[k];
+        }
+    for (int k = 0; i + k < n; k++) {
+        int64_t b;
+        memcpy(&b, &v[i + k], sizeof b);
+        b &= INT64_MAX;
+        m[k] = b > m[k] ? b : m[k];
+    }
+    for (int k = 1; k < SUM_LANES; k++)
+        m[0] = m[k] > m[0] ? m[k] : m[0];
+    double r;
+    memcpy(&r, &m[0], sizeof r);
+    return r;
+}
+
+/* The sum of v[i]^2 over n values, in lanes summed in a fixed order (it vectorizes). */
+static double sum_squares(const double *v, int n)
+{
+    double s[SUM_LANES] = {0};
+    int i = 0;
+    for (; i + SUM_LANES <= n; i += SUM_LANES)
+        for (int k = 0; k < SUM_LANES; k++)
+            s[k] += v[i + k] * v[i + k];
+    for (int k = 0; i + k < n; k++)
+        s[k] += v[i + k] * v[i + k];
+    double r = 0;
+    for (int k = 0; k < SUM_LANES; k++)
+        r += s[k];
+    return r;
+}
+
 /* Scratch of op_polyfit_chebyshev for n points, nrhs right-hand sides and np coefficients, in
  * doubles: the design, the right-hand sides, tau, the tails, one fit, LAPACK's workspace (at
  * least 64 columns a block; the _work calls skip LAPACKE's NaN scan of the inputs, which cost as
@@ -99,13 +143,11 @@ static op_status polyfit(const double *t, const double *y, int n, int nrhs, int 
         dmax++;
     for (int r = 0; r < nrhs; r++) {
         const double *g = b + (size_t)r * n;
-        double ymax = 0;
-        for (int i = 0; i < n; i++) { /* y is finite: fmax's value */
-            double v = fabs(y[(size_t)r * n + i]);
-            ymax = v > ymax ? v : ymax;
-        }
-        tail[n] = 0;
-        for (int k = n - 1; k >= 0; k--)
+        double ymax = abs_max(y + (size_t)r * n, n);
+        /* tail[k] = the squared residual of the degree k - 1 fit (k <= kmax): the sum of g^2
+         * from kmax on in lanes, then the few below one by one */
+        tail[kmax] = sum_squares(g + kmax, n - kmax);
+        for (int k = kmax - 1; k >= 0; k--)
             tail[k] = tail[k + 1] + g[k] * g[k];
         /* Of the fits of degree 0..dmax whose float32 storage moves no value by more than
          * OP_POLYFIT_STORAGE_TOL of the data's largest, the one expected closest to the data:
