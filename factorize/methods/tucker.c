@@ -258,6 +258,43 @@ static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, o
     return OP_OK;
 }
 
+/* The int32 whose order is v's (finite v; -0 below +0). */
+static inline int32_t order_key(float v)
+{
+    int32_t b;
+    memcpy(&b, &v, sizeof b);
+    return b ^ ((b >> 31) & INT32_MAX);
+}
+
+/* The smallest and largest of n >= 1 finite floats, on their order keys in lanes (integer
+ * selects vectorize; floating compares, which may trap, do not). */
+static void float_range(const float *v, int n, float *lo, float *hi)
+{
+    int32_t mn[SUM_LANES], mx[SUM_LANES];
+    for (int k = 0; k < SUM_LANES; k++)
+        mn[k] = mx[k] = order_key(v[0]);
+    int i = 0;
+    for (; i + SUM_LANES <= n; i += SUM_LANES)
+        for (int k = 0; k < SUM_LANES; k++) {
+            int32_t b = order_key(v[i + k]);
+            mn[k] = b < mn[k] ? b : mn[k];
+            mx[k] = b > mx[k] ? b : mx[k];
+        }
+    for (int k = 0; i + k < n; k++) {
+        int32_t b = order_key(v[i + k]);
+        mn[k] = b < mn[k] ? b : mn[k];
+        mx[k] = b > mx[k] ? b : mx[k];
+    }
+    for (int k = 1; k < SUM_LANES; k++) {
+        mn[0] = mn[k] < mn[0] ? mn[k] : mn[0];
+        mx[0] = mx[k] > mx[0] ? mx[k] : mx[0];
+    }
+    mn[0] ^= (mn[0] >> 31) & INT32_MAX; /* the key is its own inverse */
+    mx[0] ^= (mx[0] >> 31) & INT32_MAX;
+    memcpy(lo, &mn[0], sizeof *lo);
+    memcpy(hi, &mx[0], sizeof *hi);
+}
+
 /* Rows per task of the colour fits: fixed, so that the merged figures do not depend on the
  * thread count. */
 enum { FIT_ROWS_PER_TASK = 256, FIT_LANES = 8 };
@@ -310,11 +347,8 @@ static void fit_task(void *user, int task, int thread)
             for (int jj = 0; jj < n; jj++)
                 tf[jj] += uk * v[jj];
         }
-        float lo = INFINITY, hi = -INFINITY;
-        for (int jj = 0; jj < n; jj++) { /* tf is finite: fminf's and fmaxf's values */
-            lo = tf[jj] < lo ? tf[jj] : lo;
-            hi = tf[jj] > hi ? tf[jj] : hi;
-        }
+        float lo, hi;
+        float_range(tf, n, &lo, &hi);
         double mid = 0.5 * ((double)lo + (double)hi);
         float center = (float)mid;
         /* a range at float rounding level is no range: the row is constant in t (t = 0) */
