@@ -13,12 +13,8 @@ static void scan_range(const float *src, uint64_t i0, uint64_t i1, op_prep_count
     for (uint64_t i = i0; i < i1; i++) {
         uint32_t bits;
         memcpy(&bits, &src[i], sizeof bits);
-        /* on the bits alone: workers flush denormals to zero (parallel.c), which would make a
-         * negative denormal compare as 0 */
-        int bad = (bits & 0x7f800000u) == 0x7f800000u; /* NaN or infinite */
-        int neg = (bits >> 31) & ((bits & 0x7fffffffu) != 0);
-        nonfinite += (uint64_t)bad;
-        negative += (uint64_t)((bad ^ 1) & neg);
+        nonfinite += op_prep_is_nonfinite(bits);
+        negative += op_prep_is_negative(bits);
     }
     counts->first_nonfinite = -1;
     for (uint64_t i = i0; nonfinite && i < i1; i++)
@@ -196,9 +192,8 @@ op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_er
         for (int j = 0; j < n; j++) {
             uint32_t bits;
             memcpy(&bits, &in[j], sizeof bits);
-            uint32_t b = (bits & 0x7f800000u) == 0x7f800000u;
-            bad += b;
-            neg += (b ^ 1) & (bits >> 31) & ((bits & 0x7fffffffu) != 0);
+            bad += op_prep_is_nonfinite(bits);
+            neg += op_prep_is_negative(bits);
             int32_t c = clean_bits(bits);
             top = c > top ? c : top;
         }

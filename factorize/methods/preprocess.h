@@ -21,6 +21,19 @@ typedef struct op_prep_counts {
     int64_t first_nonfinite;  /* index of the first one, -1 if none */
 } op_prep_counts;
 
+/* op_prep_scan's two counts for one value, from its bits alone (branch-free, so that loops
+ * vectorize; and the pool's threads flush denormals, which would make a negative denormal
+ * compare as 0): 1 when it is NaN or infinite, and 1 when it is negative, finite and not 0. */
+static inline uint32_t op_prep_is_nonfinite(uint32_t bits)
+{
+    return (bits & 0x7f800000u) == 0x7f800000u;
+}
+
+static inline uint32_t op_prep_is_negative(uint32_t bits)
+{
+    return (op_prep_is_nonfinite(bits) ^ 1u) & (bits >> 31) & ((bits & 0x7fffffffu) != 0);
+}
+
 /* Counts non-finite and negative values of src[0 .. n). */
 void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts);
 

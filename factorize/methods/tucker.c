@@ -237,9 +237,8 @@ static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, o
             for (int j = 0; j < n; j++) { /* op_prep_scan's counts, on the bits */
                 uint32_t bits;
                 memcpy(&bits, &in[j], sizeof bits);
-                uint32_t b = (bits & 0x7f800000u) == 0x7f800000u;
-                bad += b;
-                neg += (b ^ 1) & (bits >> 31) & ((bits & 0x7fffffffu) != 0);
+                bad += op_prep_is_nonfinite(bits);
+                neg += op_prep_is_negative(bits);
                 mean[j] += op_prep_clean_pool(in[j]);
             }
             nonfinite += bad;
