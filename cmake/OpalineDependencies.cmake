@@ -30,6 +30,8 @@ target_include_directories(op_openexr_core INTERFACE ${OP_OPENEXR_INCLUDE_DIR}
 target_link_libraries(op_openexr_core INTERFACE ${OP_OPENEXR_CORE_LIBRARY})
 opaline_require_pkg(OP_LIBPNG libpng libpng-dev)
 opaline_require_pkg(OP_ZLIB zlib zlib1g-dev)
+# CRC-32 with carry-less multiplication (the .opm checksums: ~10x zlib's crc32)
+opaline_require_pkg(OP_LIBDEFLATE libdeflate libdeflate-dev)
 opaline_require_pkg(OP_XXHASH libxxhash libxxhash-dev)
 if(OPALINE_BUILD_TESTS)
   opaline_require_pkg(OP_CMOCKA cmocka libcmocka-dev)

@@ -153,6 +153,18 @@ op_status op_parallel_for(int nthreads, int ntasks, void (*fn)(void *user, int t
  * limiting them to the number of tasks. */
 int op_parallel_threads(int nthreads);
 
+/* For loops that are element-wise (no reduction): the function is also compiled for AVX2 and
+ * AVX-512, the variant chosen at load time. Every variant gives the same bits, as C11 mode
+ * contracts no a * b + c into a fused multiply-add (-ffp-contract=off). */
+#if defined(__x86_64__) && defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define OP_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+#endif
+#ifndef OP_VECTOR_CLONES
+#define OP_VECTOR_CLONES
+#endif
+
 /* ---------------------------------------------------------------- output files */
 
 /* An output file that appears whole or not at all (docs/limits.md, "Output files").

@@ -13,6 +13,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <libdeflate.h>
 #include <zlib.h>
 
 #if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -48,7 +49,7 @@ static void crc_task(void *user, int task, int thread)
     const crc_job *j = user;
     size_t at = (size_t)task * j->block, len = j->n - at < j->block ? j->n - at : j->block;
     (void)thread;
-    j->parts[task] = (uint32_t)crc32_z(0, j->data + at, len);
+    j->parts[task] = libdeflate_crc32(0, j->data + at, len);
 }
 
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n)
@@ -67,7 +68,7 @@ uint32_t op_crc32(uint32_t crc, const void *data, size_t n)
         return crc;
     }
     free(j.parts);
-    return (uint32_t)crc32_z(crc, data, n);
+    return libdeflate_crc32(crc, data, n);
 }
 
 uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b)

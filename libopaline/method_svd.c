@@ -204,6 +204,7 @@ static float svd_eval(const op_material *m, int channel, int64_t row, int col)
 /* The row in chunks of OP_EVAL_CHUNK columns, vectorized across the columns with V transposed:
  * each entry is computed with exactly entry()'s operations (four partial sums over t, in the
  * same order), so eval_row and eval agree bit for bit. */
+OP_VECTOR_CLONES
 static void svd_eval_row(const op_material *m, int channel, int64_t row, float *out)
 {
     const svd_state *s = m->state;

@@ -19,8 +19,8 @@ set -euo pipefail
 group() {
   case $1 in
     core) echo build-essential cmake pkg-config libembree-dev liblapacke-dev libopenblas-dev \
-               libxml2-dev libcmocka-dev libopenexr-dev libpng-dev zlib1g-dev libxxhash-dev blender \
-               python3 ;;
+               libxml2-dev libcmocka-dev libopenexr-dev libpng-dev zlib1g-dev libxxhash-dev \
+               libdeflate-dev blender python3 ;;
     fuzz) echo clang libclang-rt-dev ;;
     platforms) echo debootstrap ;;
     cluster) echo slurm-wlm munge ;;

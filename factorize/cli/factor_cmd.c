@@ -81,8 +81,9 @@ static void usage(FILE *f)
             "  --block-rows N     svd: read the dataset in passes of N rows, never whole in\n"
             "                     memory (default: so when it is larger than half the physical\n"
             "                     memory, in blocks of about 64 MiB; 0: never)\n"
-            "  -t THREADS         preprocessing and evaluation threads (default: all cores;\n"
-            "                     the SVD uses OpenBLAS's own: OPENBLAS_NUM_THREADS)\n"
+            "  -t THREADS         threads of the preprocessing, the passes of the SVD over an\n"
+            "                     in-memory matrix and the evaluation (default: all cores; the\n"
+            "                     streamed SVD's products use OpenBLAS's: OPENBLAS_NUM_THREADS)\n"
             "  -v / -q            more / less output on stderr\n",
             names, terms);
 }
@@ -223,8 +224,6 @@ static int64_t stream_rows(const factor_args *a, uint64_t file_bytes, int cols)
     return rows > 0 ? rows : 1;
 }
 
-/* Opens the dataset and checks its values: non-finite ones are an error naming the first,
- * unless sanitize is set (they then count as 0). */
 /* op_prep_scan of channel c; streaming, in passes whose pages are released after. */
 static void scan_channel(const dataset *ds, int c, op_prep_counts *n)
 {
@@ -248,6 +247,8 @@ static void scan_channel(const dataset *ds, int c, op_prep_counts *n)
     }
 }
 
+/* Opens the dataset and checks its values (unless the method counts them itself): non-finite
+ * ones are an error naming the first, unless sanitize is set (they then count as 0). */
 static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_report *rep,
                               op_error *err)
 {
@@ -277,6 +278,8 @@ static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_repor
                (double)ds->block_rows * ds->cols * sizeof(float) / 1048576.0);
     uint64_t count = (uint64_t)ds->rows * (uint64_t)ds->cols;
     uint32_t crc = 0;
+    /* a method that counts the values in its first pass over them spares a pass here */
+    int counted = op_fit_find(a->method)->counts_values && !ds->block_rows;
     for (int c = 0; c < ds->info.channels; c++) {
         char tag[16];
         uint64_t bytes = 0;
@@ -290,27 +293,17 @@ static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_repor
                                 (unsigned long long)(count * sizeof(float)));
         /* The dataset's CRC from its sections' verified ones: no second pass over the data. */
         crc = op_crc32_combine(crc, op_material_section_crc(ds->file, tag), bytes);
+        if (counted)
+            continue;
         op_prep_counts n;
         scan_channel(ds, c, &n);
-        if (n.nonfinite && !a->sanitize) {
-            int64_t i = n.first_nonfinite;
-            float v = ds->rd[c][i];
-            return op_error_set(err, OP_ERR_INPUT,
-                                "%s: section '%s' value %lld (row %lld, column %lld) is %s; %llu "
-                                "values are not finite (--sanitize replaces them by 0)",
-                                a->input, tag, (long long)i, (long long)(i / ds->cols),
-                                (long long)(i % ds->cols), isnan(v) ? "NaN" : "infinite",
-                                (unsigned long long)n.nonfinite);
-        }
+        if (n.nonfinite && !a->sanitize)
+            return op_fit_nonfinite_error(a, ds, c, &n, err);
         rep->nonfinite_replaced += n.nonfinite;
         rep->negative_values += n.negative;
     }
-    if (rep->nonfinite_replaced)
-        op_log(OP_LOG_WARN, "%s: replaced %llu non-finite values by 0 (--sanitize)", a->input,
-               (unsigned long long)rep->nonfinite_replaced);
-    if (rep->negative_values)
-        op_log(OP_LOG_INFO, "%s: %llu negative values (noise) are factored as 0", a->input,
-               (unsigned long long)rep->negative_values);
+    if (!counted)
+        op_fit_log_counts(a, rep);
     rep->dataset_crc = crc;
     return OP_OK;
 }
@@ -435,7 +428,7 @@ static double median(double *v, int n)
 /* Times op_material_eval at pseudo-random arguments and the albedo map of m. */
 static op_status time_evaluation(const op_material *m, op_factor_report *rep, op_error *err)
 {
-    enum { N = 1 << 18 }; /* 2 x 5 passes of 262144 calls: about 0.3 s of the command */
+    enum { N = 1 << 16 }; /* 2 x 3 passes of 65536 calls: about 0.02 s of the command */
     const op_material_info *in = op_material_get_info(m);
     int h = in->kernel / 2;
     int32_t *args = malloc((size_t)N * 5 * sizeof *args);
@@ -461,7 +454,7 @@ static op_status time_evaluation(const op_material *m, op_factor_report *rep, op
     /* Coherent: 64 offsets per incident pixel, as a renderer gathers a kernel; random: every
      * argument independent, so nearly every call misses the caches. Each is the median of
      * REPEATS passes (the machines are shared and noisy). */
-    enum { REPEATS = 5 };
+    enum { REPEATS = 3 };
     double coherent_ns[REPEATS], random_ns[REPEATS], sum = 0;
     for (int k = 0; k < REPEATS; k++) {
         double t = op_monotonic_seconds();

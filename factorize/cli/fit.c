@@ -1,8 +1,9 @@
-/* fit.c - the helpers the methods' fits share (fit.h): allocation and a channel's
- * preprocessing. */
+/* fit.c - the helpers the methods' fits share (fit.h): allocation, a channel's preprocessing,
+ * and what a fit's own count of the dataset's values means for the command. */
 #include "fit.h"
 #include "preprocess.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 void *op_fit_alloc(uint64_t bytes)
@@ -19,25 +20,73 @@ op_status op_fit_matrix(const dataset *ds, float **mat, op_error *err)
     return OP_OK;
 }
 
+op_status op_fit_alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
+                             float **max, op_error *err)
+{
+    *shift = NULL;
+    *max = NULL;
+    if (!a->shift)
+        return OP_OK;
+    *shift = op_fit_alloc((uint64_t)ds->rows * sizeof **shift);
+    *max = op_fit_alloc((uint64_t)ds->rows * sizeof **max);
+    if (!*shift || !*max) {
+        free(*shift);
+        free(*max);
+        *shift = NULL;
+        *max = NULL;
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    return OP_OK;
+}
+
+op_status op_fit_nonfinite_error(const factor_args *a, const dataset *ds, int c,
+                                 const op_prep_counts *n, op_error *err)
+{
+    char tag[16];
+    op_channel_tag(tag, sizeof tag, "RD.", &ds->info, c);
+    int64_t i = n->first_nonfinite;
+    float v = ds->rd[c][i];
+    return op_error_set(err, OP_ERR_INPUT,
+                        "%s: section '%s' value %lld (row %lld, column %lld) is %s; %llu values "
+                        "are not finite (--sanitize replaces them by 0)",
+                        a->input, tag, (long long)i, (long long)(i / ds->cols),
+                        (long long)(i % ds->cols), isnan(v) ? "NaN" : "infinite",
+                        (unsigned long long)n->nonfinite);
+}
+
+void op_fit_log_counts(const factor_args *a, const op_factor_report *rep)
+{
+    if (rep->nonfinite_replaced)
+        op_log(OP_LOG_WARN, "%s: replaced %llu non-finite values by 0 (--sanitize)", a->input,
+               (unsigned long long)rep->nonfinite_replaced);
+    if (rep->negative_values)
+        op_log(OP_LOG_INFO, "%s: %llu negative values (noise) are factored as 0", a->input,
+               (unsigned long long)rep->negative_values);
+}
+
+op_status op_fit_counted(const factor_args *a, const dataset *ds, uint64_t nonfinite,
+                         uint64_t negative, op_factor_report *rep, op_error *err)
+{
+    for (int c = 0; nonfinite && !a->sanitize && c < ds->info.channels; c++) {
+        op_prep_counts n; /* the first channel holding one names it */
+        op_prep_scan(ds->rd[c], (uint64_t)ds->rows * (uint64_t)ds->cols, &n);
+        if (n.nonfinite)
+            return op_fit_nonfinite_error(a, ds, c, &n, err);
+    }
+    rep->nonfinite_replaced += nonfinite;
+    rep->negative_values += negative;
+    op_fit_log_counts(a, rep);
+    return OP_OK;
+}
+
 op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c, int with_log,
                                  float *mat, uint32_t **shift, float **max, op_error *err)
 {
-    int64_t rows = ds->rows;
-    *shift = NULL;
-    *max = NULL;
-    if (a->shift) {
-        *shift = op_fit_alloc((uint64_t)rows * sizeof **shift);
-        *max = op_fit_alloc((uint64_t)rows * sizeof **max);
-        if (!*shift || !*max) {
-            free(*shift);
-            free(*max);
-            *shift = NULL;
-            *max = NULL;
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        }
-    }
-    op_status st = op_prep_rows(ds->rd[c], rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
-                                a->log_b, a->threads, mat, err);
+    op_status st = op_fit_alloc_peaks(a, ds, shift, max, err);
+    if (st != OP_OK)
+        return st;
+    st = op_prep_rows(ds->rd[c], ds->rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
+                      a->log_b, a->threads, mat, err);
     if (st != OP_OK) {
         free(*shift);
         free(*max);

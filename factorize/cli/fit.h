@@ -5,6 +5,7 @@
 #define OP_FACTOR_FIT_H
 
 #include "opaline.h"
+#include "preprocess.h"
 #include "report.h"
 #include "rsvd.h"
 
@@ -57,6 +58,9 @@ typedef struct fit_method {
     op_method method;
     unsigned options; /* FIT_OPT_* */
     int albedo;       /* stores the row sums of its reconstruction (op_write_albedo) */
+    int counts_values; /* its fit counts the dataset's non-finite and negative values itself
+                          (in its first pass over the data) when the dataset is in memory:
+                          the command does not scan them first (op_fit_counted) */
     const char *terms_help; /* what -T counts, for the usage text: "" or e.g. "rank " */
     /* Fills in a's defaults for what was not given (-1) and checks the method's options
      * (OP_ERR_INPUT naming the option). */
@@ -74,6 +78,21 @@ typedef struct fit_method {
 void *op_fit_alloc(uint64_t bytes);
 /* Allocates one rows x cols float matrix of ds into *mat. */
 op_status op_fit_matrix(const dataset *ds, float **mat, op_error *err);
+/* Allocates the per-row shifts and maxima of ds into *shift and *max when a->shift; else sets
+ * both NULL. */
+op_status op_fit_alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
+                             float **max, op_error *err);
+/* The error for channel c's non-finite values without --sanitize: n counts them and names the
+ * first (op_prep_scan). */
+op_status op_fit_nonfinite_error(const factor_args *a, const dataset *ds, int c,
+                                 const op_prep_counts *n, op_error *err);
+/* Adds what a fit counted (non-finite values, counted as 0, and negative ones) to rep and logs
+ * it; without --sanitize, non-finite values are an error naming the first (the channels are
+ * scanned again to find it). */
+op_status op_fit_counted(const factor_args *a, const dataset *ds, uint64_t nonfinite,
+                         uint64_t negative, op_factor_report *rep, op_error *err);
+/* Logs the non-finite and negative values rep counts. */
+void op_fit_log_counts(const factor_args *a, const op_factor_report *rep);
 /* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, and
  * log-transformed as the svd method does when with_log, into mat (rows x cols). The per-row
  * shifts and maxima go to *shift and *max, owned by the caller (both NULL when not shifted). */

@@ -92,19 +92,9 @@ static op_status check_log_transform(const factor_args *a, const svd_rows *t, op
 static op_status stream_peaks(const factor_args *a, const dataset *ds, int c, uint32_t **shift,
                               float **max, op_error *err)
 {
-    *shift = NULL;
-    *max = NULL;
-    if (!a->shift)
-        return OP_OK;
-    *shift = op_fit_alloc((uint64_t)ds->rows * sizeof **shift);
-    *max = op_fit_alloc((uint64_t)ds->rows * sizeof **max);
-    if (!*shift || !*max) {
-        free(*shift);
-        free(*max);
-        *shift = NULL;
-        *max = NULL;
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    }
+    op_status st = op_fit_alloc_peaks(a, ds, shift, max, err);
+    if (st != OP_OK || !a->shift)
+        return st;
     for (int64_t r0 = 0; r0 < ds->rows; r0 += ds->block_rows) {
         int64_t nb = ds->rows - r0 < ds->block_rows ? ds->rows - r0 : ds->block_rows;
         const float *src = ds->rd[c] + r0 * ds->cols;
@@ -114,8 +104,48 @@ static op_status stream_peaks(const factor_args *a, const dataset *ds, int c, ui
     return OP_OK;
 }
 
-/* The svd method, channel by channel: preprocess, log transform, truncated SVD (in memory, or
- * streaming: every product with the matrix a pass that preprocesses the dataset's rows). */
+/* Channel c of the in-memory svd method: its SVD with the preprocessing, the log transform and
+ * the count of its values fused into the first pass over it (op_rsvd_fill of op_prep_fetch into
+ * mat), then the check of the transform. The per-row shifts and maxima go to *shift and *max,
+ * the counts to *nonfinite and *negative (non-finite values without --sanitize stop the fit:
+ * OP_ERR_INPUT, for op_fit_counted to name the first). */
+static op_status svd_channel_fused(const factor_args *a, const dataset *ds, int c, int terms,
+                                   float *mat, uint32_t **shift, float **max, float *us,
+                                   float *v, op_progress *prog, uint64_t *nonfinite,
+                                   uint64_t *negative, op_error *err)
+{
+    op_status st = op_fit_alloc_peaks(a, ds, shift, max, err);
+    if (st != OP_OK)
+        return st;
+    op_prep_source p = {.src = ds->rd[c], .rows = ds->rows, .cols = ds->cols, .shift = *shift,
+                        .max = *max, .log_a = a->log_a, .log_b = a->log_b,
+                        .sanitize = a->sanitize};
+    atomic_init(&p.nonfinite, 0);
+    atomic_init(&p.negative, 0);
+    op_row_source src = {op_prep_fetch, &p, 1};
+    op_rsvd_options opt = a->svd;
+    opt.threads = a->threads;
+    st = op_rsvd_fill(&src, mat, ds->rows, ds->cols, terms, &opt, us, v, NULL, prog, err);
+    *nonfinite = atomic_load(&p.nonfinite);
+    *negative = atomic_load(&p.negative);
+    if (*nonfinite && !a->sanitize)
+        return OP_ERR_INPUT;
+    if (st == OP_OK || st == OP_ERR_NUMERIC) { /* a refused transform explains a failure */
+        op_error check_err = {0};
+        svd_rows t = {a, ds, c, mat, *shift, *max};
+        op_status check = check_log_transform(a, &t, &check_err);
+        if (check != OP_OK) {
+            if (err)
+                *err = check_err;
+            return check;
+        }
+    }
+    return st == OP_OK ? st : op_error_prefix(err, "channel %d: ", c);
+}
+
+/* The svd method, channel by channel: preprocess, log transform, truncated SVD (in memory: the
+ * first pass of the SVD preprocesses the dataset's rows into the matrix; streaming: every pass
+ * preprocesses them). */
 static op_status svd_fit(fit_job *job, op_error *err)
 {
     const factor_args *a = job->a;
@@ -131,18 +161,43 @@ static op_status svd_fit(fit_job *job, op_error *err)
     op_progress *prog = op_progress_begin(
         "svd", (uint64_t)ds->info.channels *
                    (1 + op_rsvd_progress_units(rows, cols, terms, &a->svd)), NULL, NULL);
+    uint64_t nonfinite = 0, negative = 0;
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_monotonic_seconds();
-        st = ds->block_rows ? stream_peaks(a, ds, c, &shift, &max, err)
-                            : op_fit_prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
+        if (!ds->block_rows) {
+            float *us = op_fit_alloc((uint64_t)rows * (uint64_t)terms * sizeof *us);
+            float *v = op_fit_alloc((uint64_t)cols * (uint64_t)terms * sizeof *v);
+            uint64_t nf = 0, neg = 0;
+            st = !us || !v ? op_error_set(err, OP_ERR_NOMEM, "out of memory")
+                           : svd_channel_fused(a, ds, c, terms, mat, &shift, &max, us, v, prog,
+                                               &nf, &neg, err);
+            nonfinite += nf;
+            negative += neg;
+            if (nf && !a->sanitize) {
+                st = op_fit_counted(a, ds, nf, neg, job->rep, err);
+                if (st == OP_OK) /* not found again: cannot happen to a read-only mapping */
+                    st = op_error_set(err, OP_ERR_INPUT, "%s: channel %d holds non-finite values",
+                                      a->input, c);
+            }
+            op_progress_advance(prog, 1);
+            op_log(OP_LOG_DEBUG, "channel %d: preprocessing and SVD of %lld x %d to rank %d "
+                   "%.3f s", c, (long long)rows, cols, terms, op_monotonic_seconds() - t0);
+            if (st == OP_OK)
+                st = op_write_svd_channel(job->w, job->info, c, us, v, shift, max, err);
+            free(us);
+            free(v);
+            free(shift);
+            free(max);
+            continue;
+        }
+        st = stream_peaks(a, ds, c, &shift, &max, err);
         svd_rows t = {a, ds, c, mat, shift, max};
         if (st == OP_OK)
             st = check_log_transform(a, &t, err);
-        if (ds->block_rows) /* its sampled rows (and the pages the kernel mapped around them) */
-            op_material_release(ds->file, ds->rd[c],
-                                (size_t)rows * (size_t)cols * sizeof *ds->rd[c]);
+        /* its sampled rows (and the pages the kernel mapped around them) */
+        op_material_release(ds->file, ds->rd[c], (size_t)rows * (size_t)cols * sizeof *ds->rd[c]);
         if (st != OP_OK) {
             free(shift);
             free(max);
@@ -158,9 +213,7 @@ static op_status svd_fit(fit_job *job, op_error *err)
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         op_row_source src = {fetch_rows, &t, ds->block_rows};
         if (st == OP_OK)
-            st = ds->block_rows
-                     ? op_rsvd_rows(&src, rows, cols, terms, &a->svd, us, v, NULL, prog, err)
-                     : op_rsvd(mat, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
+            st = op_rsvd_rows(&src, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
         op_log(OP_LOG_DEBUG, "channel %d: preprocessing %.3f s, SVD of %lld x %d to rank %d "
                "%.3f s", c, t1 - t0, (long long)rows, cols, terms, op_monotonic_seconds() - t1);
         if (st != OP_OK) {
@@ -179,6 +232,8 @@ static op_status svd_fit(fit_job *job, op_error *err)
     }
     op_progress_end(prog);
     free(mat);
+    if (st == OP_OK && !ds->block_rows)
+        st = op_fit_counted(a, ds, nonfinite, negative, job->rep, err);
     return st;
 }
 
@@ -206,6 +261,7 @@ const fit_method op_fit_svd = {
     .method = OP_METHOD_SVD,
     .options = FIT_OPT_BLOCK_ROWS,
     .albedo = 1,
+    .counts_values = 1,
     .terms_help = "",
     .defaults = svd_defaults,
     .describe = svd_describe,

@@ -24,6 +24,9 @@ static op_status tucker_fit(fit_job *job, op_error *err)
     op_status st = op_tucker_factor(ds->rd, ds->info.channels, ds->rows, ds->cols,
                                     job->info->terms, a->degree, a->shift, &a->svd, a->threads,
                                     &t, err);
+    if (st == OP_OK && (st = op_fit_counted(a, ds, t.values.nonfinite, t.values.negative, rep,
+                                            err)) != OP_OK)
+        op_tucker_free(&t);
     if (st != OP_OK)
         return st;
     rep->has_fit = 1;
@@ -45,6 +48,7 @@ const fit_method op_fit_tucker = {
     .method = OP_METHOD_TUCKER,
     .options = 0,
     .albedo = 1,
+    .counts_values = 1,
     .terms_help = "",
     .defaults = tucker_defaults,
     .describe = NULL,

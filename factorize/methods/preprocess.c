@@ -13,12 +13,8 @@ static void scan_range(const float *src, uint64_t i0, uint64_t i1, op_prep_count
     for (uint64_t i = i0; i < i1; i++) {
         uint32_t bits;
         memcpy(&bits, &src[i], sizeof bits);
-        /* on the bits alone: workers flush denormals to zero (parallel.c), which would make a
-         * negative denormal compare as 0 */
-        int bad = (bits & 0x7f800000u) == 0x7f800000u; /* NaN or infinite */
-        int neg = (bits >> 31) & ((bits & 0x7fffffffu) != 0);
-        nonfinite += (uint64_t)bad;
-        negative += (uint64_t)((bad ^ 1) & neg);
+        nonfinite += op_prep_is_nonfinite(bits);
+        negative += op_prep_is_negative(bits);
     }
     counts->first_nonfinite = -1;
     for (uint64_t i = i0; nonfinite && i < i1; i++)
@@ -117,12 +113,120 @@ void op_prep_apply(const float *src, int64_t rows, int cols, const uint32_t *shi
     }
 }
 
+/* ln(1 + x) for x > -1 within about 1e-15 (relative; NaN at x = -1, where ln is -infinity: the
+ * svd's check refuses either), branch-free and without calls so that loops over it vectorize:
+ * ln(u) for u = 1 + x = 2^k m, m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(s) with
+ * s = (m - 1) / (m + 1), |s| < 0.172, by its series to s^15; less the rounding of u over u. */
+static inline double log1p_vec(double x)
+{
+    double u = 1.0 + x, c = (u - 1.0) - x;
+    int64_t bits;
+    memcpy(&bits, &u, sizeof bits);
+    int64_t mant = bits & 0x000fffffffffffffll, up = mant > 0x6a09e667f3bcdll; /* m >= sqrt 2 */
+    int64_t mbits = mant | ((1023 - up) << 52), kbits = 0x4330000000000000ll + (bits >> 52) + up;
+    double m, kd;
+    memcpy(&m, &mbits, sizeof m);
+    memcpy(&kd, &kbits, sizeof kd);
+    kd -= 0x1p52 + 1023.0; /* the exponent k */
+    double f = m - 1.0, s = f / (2.0 + f), s2 = s * s;
+    double p = 1.0 / 15.0;
+    p = p * s2 + 1.0 / 13.0;
+    p = p * s2 + 1.0 / 11.0;
+    p = p * s2 + 1.0 / 9.0;
+    p = p * s2 + 1.0 / 7.0;
+    p = p * s2 + 1.0 / 5.0;
+    p = p * s2 + 1.0 / 3.0;
+    double r = kd * 0.6931471805599453 + (2.0 * s + 2.0 * s * s2 * p - c / u);
+    return r;
+}
+
+OP_VECTOR_CLONES
 void op_prep_log(float *v, uint64_t n, double a, double b)
 {
-    /* ln(v/a + b) = log1p(v/a + (b - 1)), exact near 0 when b == 1. */
     float inv_a = (float)(1.0 / a), bm1 = (float)(b - 1.0);
     for (uint64_t i = 0; i < n; i++)
-        v[i] = log1pf(v[i] * inv_a + bm1);
+        v[i] = (float)log1p_vec((double)(v[i] * inv_a + bm1));
+}
+
+/* The bits of op_prep_clean(v) as the pool's threads compute it (they flush denormals to 0),
+ * from the bits of v: cleaned values are non-negative, so their bits order as they do. */
+static inline int32_t clean_bits(uint32_t bits)
+{
+    return bits >= 0x00800000u && bits < 0x7f800000u ? (int32_t)bits : 0;
+}
+
+/* op_prep_apply's value at_most_one(op_prep_clean(v) / mx) as the pool's threads compute it,
+ * with integer selects (which vectorize; floating compares, which may trap, do not). */
+static inline float scaled_bits(float v, float mx)
+{
+    float q = op_prep_clean_pool(v) / mx;
+    int32_t qb;
+    memcpy(&qb, &q, sizeof qb);
+    qb = qb < 0x3f800000 ? qb : 0x3f800000; /* q >= 0: at most 1 */
+    memcpy(&q, &qb, sizeof q);
+    return q;
+}
+
+/* One row of op_prep_apply with a positive maximum mx and shift s, on a pool thread. */
+static void shift_row(const float *in, int n, int s, float mx, float *out)
+{
+    for (int j = 0; j < n - s; j++)
+        out[j] = scaled_bits(in[j + s], mx);
+    for (int j = n - s; j < n; j++)
+        out[j] = scaled_bits(in[j + s - n], mx);
+}
+
+OP_VECTOR_CLONES
+op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
+{
+    op_prep_source *p = user;
+    int n = p->cols;
+    uint64_t nonfinite = 0, negative = 0;
+    int64_t first_bad = -1;
+    for (int64_t r = r0; r < r0 + count; r++) {
+        const float *in = p->src + r * n;
+        float *out = dst + (r - r0) * n;
+        /* one pass over the row for scan_range's counts and op_prep_find_peaks's maximum */
+        uint32_t bad = 0, neg = 0;
+        int32_t top = 0;
+        for (int j = 0; j < n; j++) {
+            uint32_t bits;
+            memcpy(&bits, &in[j], sizeof bits);
+            bad += op_prep_is_nonfinite(bits);
+            neg += op_prep_is_negative(bits);
+            int32_t c = clean_bits(bits);
+            top = c > top ? c : top;
+        }
+        nonfinite += bad;
+        negative += neg;
+        if (bad && first_bad < 0)
+            first_bad = r;
+        if (p->shift) {
+            int at = 0;
+            while (top > 0 && at < n) { /* the first column holding the maximum */
+                uint32_t bits;
+                memcpy(&bits, &in[at], sizeof bits);
+                if (clean_bits(bits) == top)
+                    break;
+                at++;
+            }
+            p->shift[r] = top > 0 ? (uint32_t)at : 0;
+            memcpy(&p->max[r], &top, sizeof top);
+        }
+        if (p->shift && top > 0)
+            shift_row(in, n, (int)p->shift[r], p->max[r], out);
+        else
+            op_prep_apply(in, 1, n, p->shift ? p->shift + r : NULL, p->max ? p->max + r : NULL,
+                          out);
+        if (p->log_a > 0)
+            op_prep_log(out, (uint64_t)n, p->log_a, p->log_b);
+    }
+    atomic_fetch_add(&p->nonfinite, nonfinite);
+    atomic_fetch_add(&p->negative, negative);
+    if (nonfinite && !p->sanitize)
+        return op_error_set(err, OP_ERR_INPUT, "row %lld holds a non-finite value",
+                            (long long)first_bad);
+    return OP_OK;
 }
 
 typedef struct prep_job {

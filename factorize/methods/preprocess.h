@@ -10,6 +10,7 @@
 #define OP_FACTOR_PREPROCESS_H
 
 #include <stdint.h>
+#include <string.h>
 
 #include "opaline.h"
 
@@ -20,6 +21,19 @@ typedef struct op_prep_counts {
     int64_t first_nonfinite;  /* index of the first one, -1 if none */
 } op_prep_counts;
 
+/* op_prep_scan's two counts for one value, from its bits alone (branch-free, so that loops
+ * vectorize; and the pool's threads flush denormals, which would make a negative denormal
+ * compare as 0): 1 when it is NaN or infinite, and 1 when it is negative, finite and not 0. */
+static inline uint32_t op_prep_is_nonfinite(uint32_t bits)
+{
+    return (bits & 0x7f800000u) == 0x7f800000u;
+}
+
+static inline uint32_t op_prep_is_negative(uint32_t bits)
+{
+    return (op_prep_is_nonfinite(bits) ^ 1u) & (bits >> 31) & ((bits & 0x7fffffffu) != 0);
+}
+
 /* Counts non-finite and negative values of src[0 .. n). */
 void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts);
 
@@ -27,6 +41,17 @@ void op_prep_scan(const float *src, uint64_t n, op_prep_counts *counts);
 static inline float op_prep_clean(float v)
 {
     return v > 0.0f && v <= 3.4028234663852886e38f ? v : 0.0f;
+}
+
+/* op_prep_clean as op_parallel_for's tasks compute it (their threads treat denormals as 0),
+ * with integer selects only, so that loops over it vectorize. */
+static inline float op_prep_clean_pool(float v)
+{
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    bits = bits >= 0x00800000u && bits < 0x7f800000u ? bits : 0u;
+    memcpy(&v, &bits, sizeof v);
+    return v;
 }
 
 /* For every row of src (rows x cols, row-major): shift[r] = the first column holding the row's
@@ -50,6 +75,24 @@ op_status op_prep_rows(const float *src, int64_t rows, int cols, uint32_t *shift
 op_status op_prep_rows_given_peaks(const float *src, int64_t rows, int cols,
                                    const uint32_t *shift, const float *max, double log_a,
                                    double log_b, int threads, float *dst, op_error *err);
+
+/* A matrix preprocessed while it is read (the svd method's fused first pass): op_prep_fetch, an
+ * op_row_source fetch (rsvd.h), writes rows [r0, r0 + count) of op_prep_rows's result for src
+ * and counts the rows' values as op_prep_scan does. Calls for disjoint rows may run at once.
+ * Non-finite values count as 0 when sanitize is set; else a block holding one fails with
+ * OP_ERR_INPUT (op_prep_scan of src then names the first). */
+typedef struct op_prep_source {
+    const float *src;
+    int64_t rows;
+    int cols;
+    uint32_t *shift; /* rows, filled in; NULL: not shifted (max NULL too) */
+    float *max;
+    double log_a, log_b; /* log_a <= 0: no log transform */
+    int sanitize;
+    _Atomic uint64_t nonfinite, negative; /* counted so far */
+} op_prep_source;
+
+op_status op_prep_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err);
 
 /* The svd method's value transform, in place: v = ln(v / a + b), with a > 0, b > 0, v >= 0. */
 void op_prep_log(float *v, uint64_t n, double a, double b);

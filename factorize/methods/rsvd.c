@@ -11,7 +11,7 @@
 op_rsvd_options op_rsvd_defaults(void)
 {
     return (op_rsvd_options){.oversample = 10, .power_iters = 4, .power_tol = 1e-2, .seed = 1,
-                             .precision = OP_SVD_SINGLE, .exact = 0};
+                             .precision = OP_SVD_SINGLE, .exact = 0, .threads = 0};
 }
 
 /* The squared Frobenius norm of n floats, accumulated in double. */
@@ -48,6 +48,17 @@ static double gaussian(uint64_t *state)
     double u1 = ((double)(op_splitmix64(state) >> 11) + 1.0) * 0x1.0p-53; /* (0, 1] */
     double u2 = (double)(op_splitmix64(state) >> 11) * 0x1.0p-53;
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+/* Rows per task of a pass over an in-memory matrix: about 1.5 MiB of it (a core's cache), fixed
+ * by the shape alone so that the result does not depend on the thread count. */
+static int64_t pass_rows(int64_t m, int64_t n)
+{
+    int64_t per = ((int64_t)3 << 19) / (n * (int64_t)sizeof(float));
+    per = per < 16 ? 16 : per;
+    while ((m + per - 1) / per > 1024) /* each task's part of A^T y is n x l */
+        per *= 2;
+    return per;
 }
 
 #define REAL float
@@ -145,13 +156,52 @@ static int use_exact(int64_t m, int64_t n, int k, const op_rsvd_options *opt)
 
 uint64_t op_rsvd_progress_units(int64_t m, int64_t n, int k, const op_rsvd_options *opt)
 {
-    return use_exact(m, n, k, opt) ? 1 : (uint64_t)(2 * opt->power_iters + 2);
+    return use_exact(m, n, k, opt) ? 1
+                                   : (uint64_t)(1 + (opt->power_iters > 1 ? opt->power_iters : 1));
 }
 
-/* op_rsvd of a in memory, or of rows when a is NULL. */
-static op_status rsvd_any(const float *a, const op_row_source *rows, int64_t m, int64_t n, int k,
-                          const op_rsvd_options *opt, float *us, float *v, double *s,
-                          op_progress *progress, op_error *err)
+/* Fills a (m x n) through src in parallel blocks of rows, for the exact method. */
+typedef struct fill_job {
+    const op_row_source *src;
+    float *a;
+    int64_t m, n, per;
+    op_status *status;
+    op_error *errs;
+} fill_job;
+
+static void fill_task(void *user, int task, int thread)
+{
+    const fill_job *j = user;
+    int64_t r0 = (int64_t)task * j->per, nb = j->m - r0 < j->per ? j->m - r0 : j->per;
+    (void)thread;
+    j->status[task] = j->src->fetch(j->src->user, r0, nb, j->a + r0 * j->n, &j->errs[task]);
+}
+
+static op_status fill_all(const op_row_source *src, float *a, int64_t m, int64_t n, int threads,
+                          op_error *err)
+{
+    fill_job j = {src, a, m, n, pass_rows(m, n), NULL, NULL};
+    int tasks = (int)((m + j.per - 1) / j.per);
+    j.status = calloc((size_t)tasks, sizeof *j.status);
+    j.errs = calloc((size_t)tasks, sizeof *j.errs);
+    op_status st = !j.status || !j.errs ? op_error_set(err, OP_ERR_NOMEM, "out of memory")
+                                        : op_parallel_for(threads, tasks, fill_task, &j, NULL,
+                                                          err);
+    for (int t = 0; st == OP_OK && t < tasks; t++)
+        if (j.status[t] != OP_OK) {
+            st = j.status[t];
+            if (err)
+                *err = j.errs[t];
+        }
+    free(j.status);
+    free(j.errs);
+    return st;
+}
+
+/* op_rsvd of a in memory; of rows when a is NULL; of a made by rows' first pass when fill. */
+static op_status rsvd_any(const float *a, const op_row_source *rows, float *fill, int64_t m,
+                          int64_t n, int k, const op_rsvd_options *opt, float *us, float *v,
+                          double *s, op_progress *progress, op_error *err)
 {
     op_rsvd_options def = op_rsvd_defaults();
     if (!opt)
@@ -165,22 +215,28 @@ static op_status rsvd_any(const float *a, const op_row_source *rows, int64_t m, 
     if (m > INT32_MAX || n > INT32_MAX || m * n / n != m)
         return op_error_set(err, OP_ERR_INPUT, "SVD: %lld x %lld is too large for LAPACK",
                             (long long)m, (long long)n);
-    if (rows && (use_exact(m, n, k, opt) || rows->block_rows < 1))
+    if (rows && !fill && (use_exact(m, n, k, opt) || rows->block_rows < 1))
         return op_error_set(err, OP_ERR_INPUT, "SVD: a matrix read in blocks of rows needs the "
                             "randomized method (rank %d + oversampling %d < min(%lld, %lld), "
                             "no --exact-svd)", k, opt->oversample, (long long)m, (long long)n);
-    op_status st;
+    op_status st = OP_OK;
     if (use_exact(m, n, k, opt)) {
-        st = exact_svd(a, m, n, k, us, v, s, err);
+        if (fill)
+            st = fill_all(rows, fill, m, n, opt->threads, err);
+        if (st == OP_OK)
+            st = exact_svd(fill ? fill : a, m, n, k, us, v, s, err);
         op_progress_advance(progress, 1);
     } else {
-        int l = k + opt->oversample;
-        if (opt->precision == OP_SVD_DOUBLE)
-            st = randomized_double(a, rows, m, n, k, l, opt->power_iters, opt->power_tol,
-                                   opt->seed, us, v, s, progress, err);
-        else
-            st = randomized_single(a, rows, m, n, k, l, opt->power_iters, opt->power_tol,
-                                   opt->seed, us, v, s, progress, err);
+        int l = k + opt->oversample, q = opt->power_iters > 1 ? opt->power_iters : 1;
+        if (opt->precision == OP_SVD_DOUBLE) {
+            source_double src = {a, fill, rows, opt->threads, NULL, NULL};
+            st = randomized_double(&src, m, n, k, l, q, opt->power_tol, opt->seed, us, v, s,
+                                   progress, err);
+        } else {
+            source_single src = {a, fill, rows, opt->threads, NULL, NULL};
+            st = randomized_single(&src, m, n, k, l, q, opt->power_tol, opt->seed, us, v, s,
+                                   progress, err);
+        }
     }
     return st == OP_OK ? fix_signs(m, n, k, us, v, err) : st;
 }
@@ -188,12 +244,19 @@ static op_status rsvd_any(const float *a, const op_row_source *rows, int64_t m, 
 op_status op_rsvd(const float *a, int64_t m, int64_t n, int k, const op_rsvd_options *opt,
                   float *us, float *v, double *s, op_progress *progress, op_error *err)
 {
-    return rsvd_any(a, NULL, m, n, k, opt, us, v, s, progress, err);
+    return rsvd_any(a, NULL, NULL, m, n, k, opt, us, v, s, progress, err);
 }
 
 op_status op_rsvd_rows(const op_row_source *src, int64_t m, int64_t n, int k,
                        const op_rsvd_options *opt, float *us, float *v, double *s,
                        op_progress *progress, op_error *err)
 {
-    return rsvd_any(NULL, src, m, n, k, opt, us, v, s, progress, err);
+    return rsvd_any(NULL, src, NULL, m, n, k, opt, us, v, s, progress, err);
+}
+
+op_status op_rsvd_fill(const op_row_source *src, float *a, int64_t m, int64_t n, int k,
+                       const op_rsvd_options *opt, float *us, float *v, double *s,
+                       op_progress *progress, op_error *err)
+{
+    return rsvd_any(NULL, src, a, m, n, k, opt, us, v, s, progress, err);
 }

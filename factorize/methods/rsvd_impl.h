@@ -24,14 +24,17 @@ static op_status FN(orthonormalize)(REAL *y, int64_t rows, int cols, REAL *tau, 
     return OP_OK;
 }
 
-/* The energy the top k directions of the n x l matrix z hold: the sum of the k largest
- * eigenvalues of z^T z (the squared Ritz values of A on the subspace z = A^T Y came from).
- * gram (l x l) and eig (l) are scratch. Returns -1 if LAPACK fails (never converged). */
-static double FN(top_energy)(const REAL *z, int64_t n, int l, int k, double *gram, double *eig)
+/* The energy A holds on the top k directions of span(Z), Z (n x l) orthonormal, from W = A^T A Z:
+ * the sum of the k largest eigenvalues of Z^T W = (A Z)^T (A Z) (symmetrized), the squared Ritz
+ * values. gram (l x l) and eig (l) are scratch. Returns -1 if LAPACK fails (never converged). */
+static double FN(top_energy)(const REAL *z, const REAL *w, int64_t n, int l, int k, double *gram,
+                             double *eig)
 {
     for (int i = 0; i < l; i++)
         for (int j = 0; j <= i; j++)
-            gram[(size_t)j * l + i] = DOT((blasint)n, z + (size_t)i * n, 1, z + (size_t)j * n, 1);
+            gram[(size_t)j * l + i] =
+                0.5 * (DOT((blasint)n, z + (size_t)i * n, 1, w + (size_t)j * n, 1) +
+                       DOT((blasint)n, z + (size_t)j * n, 1, w + (size_t)i * n, 1));
     if (LAPACKE_dsyev(LAPACK_COL_MAJOR, 'N', 'L', l, gram, l, eig) != 0)
         return -1.0;
     double e = 0.0;
@@ -40,15 +43,61 @@ static double FN(top_energy)(const REAL *z, int64_t n, int l, int k, double *gra
     return e;
 }
 
-/* The matrix A of a randomized SVD: in memory (A, row-major m x n) or read through rows in
- * blocks of rows->block_rows (into fblk, then blk in this precision). */
+/* The matrix A of a randomized SVD: in memory (A, row-major m x n floats), made by its first
+ * pass (fill: rows->fetch writes the rows there, in parallel tasks; then it is A), or read
+ * through rows in blocks of rows->block_rows (into fblk, then blk in this precision). */
 typedef struct FN(source) {
-    const REAL *A;
+    const float *A;
+    float *fill;
     const op_row_source *rows;
+    int threads;
     float *fblk;
     REAL *blk;
-    double norm2; /* accumulated by the first FN(times) of a streamed matrix */
 } FN(source);
+
+/* One pass over an in-memory (or filled) A in fixed blocks of rows, one op_parallel_for task
+ * each: y = A z for the block's rows, and the block's part of A^T y, merged in task order. */
+typedef struct FN(pass_job) {
+    FN(source) *a;
+    int64_t m, n, per;
+    int l;
+    const REAL *z;
+    REAL *y, *parts, *dblk; /* dblk: one block per thread (double precision only) */
+    double *norms;          /* per task ||block||^2, or NULL */
+    op_status *status;      /* per task */
+    op_error *errs;         /* per task */
+} FN(pass_job);
+
+static void FN(pass_task)(void *user, int task, int thread)
+{
+    const FN(pass_job) *j = user;
+    int64_t n = j->n, r0 = (int64_t)task * j->per, nb = j->m - r0 < j->per ? j->m - r0 : j->per;
+    const float *src;
+    if (j->a->fill) {
+        src = j->a->fill + r0 * n;
+        j->status[task] = j->a->rows->fetch(j->a->rows->user, r0, nb, j->a->fill + r0 * n,
+                                            &j->errs[task]);
+        if (j->status[task] != OP_OK)
+            return;
+    } else {
+        src = j->a->A + r0 * n;
+    }
+    if (j->norms)
+        j->norms[task] = squared_norm(src, (size_t)nb * (size_t)n);
+#if RSVD_IS_DOUBLE
+    REAL *blk = j->dblk + (size_t)thread * (size_t)j->per * (size_t)n;
+    for (size_t i = 0; i < (size_t)nb * (size_t)n; i++)
+        blk[i] = src[i];
+#else
+    const REAL *blk = src;
+    (void)thread;
+#endif
+    GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)nb, j->l, (blasint)n, 1, blk,
+         (blasint)n, j->z, (blasint)n, 0, j->y + r0, (blasint)j->m);
+    GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, j->l, (blasint)nb, 1, blk,
+         (blasint)n, j->y + r0, (blasint)j->m, 0, j->parts + (size_t)task * (size_t)n * j->l,
+         (blasint)n);
+}
 
 /* Block b of a streamed A, in this precision: *nb rows from row *r0. */
 static op_status FN(block)(FN(source) *a, int64_t m, int64_t n, int64_t b, int64_t *r0,
@@ -67,86 +116,115 @@ static op_status FN(block)(FN(source) *a, int64_t m, int64_t n, int64_t b, int64
     return st;
 }
 
-/* y = A z (y column-major m x l, z column-major n x l); with norm2, also sums ||A||^2. */
-static op_status FN(times)(FN(source) *a, int64_t m, int64_t n, int l, const REAL *z, REAL *y,
-                           int norm2, op_error *err)
+/* One pass over A: y = A z (y column-major m x l, z column-major n x l) and w = A^T y (n x l),
+ * each block of rows used for both while it is in cache; with norm2, also ||A||^2. A filled
+ * source is in memory afterwards. */
+static op_status FN(pass)(FN(source) *a, int64_t m, int64_t n, int l, const REAL *z, REAL *y,
+                          REAL *w, double *norm2, op_error *err)
 {
-    if (!a->rows) {
-        GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)m, (blasint)l, (blasint)n, 1,
-             a->A, (blasint)n, z, (blasint)n, 0, y, (blasint)m);
+    if (norm2)
+        *norm2 = 0.0;
+    if (!a->A && !a->fill) { /* streamed: blocks in order, OpenBLAS's threads in each product */
+        for (int64_t b = 0, r0, nb; b * a->rows->block_rows < m; b++) {
+            op_status st = FN(block)(a, m, n, b, &r0, &nb, err);
+            if (st != OP_OK)
+                return st;
+            if (norm2)
+                *norm2 += squared_norm(a->fblk, (size_t)nb * (size_t)n);
+            GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)nb, (blasint)l, (blasint)n, 1,
+                 a->blk, (blasint)n, z, (blasint)n, 0, y + r0, (blasint)m);
+            GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)nb,
+                 1, a->blk, (blasint)n, y + r0, (blasint)m, b ? 1 : 0, w, (blasint)n);
+        }
         return OP_OK;
     }
-    for (int64_t b = 0, r0, nb; b * a->rows->block_rows < m; b++) {
-        op_status st = FN(block)(a, m, n, b, &r0, &nb, err);
-        if (st != OP_OK)
-            return st;
-        if (norm2)
-            a->norm2 += squared_norm(a->fblk, (size_t)nb * (size_t)n);
-        GEMM(CblasColMajor, CblasTrans, CblasNoTrans, (blasint)nb, (blasint)l, (blasint)n, 1,
-             a->blk, (blasint)n, z, (blasint)n, 0, y + r0, (blasint)m);
-    }
-    return OP_OK;
-}
-
-/* z = A^T y (z column-major n x l, y column-major m x l). */
-static op_status FN(trans_times)(FN(source) *a, int64_t m, int64_t n, int l, const REAL *y,
-                                 REAL *z, op_error *err)
-{
-    if (!a->rows) {
-        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)m, 1,
-             a->A, (blasint)n, y, (blasint)m, 0, z, (blasint)n);
-        return OP_OK;
-    }
-    for (int64_t b = 0, r0, nb; b * a->rows->block_rows < m; b++) {
-        op_status st = FN(block)(a, m, n, b, &r0, &nb, err);
-        if (st != OP_OK)
-            return st;
-        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, (blasint)n, (blasint)l, (blasint)nb, 1,
-             a->blk, (blasint)n, y + r0, (blasint)m, b ? 1 : 0, z, (blasint)n);
-    }
-    return OP_OK;
-}
-
-/* Randomized rank-k SVD with l >= k test vectors and at most q power iterations, fewer when
- * the rank-k error has converged to tol (see converged()); see op_rsvd. */
-static op_status FN(randomized)(const float *a, const op_row_source *rows, int64_t m, int64_t n,
-                                int k, int l, int q, double tol, uint64_t seed, float *us,
-                                float *v, double *s, op_progress *progress, op_error *err)
-{
-    double norm2 = tol > 0 && !rows ? squared_norm(a, (size_t)m * (size_t)n) : 0.0;
-    op_status st = OP_OK;
-    FN(source) A = {NULL, rows, NULL, NULL, 0.0};
-    REAL *acopy = NULL;
-    if (rows) {
-        int64_t per = rows->block_rows < m ? rows->block_rows : m;
-        A.fblk = malloc((size_t)per * (size_t)n * sizeof *A.fblk);
+    FN(pass_job) j = {.a = a, .m = m, .n = n, .per = pass_rows(m, n), .l = l, .z = z, .y = y};
+    int tasks = (int)((m + j.per - 1) / j.per);
+    int threads = op_parallel_threads(a->threads);
+    threads = threads < tasks ? threads : tasks;
+    j.parts = malloc((size_t)tasks * (size_t)n * (size_t)l * sizeof *j.parts);
+    j.norms = norm2 ? calloc((size_t)tasks, sizeof *j.norms) : NULL;
+    j.status = calloc((size_t)tasks, sizeof *j.status);
+    j.errs = calloc((size_t)tasks, sizeof *j.errs);
+    double *sum = calloc((size_t)n * (size_t)l, sizeof *sum);
 #if RSVD_IS_DOUBLE
-        A.blk = acopy = malloc((size_t)per * (size_t)n * sizeof *acopy);
-#else
-        A.blk = A.fblk;
+    j.dblk = malloc((size_t)threads * (size_t)j.per * (size_t)n * sizeof *j.dblk);
 #endif
-        if (!A.fblk || !A.blk) {
-            free(A.fblk);
+    op_status st = OP_OK;
+    if (!j.parts || (norm2 && !j.norms) || !j.status || !j.errs || !sum ||
+        (RSVD_IS_DOUBLE && !j.dblk))
+        st = op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for %d blocks of "
+                          "%lld rows", tasks, (long long)j.per);
+    if (st == OP_OK) {
+        /* the tasks' products single-threaded, on the pool's threads only: the tasks are the
+         * parallelism (OpenBLAS's idle threads would spin beside them), and OpenBLAS's own
+         * threads do not flush denormals as the pool's do, so the result would depend on
+         * whether a product ran on them */
+        int blas_threads = openblas_get_num_threads();
+        openblas_set_num_threads(1);
+        st = op_parallel_for(threads, tasks, FN(pass_task), &j, NULL, err);
+        openblas_set_num_threads(blas_threads);
+    }
+    for (int t = 0; st == OP_OK && t < tasks; t++)
+        if (j.status[t] != OP_OK) { /* the first failing block's error */
+            st = j.status[t];
+            if (err)
+                *err = j.errs[t];
+        }
+    if (st == OP_OK) {
+        size_t nl = (size_t)n * (size_t)l;
+        for (int t = 0; t < tasks; t++) {
+            const REAL *p = j.parts + (size_t)t * nl;
+            for (size_t i = 0; i < nl; i++)
+                sum[i] += p[i];
+            if (norm2)
+                *norm2 += j.norms[t];
+        }
+        for (size_t i = 0; i < nl; i++)
+            w[i] = (REAL)sum[i];
+        if (a->fill) {
+            a->A = a->fill;
+            a->fill = NULL;
+        }
+    }
+    free(j.parts);
+    free(j.norms);
+    free(j.status);
+    free(j.errs);
+    free(j.dblk);
+    free(sum);
+    return st;
+}
+
+/* Randomized rank-k SVD with l >= k test vectors and at most q >= 1 power iterations, fewer
+ * when the rank-k error has converged to tol (see converged()); see op_rsvd. Each iteration is
+ * one pass over A (A^T A z); the first also makes a filled A and measures ||A||^2. */
+static op_status FN(randomized)(FN(source) *A, int64_t m, int64_t n, int k, int l, int q,
+                                double tol, uint64_t seed, float *us, float *v, double *s,
+                                op_progress *progress, op_error *err)
+{
+    double norm2 = 0.0;
+    op_status st = OP_OK;
+    REAL *acopy = NULL;
+    if (!A->A && !A->fill) {
+        int64_t per = A->rows->block_rows < m ? A->rows->block_rows : m;
+        A->fblk = malloc((size_t)per * (size_t)n * sizeof *A->fblk);
+#if RSVD_IS_DOUBLE
+        A->blk = acopy = malloc((size_t)per * (size_t)n * sizeof *acopy);
+#else
+        A->blk = A->fblk;
+#endif
+        if (!A->fblk || !A->blk) {
+            free(A->fblk);
             free(acopy);
             return op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for a block of "
                                 "%lld rows", (long long)per);
         }
-    } else {
-#if RSVD_IS_DOUBLE
-        acopy = malloc((size_t)m * (size_t)n * sizeof *acopy);
-        if (!acopy)
-            return op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory for a %lld x "
-                                "%lld double matrix", (long long)m, (long long)n);
-        for (size_t i = 0; i < (size_t)m * (size_t)n; i++)
-            acopy[i] = a[i];
-        A.A = acopy;
-#else
-        A.A = a;
-#endif
     }
     /* Row-major m x n A is column-major n x m A^T (leading dimension n). */
     REAL *y = malloc((size_t)m * (size_t)l * sizeof *y);
     REAL *z = malloc((size_t)n * (size_t)l * sizeof *z);
+    REAL *w = malloc((size_t)n * (size_t)l * sizeof *w);
     REAL *tau = malloc((size_t)l * sizeof *tau);
     REAL *mk = malloc((size_t)l * (size_t)k * sizeof *mk);
     REAL *wk = malloc((size_t)l * (size_t)k * sizeof *wk);
@@ -156,7 +234,7 @@ static op_status FN(randomized)(const float *a, const op_row_source *rows, int64
     usr = malloc((size_t)m * (size_t)k * sizeof *usr);
     vr = malloc((size_t)n * (size_t)k * sizeof *vr);
 #endif
-    if (!y || !z || !tau || !mk || !wk || !small || (RSVD_IS_DOUBLE && (!usr || !vr))) {
+    if (!y || !z || !w || !tau || !mk || !wk || !small || (RSVD_IS_DOUBLE && (!usr || !vr))) {
         st = op_error_set(err, OP_ERR_NOMEM, "randomized SVD: out of memory");
         goto done;
     }
@@ -167,39 +245,36 @@ static op_status FN(randomized)(const float *a, const op_row_source *rows, int64
     uint64_t rng = seed;
     for (size_t i = 0; i < (size_t)n * (size_t)l; i++)
         z[i] = (REAL)gaussian(&rng);
-    /* Y = orth(A Omega); then Z = A^T Y, which is B^T for the current Y, and while the
-     * estimate of the rank-k error still improves, Z = orth(Z), Y = orth(A Z) and again. */
-    if ((st = FN(times)(&A, m, n, l, z, y, rows && tol > 0, err)) != OP_OK)
+    /* W = A^T A Omega; then while the estimate of the rank-k error still improves (at most q
+     * times): Z = orth(W), Y = A Z, W = A^T Y. The result is A ~ Y Z^T. */
+    if ((st = FN(pass)(A, m, n, l, z, y, w, tol > 0 ? &norm2 : NULL, err)) != OP_OK)
         goto done;
-    if (rows)
-        norm2 = A.norm2;
     op_progress_advance(progress, 1);
-    if ((st = FN(orthonormalize)(y, m, l, tau, NULL, err)) != OP_OK)
-        goto done;
     double captured_prev = 0.0;
-    for (int it = 0;; it++) {
-        if ((st = FN(trans_times)(&A, m, n, l, y, z, err)) != OP_OK)
+    int it = 1;
+    for (;; it++) {
+        REAL *swap = z;
+        z = w;
+        w = swap;
+        if ((st = FN(orthonormalize)(z, n, l, tau, NULL, err)) != OP_OK)
+            goto done;
+        if ((st = FN(pass)(A, m, n, l, z, y, w, NULL, err)) != OP_OK)
             goto done;
         op_progress_advance(progress, 1);
-        if (it == q)
+        if (it >= q)
             break;
-        double captured = FN(top_energy)(z, n, l, k, xt, sv);
-        if (it > 0 && converged(captured_prev, captured, norm2, tol, ENERGY_RESOLUTION)) {
-            op_progress_advance(progress, (uint64_t)(2 * (q - it)));
+        double captured = FN(top_energy)(z, w, n, l, k, xt, sv);
+        if (it > 2 && converged(captured_prev, captured, norm2, tol, ENERGY_RESOLUTION)) {
+            op_progress_advance(progress, (uint64_t)(q - it));
             break;
         }
         captured_prev = captured;
-        if ((st = FN(orthonormalize)(z, n, l, tau, NULL, err)) != OP_OK)
-            goto done;
-        if ((st = FN(times)(&A, m, n, l, z, y, 0, err)) != OP_OK)
-            goto done;
-        op_progress_advance(progress, 1);
-        if ((st = FN(orthonormalize)(y, m, l, tau, NULL, err)) != OP_OK)
-            goto done;
     }
-    /* B^T = Z = A^T Y (n x l) = Qz R, and R = Wr S X^T (l x l, in double), so
-     * A ~ Y B = (Y X) S (Qz Wr)^T. */
-    if ((st = FN(orthonormalize)(z, n, l, tau, r, err)) != OP_OK)
+    op_log(OP_LOG_DEBUG, "randomized SVD of %lld x %lld to rank %d: %d power iteration(s), "
+           "%d passes", (long long)m, (long long)n, k, it, it + 1);
+    /* Y = Qy R (m x l), and R = Wr S X^T (l x l, in double), so
+     * A ~ Y Z^T = (Qy Wr) S (Z X)^T. */
+    if ((st = FN(orthonormalize)(y, m, l, tau, r, err)) != OP_OK)
         goto done;
     lapack_int info = LAPACKE_dgesdd(LAPACK_COL_MAJOR, 'A', l, l, r, l, sv, wr, l, xt, l);
     if (info != 0) {
@@ -207,11 +282,11 @@ static op_status FN(randomized)(const float *a, const op_row_source *rows, int64
                           "failed (LAPACK info %d)", l, l, (int)info);
         goto done;
     }
-    /* mk[j][t] = X(j, t) s_t with X(j, t) = xt[t + j l]; wk[j][t] = Wr(j, t). */
+    /* mk[j][t] = Wr(j, t) s_t; wk[j][t] = X(j, t) with X(j, t) = xt[t + j l]. */
     for (int j = 0; j < l; j++)
         for (int t = 0; t < k; t++) {
-            mk[(size_t)j * k + t] = (REAL)(xt[t + (size_t)j * l] * sv[t]);
-            wk[(size_t)j * k + t] = (REAL)wr[j + (size_t)t * l];
+            mk[(size_t)j * k + t] = (REAL)(wr[j + (size_t)t * l] * sv[t]);
+            wk[(size_t)j * k + t] = (REAL)xt[t + (size_t)j * l];
         }
 #if RSVD_IS_DOUBLE
     GEMM(CblasRowMajor, CblasTrans, CblasNoTrans, (blasint)m, k, l, 1, y, (blasint)m, mk, k, 0,
@@ -233,9 +308,11 @@ static op_status FN(randomized)(const float *a, const op_row_source *rows, int64
             s[t] = sv[t];
 done:
     free(acopy); /* streamed in double: the block */
-    free(A.fblk);
+    free(A->fblk);
+    A->fblk = NULL;
     free(y);
     free(z);
+    free(w);
     free(tau);
     free(mk);
     free(wk);

@@ -3,6 +3,7 @@
 
 #include "preprocess.h"
 
+#include <cblas.h>
 #include <float.h>
 #include <lapacke.h>
 #include <math.h>
@@ -43,24 +44,69 @@ static double storage_error_bound(const double *c, int d)
     return rounding + 2.0 * (d + 1) * (double)FLT_EPSILON * sum;
 }
 
-op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
-                               double *coef, op_polyfit_stats *stats, op_error *err)
+enum { SUM_LANES = 8 };
+
+/* max |v[i]| of n finite values: on the bits of |v| (non-negative doubles order as their
+ * bits), in lanes, so that it vectorizes. */
+static double abs_max(const double *v, int n)
+{
+    int64_t m[SUM_LANES] = {0};
+    int i = 0;
+    for (; i + SUM_LANES <= n; i += SUM_LANES)
+        for (int k = 0; k < SUM_LANES; k++) {
+            int64_t b;
+            memcpy(&b, &v[i + k], sizeof b);
+            b &= INT64_MAX;
+            m[k] = b > m[k] ? b : m[k];
+        }
+    for (int k = 0; i + k < n; k++) {
+        int64_t b;
+        memcpy(&b, &v[i + k], sizeof b);
+        b &= INT64_MAX;
+        m[k] = b > m[k] ? b : m[k];
+    }
+    for (int k = 1; k < SUM_LANES; k++)
+        m[0] = m[k] > m[0] ? m[k] : m[0];
+    double r;
+    memcpy(&r, &m[0], sizeof r);
+    return r;
+}
+
+/* The sum of v[i]^2 over n values, in lanes summed in a fixed order (it vectorizes). */
+static double sum_squares(const double *v, int n)
+{
+    double s[SUM_LANES] = {0};
+    int i = 0;
+    for (; i + SUM_LANES <= n; i += SUM_LANES)
+        for (int k = 0; k < SUM_LANES; k++)
+            s[k] += v[i + k] * v[i + k];
+    for (int k = 0; i + k < n; k++)
+        s[k] += v[i + k] * v[i + k];
+    double r = 0;
+    for (int k = 0; k < SUM_LANES; k++)
+        r += s[k];
+    return r;
+}
+
+/* Scratch of op_polyfit_chebyshev for n points, nrhs right-hand sides and np coefficients, in
+ * doubles: the design, the right-hand sides, tau, the tails, one fit, LAPACK's workspace (at
+ * least 64 columns a block; the _work calls skip LAPACKE's NaN scan of the inputs, which cost as
+ * much as the factorization: the inputs are finite). */
+static size_t polyfit_scratch(int n, int nrhs, int np)
+{
+    return (size_t)n * (size_t)np + (size_t)n * (size_t)nrhs + (size_t)np + (size_t)n + 1 +
+           (size_t)np + 64 * ((size_t)np + (size_t)nrhs);
+}
+
+/* op_polyfit_chebyshev with scratch (polyfit_scratch doubles). */
+static op_status polyfit(const double *t, const double *y, int n, int nrhs, int degree,
+                         double *coef, op_polyfit_stats *stats, double *scratch, op_error *err)
 {
     int np = degree + 1, kmax = np < n ? np : n;
-    double *a = malloc((size_t)n * (size_t)np * sizeof *a);
-    double *b = malloc((size_t)n * (size_t)nrhs * sizeof *b);
-    double *tau = malloc((size_t)np * sizeof *tau);
-    double *tail = malloc(((size_t)n + 1) * sizeof *tail);
-    double *c = malloc((size_t)np * sizeof *c);
-    /* LAPACK's workspace (at least 64 columns a block); the _work calls skip LAPACKE's NaN scan
-     * of the inputs, which cost as much as the factorization (the inputs are finite). */
+    double *a = scratch, *b = a + (size_t)n * np, *tau = b + (size_t)n * nrhs, *tail = tau + np;
+    double *c = tail + n + 1, *work = c + np;
     lapack_int lwork = 64 * (np + nrhs);
-    double *work = malloc((size_t)lwork * sizeof *work);
     op_status st = OP_OK;
-    if (!a || !b || !tau || !tail || !c || !work) {
-        st = op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
-        goto done;
-    }
     /* Column p of the design matrix is T_p(t_i) (column-major). */
     for (int i = 0; i < n; i++) {
         double tm1 = 1.0, tp = t[i];
@@ -97,11 +143,11 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
         dmax++;
     for (int r = 0; r < nrhs; r++) {
         const double *g = b + (size_t)r * n;
-        double ymax = 0;
-        for (int i = 0; i < n; i++)
-            ymax = fmax(ymax, fabs(y[(size_t)r * n + i]));
-        tail[n] = 0;
-        for (int k = n - 1; k >= 0; k--)
+        double ymax = abs_max(y + (size_t)r * n, n);
+        /* tail[k] = the squared residual of the degree k - 1 fit (k <= kmax): the sum of g^2
+         * from kmax on in lanes, then the few below one by one */
+        tail[kmax] = sum_squares(g + kmax, n - kmax);
+        for (int k = kmax - 1; k >= 0; k--)
             tail[k] = tail[k + 1] + g[k] * g[k];
         /* Of the fits of degree 0..dmax whose float32 storage moves no value by more than
          * OP_POLYFIT_STORAGE_TOL of the data's largest, the one expected closest to the data:
@@ -149,29 +195,108 @@ op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs
         }
     }
 done:
-    free(a);
-    free(b);
-    free(tau);
-    free(tail);
-    free(c);
-    free(work);
     return st;
 }
 
-/* The cleaned per-entry mean over the channels. */
-static void channel_mean(const float *const *ch, int nch, uint64_t count, float *mean)
+op_status op_polyfit_chebyshev(const double *t, const double *y, int n, int nrhs, int degree,
+                               double *coef, op_polyfit_stats *stats, op_error *err)
 {
-    for (uint64_t i = 0; i < count; i++) {
-        float s = 0.0f;
-        for (int c = 0; c < nch; c++)
-            s += op_prep_clean(ch[c][i]);
-        mean[i] = s / (float)nch;
+    double *scratch = malloc(polyfit_scratch(n, nrhs, degree + 1) * sizeof *scratch);
+    op_status st = scratch ? polyfit(t, y, n, nrhs, degree, coef, stats, scratch, err)
+                           : op_error_set(err, OP_ERR_NOMEM, "polynomial fit: out of memory");
+    free(scratch);
+    return st;
+}
+
+/* The rows of the preprocessed per-entry mean over the channels, for op_rsvd_fill: the mean of
+ * the cleaned values, shifted and normalized (when shift is not NULL), counting the values as
+ * op_prep_scan does. */
+typedef struct mean_source {
+    const float *const *ch;
+    int nch, cols;
+    uint32_t *shift;
+    float *max;
+    _Atomic uint64_t nonfinite, negative;
+} mean_source;
+
+OP_VECTOR_CLONES
+static op_status mean_fetch(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
+{
+    mean_source *m = user;
+    int n = m->cols;
+    float *mean = malloc((size_t)n * sizeof *mean);
+    if (!mean)
+        return op_error_set(err, OP_ERR_NOMEM, "tucker: out of memory");
+    uint64_t nonfinite = 0, negative = 0;
+    for (int64_t r = r0; r < r0 + count; r++) {
+        for (int j = 0; j < n; j++)
+            mean[j] = 0.0f;
+        for (int c = 0; c < m->nch; c++) {
+            const float *in = m->ch[c] + r * n;
+            uint32_t bad = 0, neg = 0;
+            for (int j = 0; j < n; j++) { /* op_prep_scan's counts, on the bits */
+                uint32_t bits;
+                memcpy(&bits, &in[j], sizeof bits);
+                bad += op_prep_is_nonfinite(bits);
+                neg += op_prep_is_negative(bits);
+                mean[j] += op_prep_clean_pool(in[j]);
+            }
+            nonfinite += bad;
+            negative += neg;
+        }
+        for (int j = 0; j < n; j++)
+            mean[j] /= (float)m->nch;
+        if (m->shift)
+            op_prep_find_peaks(mean, 1, n, m->shift + r, m->max + r);
+        op_prep_apply(mean, 1, n, m->shift ? m->shift + r : NULL, m->max ? m->max + r : NULL,
+                      dst + (r - r0) * n);
     }
+    atomic_fetch_add(&m->nonfinite, nonfinite);
+    atomic_fetch_add(&m->negative, negative);
+    free(mean);
+    return OP_OK;
+}
+
+/* The int32 whose order is v's (finite v; -0 below +0). */
+static inline int32_t order_key(float v)
+{
+    int32_t b;
+    memcpy(&b, &v, sizeof b);
+    return b ^ ((b >> 31) & INT32_MAX);
+}
+
+/* The smallest and largest of n >= 1 finite floats, on their order keys in lanes (integer
+ * selects vectorize; floating compares, which may trap, do not). */
+static void float_range(const float *v, int n, float *lo, float *hi)
+{
+    int32_t mn[SUM_LANES], mx[SUM_LANES];
+    for (int k = 0; k < SUM_LANES; k++)
+        mn[k] = mx[k] = order_key(v[0]);
+    int i = 0;
+    for (; i + SUM_LANES <= n; i += SUM_LANES)
+        for (int k = 0; k < SUM_LANES; k++) {
+            int32_t b = order_key(v[i + k]);
+            mn[k] = b < mn[k] ? b : mn[k];
+            mx[k] = b > mx[k] ? b : mx[k];
+        }
+    for (int k = 0; i + k < n; k++) {
+        int32_t b = order_key(v[i + k]);
+        mn[k] = b < mn[k] ? b : mn[k];
+        mx[k] = b > mx[k] ? b : mx[k];
+    }
+    for (int k = 1; k < SUM_LANES; k++) {
+        mn[0] = mn[k] < mn[0] ? mn[k] : mn[0];
+        mx[0] = mx[k] > mx[0] ? mx[k] : mx[0];
+    }
+    mn[0] ^= (mn[0] >> 31) & INT32_MAX; /* the key is its own inverse */
+    mx[0] ^= (mx[0] >> 31) & INT32_MAX;
+    memcpy(lo, &mn[0], sizeof *lo);
+    memcpy(hi, &mx[0], sizeof *hi);
 }
 
 /* Rows per task of the colour fits: fixed, so that the merged figures do not depend on the
  * thread count. */
-enum { FIT_ROWS_PER_TASK = 256 };
+enum { FIT_ROWS_PER_TASK = 256, FIT_LANES = 8 };
 
 typedef struct fit_job {
     const float *const *ch;
@@ -186,6 +311,7 @@ typedef struct fit_job {
 
 /* Fits the colour polynomials of one block of rows (one op_parallel_for task): each row's and
  * channel's coefficients go to res, its figures to the task's part. */
+OP_VECTOR_CLONES
 static void fit_task(void *user, int task, int thread)
 {
     const fit_job *j = user;
@@ -205,8 +331,9 @@ static void fit_task(void *user, int task, int thread)
     /* Clenshaw's partial sums across the columns, float and double (vectorized loops) */
     float *fb = malloc(2 * (size_t)n * sizeof *fb);
     double *db = malloc(2 * (size_t)n * sizeof *db);
+    double *scratch = malloc(polyfit_scratch(n, nch, np) * sizeof *scratch);
     op_status st = OP_OK;
-    if (!t || !tf || !y || !coef || !fb || !db)
+    if (!t || !tf || !y || !coef || !fb || !db || !scratch)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
     for (int64_t r = r0; r < r1 && st == OP_OK; r++) {
         const float *u = res->u + r * T;
@@ -219,11 +346,8 @@ static void fit_task(void *user, int task, int thread)
             for (int jj = 0; jj < n; jj++)
                 tf[jj] += uk * v[jj];
         }
-        float lo = INFINITY, hi = -INFINITY;
-        for (int jj = 0; jj < n; jj++) {
-            lo = fminf(lo, tf[jj]);
-            hi = fmaxf(hi, tf[jj]);
-        }
+        float lo, hi;
+        float_range(tf, n, &lo, &hi);
         double mid = 0.5 * ((double)lo + (double)hi);
         float center = (float)mid;
         /* a range at float rounding level is no range: the row is constant in t (t = 0) */
@@ -239,12 +363,20 @@ static void fit_task(void *user, int task, int thread)
         }
         int s = res->shift ? (int)res->shift[r] : 0;
         float mx = res->max ? res->max[r] : 1.0f;
-        for (int c = 0; c < nch; c++)
-            for (int jj = 0; jj < n; jj++) {
-                int col = jj + s < n ? jj + s : jj + s - n;
-                y[(size_t)c * n + jj] = mx > 0.0f ? op_prep_clean(ch[c][r * n + col]) / mx : 0.0;
+        for (int c = 0; c < nch; c++) {
+            double *yc = y + (size_t)c * n;
+            const float *in = ch[c] + r * n;
+            if (!(mx > 0.0f)) {
+                for (int jj = 0; jj < n; jj++)
+                    yc[jj] = 0.0;
+                continue;
             }
-        st = op_polyfit_chebyshev(t, y, n, nch, res->degree, coef, fit, err);
+            for (int jj = 0; jj < n - s; jj++)
+                yc[jj] = op_prep_clean_pool(in[jj + s]) / mx;
+            for (int jj = n - s; jj < n; jj++)
+                yc[jj] = op_prep_clean_pool(in[jj + s - n]) / mx;
+        }
+        st = polyfit(t, y, n, nch, res->degree, coef, fit, scratch, err);
         if (st != OP_OK) {
             op_error_prefix(err, "row %lld: ", (long long)r);
             break;
@@ -275,11 +407,27 @@ static void fit_task(void *user, int task, int thread)
                     d1[jj] = d0;
                 }
             }
-            for (int jj = 0; jj < n; jj++) {
+            /* in FIT_LANES lanes, summed in a fixed order, so that it vectorizes */
+            double ss[FIT_LANES] = {0}, ds[FIT_LANES] = {0};
+            const double *yc = y + (size_t)c * n;
+            int j0 = 0;
+            for (; j0 + FIT_LANES <= n; j0 += FIT_LANES)
+                for (int k = 0; k < FIT_LANES; k++) {
+                    int jj = j0 + k;
+                    double d = (double)(tf[jj] * f1[jj] - f2[jj] + beta[0]) -
+                               (t[jj] * d1[jj] - d2[jj] + cd[0]);
+                    ss[k] += d * d;
+                    ds[k] += yc[jj] * yc[jj];
+                }
+            for (int jj = j0; jj < n; jj++) {
                 double d = (double)(tf[jj] * f1[jj] - f2[jj] + beta[0]) -
                            (t[jj] * d1[jj] - d2[jj] + cd[0]);
-                fit->storage_sq += d * d;
-                fit->data_sq += y[(size_t)c * n + jj] * y[(size_t)c * n + jj];
+                ss[jj - j0] += d * d;
+                ds[jj - j0] += yc[jj] * yc[jj];
+            }
+            for (int k = 0; k < FIT_LANES; k++) {
+                fit->storage_sq += ss[k];
+                fit->data_sq += ds[k];
             }
         }
     }
@@ -291,6 +439,7 @@ static void fit_task(void *user, int task, int thread)
     free(coef);
     free(fb);
     free(db);
+    free(scratch);
 }
 
 /* Fits the colour polynomials of every row, in parallel; res holds the mean's factors. Also
@@ -315,8 +464,13 @@ static op_status fit_rows(const float *const *ch, int nch, int threads, op_tucke
     if (!vt || !j.parts || !j.status || !j.errs)
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
     j.prog = op_progress_begin("tucker colour fit", (uint64_t)res->rows, NULL, NULL);
-    if (st == OP_OK)
+    if (st == OP_OK) {
+        /* LAPACK's small QRs single-threaded in each task: the tasks are the parallelism */
+        int blas_threads = openblas_get_num_threads();
+        openblas_set_num_threads(1);
         st = op_parallel_for(threads, tasks, fit_task, &j, NULL, err);
+        openblas_set_num_threads(blas_threads);
+    }
     op_progress_end(j.prog);
     /* Merged in task order: the first failing row's error, the figures of all. */
     for (int t = 0; st == OP_OK && t < tasks; t++)
@@ -357,7 +511,6 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
     res->degree = degree;
     res->channels = nchannels;
     uint64_t count = (uint64_t)rows * (uint64_t)cols, np = (uint64_t)degree + 1;
-    float *mean = malloc(count * sizeof *mean);
     float *mat = malloc(count * sizeof *mat);
     res->u = malloc((uint64_t)rows * (uint64_t)terms * sizeof *res->u);
     res->v = malloc((uint64_t)cols * (uint64_t)terms * sizeof *res->v);
@@ -368,22 +521,26 @@ op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t 
         res->max = malloc((uint64_t)rows * sizeof *res->max);
     }
     op_status st = OP_OK;
-    if (!mean || !mat || !res->u || !res->v || !res->range || !res->beta ||
+    if (!mat || !res->u || !res->v || !res->range || !res->beta ||
         (shifted && (!res->shift || !res->max)))
         st = op_error_set(err, OP_ERR_NOMEM, "tucker: out of memory");
     if (st == OP_OK) {
-        channel_mean(channels, nchannels, count, mean);
-        if (shifted)
-            op_prep_find_peaks(mean, rows, cols, res->shift, res->max);
-        op_prep_apply(mean, rows, cols, res->shift, res->max, mat);
-        free(mean);
-        mean = NULL;
+        /* the mean made and preprocessed block by block in the SVD's first pass */
+        mean_source src = {.ch = channels, .nch = nchannels, .cols = cols, .shift = res->shift,
+                           .max = res->max};
+        atomic_init(&src.nonfinite, 0);
+        atomic_init(&src.negative, 0);
+        op_row_source rs = {mean_fetch, &src, 1};
+        op_rsvd_options o = opt ? *opt : op_rsvd_defaults();
+        o.threads = threads;
         op_progress *prog = op_progress_begin(
-            "tucker factorization", op_rsvd_progress_units(rows, cols, terms, opt), NULL, NULL);
-        st = op_rsvd(mat, rows, cols, terms, opt, res->u, res->v, NULL, prog, err);
+            "tucker factorization", op_rsvd_progress_units(rows, cols, terms, &o), NULL, NULL);
+        st = op_rsvd_fill(&rs, mat, rows, cols, terms, &o, res->u, res->v, NULL, prog, err);
         op_progress_end(prog);
+        res->values.nonfinite = atomic_load(&src.nonfinite);
+        res->values.negative = atomic_load(&src.negative);
     }
-    free(mean);
+    (void)count;
     free(mat);
     if (st == OP_OK)
         st = fit_rows(channels, nchannels, threads, res, err);

@@ -15,6 +15,7 @@
 #define OP_FACTOR_TUCKER_H
 
 #include "opaline.h"
+#include "preprocess.h"
 #include "rsvd.h"
 
 /* What the colour fits were like, accumulated over rows and channels. */
@@ -38,11 +39,15 @@ typedef struct op_tucker_result {
     float *range;      /* rows x 2: (center, scale), t = (mean^ - center) * scale in [-1, 1] */
     float *beta;       /* channels x rows x (degree + 1) Chebyshev coefficients */
     op_polyfit_stats fit;
+    op_prep_counts values; /* the input's non-finite and negative values (first_nonfinite
+                              not set: op_prep_scan finds it) */
 } op_tucker_result;
 
 /* Factors the channels (each rows x cols row-major float32; NULL-free array of `channels`); the
  * colour fits run on `threads` threads (<= 0: every core), with the same result for any count.
- * Non-finite and negative values count as 0. On failure res holds nothing to free. */
+ * Non-finite and negative values count as 0 (res->values counts them). The mean over the
+ * channels is made and preprocessed in the SVD's first pass (op_rsvd_fill), block by block. On
+ * failure res holds nothing to free. */
 op_status op_tucker_factor(const float *const *channels, int nchannels, int64_t rows, int cols,
                            int terms, int degree, int shifted, const op_rsvd_options *opt,
                            int threads, op_tucker_result *res, op_error *err);

@@ -238,6 +238,36 @@ static void error_never_grows_with_degree(void **state)
         free(cases[k].d.v);
 }
 
+/* Tucker counts the dataset's values in the SVD's first pass (not in a scan before it): a NaN
+ * or infinity is still refused naming the first, nothing written, and --sanitize replaces them
+ * and reports their count. */
+static void nan_and_inf(void **state)
+{
+    (void)state;
+    ds_spec d = ds_chess(8, 8, 5, 0);
+    *ds_at(&d, 1, 5, 7) = NAN;
+    *ds_at(&d, 2, 9, 3) = INFINITY;
+    *ds_at(&d, 0, 2, 1) = -1e-3f; /* noise */
+    char *in = ds_write(&d);
+    char errtext[8192], out[1024], report[1024];
+    snprintf(out, sizeof out, "%s", op_test_tmp_path("nan.opm"));
+    snprintf(report, sizeof report, "%s", op_test_tmp_path("nan.json"));
+    const char *args[] = {"--method", "tucker", "-T", "3", "-P", "2", "--report", report, NULL};
+    assert_int_equal(run_factor(in, out, errtext, sizeof errtext, args), 2);
+    assert_non_null(strstr(errtext, "RD.G"));
+    assert_non_null(strstr(errtext, "row 5, column 7"));
+    assert_non_null(strstr(errtext, "NaN"));
+    assert_int_equal(access(out, F_OK), -1); /* nothing written */
+    const char *san[] = {"--method", "tucker", "-T", "3", "-P", "2", "--report", report,
+                         "--sanitize", NULL};
+    assert_int_equal(run_factor(in, out, errtext, sizeof errtext, san), 0);
+    assert_non_null(strstr(errtext, "replaced 2 non-finite"));
+    check_file_contains(report, "\"nonfinite_replaced\": 2,");
+    check_file_contains(report, "\"negative_values\": 1,");
+    free(in);
+    free(d.v);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -246,6 +276,7 @@ int main(void)
         cmocka_unit_test(exact_when_data_fits_the_model),
         cmocka_unit_test(regression_on_chessboard),
         cmocka_unit_test(error_never_grows_with_degree),
+        cmocka_unit_test(nan_and_inf),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
