@@ -37,7 +37,7 @@ echo
 echo "generator 1 (Monte Carlo), chess4x4 at paper size, $photons photons per pixel and channel:"
 "$tool" dataset chess4x4 --generator montecarlo --photons "$photons" -t "$threads" \
     -o "$work/mc.opm" 2>"$work/log" || { cat "$work/log" >&2; exit 1; }
-grep -E 'montecarlo: [0-9]+ photons|relative standard error|generated in' "$work/log" |
+grep -E 'montecarlo: [0-9]+ photons|relative standard error|generated and written in' "$work/log" |
     sed 's/^opaline: info: /  /'
 need=$(sed -n 's/.*needs about \([0-9]*\) photons.*/\1/p' "$work/log")
 if [ "${BENCH_MC_FULL:-0}" = 1 ] && [ -n "$need" ]; then
@@ -45,6 +45,6 @@ if [ "${BENCH_MC_FULL:-0}" = 1 ] && [ -n "$need" ]; then
     echo "generator 1 at $need photons per pixel (5 % relative standard error on the albedo):"
     "$tool" dataset chess4x4 --generator montecarlo --photons "$need" -t "$threads" \
         -o "$work/mc.opm" 2>"$work/log" || { cat "$work/log" >&2; exit 1; }
-    grep -E 'montecarlo: [0-9]+ photons|relative standard error|generated in' "$work/log" |
+    grep -E 'montecarlo: [0-9]+ photons|relative standard error|generated and written in' "$work/log" |
         sed 's/^opaline: info: /  /'
 fi

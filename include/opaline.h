@@ -365,6 +365,17 @@ op_status op_material_writer_open(const char *path, const op_material_info *info
                                   op_material_writer **out, op_error *err);
 op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
                                  uint64_t bytes, op_error *err);
+/* A section written in pieces: reserve gives it its place and size (the sections after it go
+ * beyond), fill appends its next n bytes (its checksum follows along), in any interleaving with
+ * other reserved sections; commit refuses a section not filled to its size. */
+op_status op_material_writer_reserve(op_material_writer *w, const char *tag, uint64_t bytes,
+                                     op_error *err);
+op_status op_material_writer_fill(op_material_writer *w, const char *tag, const void *data,
+                                  size_t n, op_error *err);
+/* Rewrites META from info, which must give text of the same length (fixed-width fields such as
+ * dataset_crc may change: a checksum known only once the data is written). */
+op_status op_material_writer_set_info(op_material_writer *w, const op_material_info *info,
+                                      op_error *err);
 /* Completes the file under its temporary name (section table and header) without putting it in
  * place, and gives that name in *tmp_path, valid until commit or abort: the file can be read
  * back with op_material_open to verify it. Sections may still be added after. */

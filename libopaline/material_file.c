@@ -467,29 +467,69 @@ uint64_t op_material_file_size(const op_material *m)
 struct op_material_writer {
     op_output *out;
     uint64_t pos; /* end of the sections: where the next one, or the table, goes */
+    uint64_t at;  /* the stream's position */
     unsigned char *table;
+    uint64_t *filled; /* per section: bytes written so far (reserved sections fill in pieces) */
     uint32_t count, capacity;
-    int finished; /* the table and header are written: the next section replaces the table */
 };
 
-static void pad_to_alignment(op_material_writer *w)
+/* Writes n bytes at offset off of the file, seeking first when the stream is elsewhere. */
+static op_status put(op_material_writer *w, uint64_t off, const void *data, size_t n,
+                     op_error *err)
+{
+    if (w->at != off) {
+        FILE *f = op_output_stream(w->out);
+        if (fflush(f) != 0 || fseeko(f, (off_t)off, SEEK_SET) != 0)
+            return op_error_set(err, OP_ERR_IO, "cannot write material: %s", strerror(errno));
+        w->at = off;
+    }
+    op_output_write(w->out, data, n);
+    w->at += n;
+    return OP_OK;
+}
+
+static op_status pad_to_alignment(op_material_writer *w, op_error *err)
 {
     static const unsigned char zeros[OPM_ALIGN];
     uint64_t pad = (OPM_ALIGN - w->pos % OPM_ALIGN) % OPM_ALIGN;
-    op_output_write(w->out, zeros, (size_t)pad);
+    op_status st = put(w, w->pos, zeros, (size_t)pad, err);
     w->pos += pad;
+    return st;
 }
 
-/* After finish: moves the stream back to the end of the sections, over the table. */
-static op_status resume_sections(op_material_writer *w, op_error *err)
+/* A new table entry for section tag of `bytes` bytes at the end of the sections. */
+static op_status new_entry(op_material_writer *w, const char *tag, uint64_t bytes,
+                           unsigned char **entry, op_error *err)
 {
-    if (!w->finished)
-        return OP_OK;
-    FILE *f = op_output_stream(w->out);
-    if (fflush(f) != 0 || fseek(f, (long)w->pos, SEEK_SET) != 0)
-        return op_error_set(err, OP_ERR_IO, "cannot write material sections: %s",
-                            strerror(errno));
-    w->finished = 0;
+    if (!valid_tag(tag))
+        return op_error_set(err, OP_ERR_INTERNAL, "invalid section tag '%s'", tag);
+    for (uint32_t j = 0; j < w->count; j++)
+        if (!strncmp((const char *)w->table + (size_t)j * OPM_ENTRY_SIZE, tag, 8))
+            return op_error_set(err, OP_ERR_INTERNAL, "section '%s' added twice", tag);
+    if (w->count == w->capacity) {
+        uint32_t cap = w->capacity ? 2 * w->capacity : 16;
+        if (cap > OPM_MAX_SECTIONS)
+            return op_error_set(err, OP_ERR_INTERNAL, "too many sections");
+        unsigned char *t = realloc(w->table, (size_t)cap * OPM_ENTRY_SIZE);
+        if (t)
+            w->table = t;
+        uint64_t *f = t ? realloc(w->filled, (size_t)cap * sizeof *f) : NULL;
+        if (!f)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        w->filled = f;
+        w->capacity = cap;
+    }
+    op_status st = pad_to_alignment(w, err);
+    if (st != OP_OK)
+        return st;
+    unsigned char *e = w->table + (size_t)w->count * OPM_ENTRY_SIZE;
+    memset(e, 0, OPM_ENTRY_SIZE);
+    memcpy(e, tag, strnlen(tag, 8));
+    op_put_le64(e + 8, w->pos);
+    op_put_le64(e + 16, bytes);
+    w->filled[w->count++] = 0;
+    w->pos += bytes;
+    *entry = e;
     return OP_OK;
 }
 
@@ -507,7 +547,7 @@ op_status op_material_writer_open(const char *path, const op_material_info *info
     }
     unsigned char header[OPM_HEADER_SIZE] = {0}; /* rewritten by commit */
     op_output_write(w->out, header, sizeof header);
-    w->pos = OPM_HEADER_SIZE;
+    w->pos = w->at = OPM_HEADER_SIZE;
     char meta[4096];
     size_t n = format_meta(info, meta, sizeof meta);
     *out = w;
@@ -522,47 +562,70 @@ op_status op_material_writer_open(const char *path, const op_material_info *info
 op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
                                  uint64_t bytes, op_error *err)
 {
-    op_status st = resume_sections(w, err);
+    unsigned char *e;
+    op_status st = new_entry(w, tag, bytes, &e, err);
     if (st != OP_OK)
         return st;
-    if (!valid_tag(tag))
-        return op_error_set(err, OP_ERR_INTERNAL, "invalid section tag '%s'", tag);
-    for (uint32_t j = 0; j < w->count; j++)
-        if (!strncmp((const char *)w->table + (size_t)j * OPM_ENTRY_SIZE, tag, 8))
-            return op_error_set(err, OP_ERR_INTERNAL, "section '%s' added twice", tag);
-    if (w->count == w->capacity) {
-        uint32_t cap = w->capacity ? 2 * w->capacity : 16;
-        if (cap > OPM_MAX_SECTIONS)
-            return op_error_set(err, OP_ERR_INTERNAL, "too many sections");
-        unsigned char *t = realloc(w->table, (size_t)cap * OPM_ENTRY_SIZE);
-        if (!t)
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        w->table = t;
-        w->capacity = cap;
-    }
-    pad_to_alignment(w);
-    unsigned char *e = w->table + (size_t)w->count++ * OPM_ENTRY_SIZE;
-    memset(e, 0, OPM_ENTRY_SIZE);
-    memcpy(e, tag, strnlen(tag, 8));
-    op_put_le64(e + 8, w->pos);
-    op_put_le64(e + 16, bytes);
     op_put_le32(e + 24, op_crc32(0, data, (size_t)bytes));
-    op_output_write(w->out, data, (size_t)bytes);
-    w->pos += bytes;
-    return OP_OK;
+    w->filled[w->count - 1] = bytes;
+    return put(w, op_get_le64(e + 8), data, (size_t)bytes, err);
+}
+
+op_status op_material_writer_reserve(op_material_writer *w, const char *tag, uint64_t bytes,
+                                     op_error *err)
+{
+    unsigned char *e;
+    return new_entry(w, tag, bytes, &e, err);
+}
+
+op_status op_material_writer_fill(op_material_writer *w, const char *tag, const void *data,
+                                  size_t n, op_error *err)
+{
+    for (uint32_t j = 0; j < w->count; j++) {
+        unsigned char *e = w->table + (size_t)j * OPM_ENTRY_SIZE;
+        if (strncmp((const char *)e, tag, 8))
+            continue;
+        if (n > op_get_le64(e + 16) - w->filled[j])
+            return op_error_set(err, OP_ERR_INTERNAL, "section '%s' overfilled", tag);
+        op_put_le32(e + 24, op_crc32(op_get_le32(e + 24), data, n));
+        op_status st = put(w, op_get_le64(e + 8) + w->filled[j], data, n, err);
+        w->filled[j] += n;
+        return st;
+    }
+    return op_error_set(err, OP_ERR_INTERNAL, "section '%s' was not reserved", tag);
+}
+
+op_status op_material_writer_set_info(op_material_writer *w, const op_material_info *info,
+                                      op_error *err)
+{
+    char meta[4096];
+    size_t n = format_meta(info, meta, sizeof meta);
+    unsigned char *e = w->table; /* META is the first section */
+    if (n != op_get_le64(e + 16))
+        return op_error_set(err, OP_ERR_INTERNAL, "META changed its length (%zu to %zu bytes)",
+                            (size_t)op_get_le64(e + 16), n);
+    op_put_le32(e + 24, op_crc32(0, meta, n));
+    return put(w, op_get_le64(e + 8), meta, n, err);
 }
 
 /* Writes the section table after the sections and the header that points to it: the file is
  * then complete. */
 static op_status write_table_and_header(op_material_writer *w, op_error *err)
 {
-    op_status st = resume_sections(w, err);
-    if (st != OP_OK)
-        return st;
-    pad_to_alignment(w);
+    for (uint32_t j = 0; j < w->count; j++) {
+        const unsigned char *e = w->table + (size_t)j * OPM_ENTRY_SIZE;
+        if (w->filled[j] != op_get_le64(e + 16))
+            return op_error_set(err, OP_ERR_INTERNAL, "section '%.8s' has %llu of its %llu bytes",
+                                (const char *)e, (unsigned long long)w->filled[j],
+                                (unsigned long long)op_get_le64(e + 16));
+    }
+    uint64_t end = w->pos;
+    op_status st = pad_to_alignment(w, err);
     uint64_t table = w->pos;
+    w->pos = end; /* sections added after finish go where the table was */
     size_t table_bytes = (size_t)w->count * OPM_ENTRY_SIZE;
-    op_output_write(w->out, w->table, table_bytes);
+    if (st == OP_OK)
+        st = put(w, table, w->table, table_bytes, err);
     uint64_t total = table + table_bytes;
     unsigned char header[OPM_HEADER_SIZE] = {0};
     memcpy(header, OPM_MAGIC, 8);
@@ -572,12 +635,7 @@ static op_status write_table_and_header(op_material_writer *w, op_error *err)
     op_put_le64(header + 24, table);
     op_put_le32(header + 32, op_crc32(0, w->table, table_bytes));
     op_put_le32(header + 36, op_crc32(0, header, 36));
-    FILE *f = op_output_stream(w->out);
-    if (fflush(f) != 0 || fseek(f, 0, SEEK_SET) != 0)
-        return op_error_set(err, OP_ERR_IO, "cannot write material header: %s", strerror(errno));
-    op_output_write(w->out, header, sizeof header);
-    w->finished = 1;
-    return OP_OK;
+    return st != OP_OK ? st : put(w, 0, header, sizeof header, err);
 }
 
 op_status op_material_writer_finish(op_material_writer *w, const char **tmp_path, op_error *err)
@@ -595,6 +653,7 @@ op_status op_material_writer_commit(op_material_writer *w, op_error *err)
     else
         st = op_output_commit(w->out, err);
     free(w->table);
+    free(w->filled);
     free(w);
     return st;
 }
@@ -605,5 +664,6 @@ void op_material_writer_abort(op_material_writer *w)
         return;
     op_output_abort(w->out);
     free(w->table);
+    free(w->filled);
     free(w);
 }

@@ -4,6 +4,7 @@
 #include "dataset_generate.h"
 #include "dataset_montecarlo.h"
 #include "opaline.h"
+#include "report.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -217,9 +218,8 @@ int op_cmd_dataset(int argc, char **argv)
     }
 
     double t0 = op_monotonic_seconds();
-    op_dataset d;
     op_mc_stats s;
-    st = op_dataset_generate(&spec, &d, &s, &err);
+    st = op_dataset_generate_file(&spec, out_path, &s, &err);
     if (st == OP_OK && spec.generator == OP_GEN_MONTECARLO) {
         op_log(OP_LOG_INFO,
                "montecarlo: %llu photons, %llu steps in %.2f s: %.2f M steps/s "
@@ -241,15 +241,13 @@ int op_cmd_dataset(int argc, char **argv)
         return op_exit_code(st);
     }
     double secs = op_monotonic_seconds() - t0;
-    op_log(OP_LOG_INFO, "dataset %s: %d x %d pixels, K %d, %.4g x %.4g cm, %s: generated in %.2f s",
+    uint64_t bytes = (uint64_t)spec.width * (uint64_t)spec.height * (uint64_t)spec.kernel *
+                     (uint64_t)spec.kernel * 12 * (spec.generator == OP_GEN_MONTECARLO ? 2 : 1);
+    op_log(OP_LOG_INFO, "dataset %s: %d x %d pixels, K %d, %.4g x %.4g cm, %s generator: %.3g GB "
+           "generated and written in %.2f s, in blocks of at most %llu MiB; peak memory %.1f MiB",
            spec.name, spec.width, spec.height, spec.kernel, spec.size_x_cm, spec.size_y_cm,
-           d.generator, secs);
-    st = op_dataset_write(&d, out_path, &err);
-    op_dataset_free(&d);
-    if (st != OP_OK) {
-        op_log(OP_LOG_ERROR, "dataset: %s", err.message);
-        return op_exit_code(st);
-    }
+           spec.generator == OP_GEN_MONTECARLO ? "montecarlo" : "diffusion", bytes / 1e9, secs,
+           (unsigned long long)(OP_DATASET_BLOCK_BYTES >> 20), op_peak_memory_bytes() / 1048576.0);
     op_log(OP_LOG_INFO, "wrote %s", out_path);
     return 0;
 }

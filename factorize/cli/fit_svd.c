@@ -47,7 +47,7 @@ static op_status check_log_transform(const factor_args *a, const svd_rows *t, op
     const uint32_t *shift = t->shift;
     const float *max = t->max;
     int c = t->c;
-    int64_t rows = ds->rows, step = rows > 4096 ? rows / 4096 : 1;
+    int64_t rows = ds->rows, step = rows > 4096 ? rows / 4096 : 1, done = 0;
     int n = ds->cols;
     double err2 = 0, ref2 = 0, xmax = 0;
     int finite = 1;
@@ -72,6 +72,14 @@ static op_status check_log_transform(const factor_args *a, const svd_rows *t, op
             err2 += (back - v) * (back - v);
             ref2 += v * v;
             xmax = fmax(xmax, fabs(x));
+        }
+        if (!t->mat) { /* streaming: a row is less than a page, but each read maps the pages
+                          around it (fault-around): release up to the next sampled row, or the
+                          samples would map the whole channel */
+            int64_t end = r + step < rows ? r + step : rows;
+            op_material_release(ds->file, ds->rd[c] + done * n,
+                                (size_t)(end - done) * (size_t)n * sizeof(float));
+            done = end;
         }
     }
     const char *why = !finite                         ? "some values are infinite"

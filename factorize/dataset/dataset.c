@@ -141,11 +141,18 @@ op_status op_dataset_layout(const op_dataset_spec *s, op_layout *l, op_error *er
 
 op_status op_dataset_alloc(op_dataset *d, int w, int h, int k, int with_se, op_error *err)
 {
+    return op_dataset_alloc_block(d, w, h, k, with_se, (uint64_t)w * (uint64_t)h, err);
+}
+
+op_status op_dataset_alloc_block(op_dataset *d, int w, int h, int k, int with_se, uint64_t rows,
+                                 op_error *err)
+{
     memset(d, 0, sizeof *d);
     d->width = w;
     d->height = h;
     d->kernel = k;
-    size_t n = (size_t)w * (size_t)h * (size_t)k * (size_t)k;
+    d->nrows = rows;
+    size_t n = (size_t)rows * (size_t)k * (size_t)k;
     for (int c = 0; c < 3; c++) {
         d->rd[c] = calloc(n, sizeof(float));
         if (with_se)
@@ -153,8 +160,9 @@ op_status op_dataset_alloc(op_dataset *d, int w, int h, int k, int with_se, op_e
         if (!d->rd[c] || (with_se && !d->se[c])) {
             op_dataset_free(d);
             return op_error_set(err, OP_ERR_NOMEM,
-                                "out of memory for a %d x %d x %d x %d dataset (%.1f GB)", w, h,
-                                k, k, n * 4.0 * 3 * (with_se ? 2 : 1) / 1e9);
+                                "out of memory for %llu rows of a %d x %d x %d x %d dataset "
+                                "(%.1f GB)", (unsigned long long)rows, w, h, k, k,
+                                n * 4.0 * 3 * (with_se ? 2 : 1) / 1e9);
         }
     }
     return OP_OK;
@@ -173,25 +181,25 @@ op_status op_dataset_check(const op_dataset *d, op_error *err)
 {
     static const char rgb[] = "RGB";
     int cols = d->kernel * d->kernel;
+    uint64_t w = (uint64_t)d->width;
     for (int c = 0; c < 3; c++)
-        for (uint64_t r = 0; r < op_dataset_rows(d); r++) {
+        for (uint64_t r = 0; r < d->nrows; r++) {
             const float *row = d->rd[c] + r * (uint64_t)cols;
+            uint64_t p = d->row0 + r;
             double sum = 0;
             for (int j = 0; j < cols; j++) {
                 if (!isfinite(row[j]) || row[j] < 0)
                     return op_error_set(err, OP_ERR_INPUT,
                                         "channel %c, pixel (%d, %d), offset (%d, %d): value %g is "
-                                        "negative or not finite", rgb[c],
-                                        (int)(r % (uint64_t)d->width), (int)(r / (uint64_t)d->width),
-                                        j % d->kernel - d->kernel / 2,
+                                        "negative or not finite", rgb[c], (int)(p % w),
+                                        (int)(p / w), j % d->kernel - d->kernel / 2,
                                         j / d->kernel - d->kernel / 2, (double)row[j]);
                 sum += row[j];
             }
             if (sum > 1.0 + 1e-6)
                 return op_error_set(err, OP_ERR_INPUT,
                                     "channel %c, pixel (%d, %d): albedo (row sum) %.6g exceeds 1",
-                                    rgb[c], (int)(r % (uint64_t)d->width),
-                                    (int)(r / (uint64_t)d->width), sum);
+                                    rgb[c], (int)(p % w), (int)(p / w), sum);
         }
     return OP_OK;
 }
@@ -201,40 +209,106 @@ op_status op_dataset_check(const op_dataset *d, op_error *err)
 uint32_t op_dataset_crc(const op_dataset *d)
 {
     uint32_t crc = 0;
-    size_t n = (size_t)op_dataset_rows(d) * (size_t)d->kernel * (size_t)d->kernel;
+    size_t n = (size_t)d->nrows * (size_t)d->kernel * (size_t)d->kernel;
     for (int c = 0; c < 3; c++)
         crc = op_crc32(crc, d->rd[c], n * sizeof(float));
     return crc;
 }
 
-op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err)
-{
-    op_material_info info;
-    memset(&info, 0, sizeof info);
-    info.method = OP_METHOD_RAW;
-    info.width = d->width;
-    info.height = d->height;
-    info.kernel = d->kernel;
-    info.channels = 3;
-    info.size_x_cm = d->size_x_cm;
-    info.size_y_cm = d->size_y_cm;
-    info.dataset_crc = op_dataset_crc(d);
-    snprintf(info.name, sizeof info.name, "%s", d->name);
-    snprintf(info.generator, sizeof info.generator, "%s", d->generator);
+static const char *const rd_tags[3] = {"RD.R", "RD.G", "RD.B"};
+static const char *const se_tags[3] = {"SE.R", "SE.G", "SE.B"};
+
+struct op_dataset_writer {
     op_material_writer *w;
-    op_status st = op_material_writer_open(path, &info, &w, err);
-    if (st != OP_OK)
-        return st;
+    op_material_info info;
+    int with_se;
+    uint64_t rows;     /* rows written so far */
+    uint32_t crc[3];   /* of each channel's Rd so far */
+};
+
+op_status op_dataset_writer_open(const char *path, const op_dataset *d, int with_se,
+                                 op_dataset_writer **out, op_error *err)
+{
+    *out = NULL;
+    op_dataset_writer *dw = calloc(1, sizeof *dw);
+    if (!dw)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    op_material_info *info = &dw->info;
+    info->method = OP_METHOD_RAW;
+    info->width = d->width;
+    info->height = d->height;
+    info->kernel = d->kernel;
+    info->channels = 3;
+    info->size_x_cm = d->size_x_cm;
+    info->size_y_cm = d->size_y_cm;
+    snprintf(info->name, sizeof info->name, "%s", d->name);
+    snprintf(info->generator, sizeof info->generator, "%s", d->generator);
+    dw->with_se = with_se;
+    op_status st = op_material_writer_open(path, info, &dw->w, err);
     uint64_t bytes = op_dataset_rows(d) * (uint64_t)d->kernel * (uint64_t)d->kernel * 4;
-    static const char *rd_tags[3] = {"RD.R", "RD.G", "RD.B"}, *se_tags[3] = {"SE.R", "SE.G", "SE.B"};
     for (int c = 0; c < 3 && st == OP_OK; c++)
-        st = op_material_writer_add(w, rd_tags[c], d->rd[c], bytes, err);
-    for (int c = 0; c < 3 && st == OP_OK; c++)
-        if (d->se[c])
-            st = op_material_writer_add(w, se_tags[c], d->se[c], bytes, err);
+        st = op_material_writer_reserve(dw->w, rd_tags[c], bytes, err);
+    for (int c = 0; c < 3 && st == OP_OK && with_se; c++)
+        st = op_material_writer_reserve(dw->w, se_tags[c], bytes, err);
     if (st != OP_OK) {
-        op_material_writer_abort(w);
+        op_dataset_writer_abort(dw);
         return st;
     }
-    return op_material_writer_commit(w, err);
+    *out = dw;
+    return OP_OK;
+}
+
+op_status op_dataset_writer_add(op_dataset_writer *dw, const op_dataset *b, op_error *err)
+{
+    if (b->row0 != dw->rows || b->kernel != dw->info.kernel || (dw->with_se && !b->se[0]))
+        return op_error_set(err, OP_ERR_INTERNAL, "dataset block of rows %llu.. out of order",
+                            (unsigned long long)b->row0);
+    size_t n = (size_t)b->nrows * (size_t)b->kernel * (size_t)b->kernel * sizeof(float);
+    op_status st = OP_OK;
+    for (int c = 0; c < 3 && st == OP_OK; c++) {
+        dw->crc[c] = op_crc32(dw->crc[c], b->rd[c], n);
+        st = op_material_writer_fill(dw->w, rd_tags[c], b->rd[c], n, err);
+    }
+    for (int c = 0; c < 3 && st == OP_OK && dw->with_se; c++)
+        st = op_material_writer_fill(dw->w, se_tags[c], b->se[c], n, err);
+    dw->rows += b->nrows;
+    return st;
+}
+
+op_status op_dataset_writer_commit(op_dataset_writer *dw, op_error *err)
+{
+    uint64_t bytes = (uint64_t)dw->info.width * (uint64_t)dw->info.height *
+                     (uint64_t)dw->info.kernel * (uint64_t)dw->info.kernel * 4;
+    dw->info.dataset_crc = op_crc32_combine(op_crc32_combine(dw->crc[0], dw->crc[1], bytes),
+                                            dw->crc[2], bytes);
+    op_status st = op_material_writer_set_info(dw->w, &dw->info, err);
+    if (st != OP_OK) {
+        op_dataset_writer_abort(dw);
+        return st;
+    }
+    st = op_material_writer_commit(dw->w, err); /* refuses missing rows */
+    free(dw);
+    return st;
+}
+
+void op_dataset_writer_abort(op_dataset_writer *dw)
+{
+    if (!dw)
+        return;
+    op_material_writer_abort(dw->w);
+    free(dw);
+}
+
+op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err)
+{
+    op_dataset_writer *w;
+    op_status st = op_dataset_writer_open(path, d, d->se[0] != NULL, &w, err);
+    if (st != OP_OK)
+        return st;
+    st = op_dataset_writer_add(w, d, err);
+    if (st != OP_OK) {
+        op_dataset_writer_abort(w);
+        return st;
+    }
+    return op_dataset_writer_commit(w, err);
 }

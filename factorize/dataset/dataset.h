@@ -55,7 +55,9 @@ op_status op_dataset_layout(const op_dataset_spec *spec, op_layout *l, op_error 
 typedef struct op_dataset {
     int width, height, kernel;
     double size_x_cm, size_y_cm;
-    float *rd[3];               /* width * height * kernel^2 values per channel */
+    uint64_t row0, nrows;       /* the rows rd and se hold: all (0, width * height), or a block
+                                   of a dataset generated or written in pieces */
+    float *rd[3];               /* nrows * kernel^2 values per channel */
     float *se[3];               /* standard errors of rd (Monte Carlo), else NULL */
     char name[128];
     char generator[128];        /* free text: generator and its parameters */
@@ -63,18 +65,33 @@ typedef struct op_dataset {
 
 /* Allocates a zeroed dataset (with standard-error arrays when with_se). */
 op_status op_dataset_alloc(op_dataset *d, int w, int h, int k, int with_se, op_error *err);
+/* Allocates room for a block of rows rows (row0 0) of a w x h x k dataset. */
+op_status op_dataset_alloc_block(op_dataset *d, int w, int h, int k, int with_se, uint64_t rows,
+                                 op_error *err);
 void op_dataset_free(op_dataset *d);
 static inline uint64_t op_dataset_rows(const op_dataset *d)
 {
     return (uint64_t)d->width * (uint64_t)d->height;
 }
-/* Checks the energy invariants: every value finite and >= 0, every row sum <= 1 (to float
- * rounding). OP_ERR_INPUT naming channel, pixel and value otherwise. */
+/* Checks the energy invariants of the rows d holds: every value finite and >= 0, every row sum
+ * <= 1 (to float rounding). OP_ERR_INPUT naming channel, pixel and value otherwise. */
 op_status op_dataset_check(const op_dataset *d, op_error *err);
-/* CRC-32 of the Rd values (little-endian float32), channels in order R, G, B. */
+/* CRC-32 of the Rd values d holds (little-endian float32), channels in order R, G, B. */
 uint32_t op_dataset_crc(const op_dataset *d);
-/* Writes d as a raw material (sections RD.R RD.G RD.B, plus SE.* when present) through
- * op_material_writer: the destination appears whole or not at all. */
+
+/* Writing a dataset as a raw material (sections RD.R RD.G RD.B, plus SE.* when with_se) through
+ * op_material_writer, in blocks of rows given in order: the destination appears whole at commit
+ * or not at all. The META's dataset_crc is that of all rows, known at commit. */
+typedef struct op_dataset_writer op_dataset_writer;
+/* d gives the dimensions, name and generator (its rows are not written). */
+op_status op_dataset_writer_open(const char *path, const op_dataset *d, int with_se,
+                                 op_dataset_writer **out, op_error *err);
+/* Writes the rows block holds, which must start where the previous block ended. */
+op_status op_dataset_writer_add(op_dataset_writer *w, const op_dataset *block, op_error *err);
+/* Refuses a dataset with rows missing; frees w whatever the result. */
+op_status op_dataset_writer_commit(op_dataset_writer *w, op_error *err);
+void op_dataset_writer_abort(op_dataset_writer *w);
+/* The whole of d, in one block. */
 op_status op_dataset_write(const op_dataset *d, const char *path, op_error *err);
 
 #endif

@@ -103,33 +103,44 @@ typedef struct offset_plan {
     const float *value; /* table: value[k * 3 + c] for k = 0..count points in medium 1 */
 } offset_plan;
 
-typedef struct diffusion_job {
+struct op_diffusion {
     const op_layout *l;
-    const uint8_t *padded;     /* the map padded periodically by h on every side */
+    uint8_t *padded;           /* the map padded periodically by h on every side */
     int pw;                    /* padded width */
     int kernel, cols;
-    const offset_plan *plan;
-    const int64_t *deltas;     /* sample offsets within padded, relative to the pixel */
+    offset_plan *plan;
+    int64_t *deltas;           /* sample offsets within padded, relative to the pixel */
+    float *values;             /* the tables plan[].value point into */
+};
+
+typedef struct diffusion_job {
+    const op_diffusion *d;
     op_dataset *out;
+    uint64_t chunk;            /* rows per task */
     op_progress *progress;
 } diffusion_job;
 
-/* Fills incident row y of the dataset (one op_parallel_for task). */
-static void diffusion_row(void *user, int y, int thread)
+/* Fills rows [task * chunk, + chunk) of the block (one op_parallel_for task). */
+static void diffusion_rows(void *user, int task, int thread)
 {
     diffusion_job *j = user;
-    const op_layout *l = j->l;
-    int h = j->kernel / 2;
+    const op_diffusion *d = j->d;
+    const op_layout *l = d->l;
+    int h = d->kernel / 2;
     (void)thread;
-    for (int x = 0; x < l->width; x++) {
-        const uint8_t *base = j->padded + (int64_t)(y + h) * j->pw + (x + h);
-        uint64_t row = (uint64_t)y * (uint64_t)l->width + (uint64_t)x;
+    uint64_t first = (uint64_t)task * j->chunk, end = first + j->chunk;
+    if (end > j->out->nrows)
+        end = j->out->nrows;
+    for (uint64_t r = first; r < end; r++) {
+        uint64_t row = j->out->row0 + r;
+        int x = (int)(row % (uint64_t)l->width), y = (int)(row / (uint64_t)l->width);
+        const uint8_t *base = d->padded + (int64_t)(y + h) * d->pw + (x + h);
         float *out[3];
         for (int c = 0; c < 3; c++)
-            out[c] = j->out->rd[c] + row * (uint64_t)j->cols;
-        for (int o = 0; o < j->cols; o++) {
-            const offset_plan *p = &j->plan[o];
-            const int64_t *dl = j->deltas + p->first;
+            out[c] = j->out->rd[c] + r * (uint64_t)d->cols;
+        for (int o = 0; o < d->cols; o++) {
+            const offset_plan *p = &d->plan[o];
+            const int64_t *dl = d->deltas + p->first;
             int k = 0;
             for (int s = 0; s < p->count; s++)
                 k += base[dl[s]];
@@ -139,7 +150,7 @@ static void diffusion_row(void *user, int y, int thread)
             out[2][p->col] = v[2];
         }
     }
-    op_progress_advance(j->progress, 1);
+    op_progress_advance(j->progress, end - first);
 }
 
 static int64_t floor_div(int64_t a, int64_t b)
@@ -148,12 +159,20 @@ static int64_t floor_div(int64_t a, int64_t b)
     return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
 }
 
-op_status op_diffusion_generate(const op_layout *l, int threads, op_progress_fn progress,
-                                void *progress_user, op_dataset *out, op_error *err)
+void op_diffusion_end(op_diffusion *d)
 {
-    int K = out->kernel, h = K / 2, cols = K * K;
-    if (out->width != l->width || out->height != l->height || K < 1 || K % 2 == 0)
-        return op_error_set(err, OP_ERR_INTERNAL, "diffusion: dataset and layout disagree");
+    if (!d)
+        return;
+    free(d->padded), free(d->values), free(d->deltas), free(d->plan);
+    free(d);
+}
+
+op_status op_diffusion_begin(const op_layout *l, int K, op_diffusion **out, op_error *err)
+{
+    *out = NULL;
+    if (K < 1 || K % 2 == 0)
+        return op_error_set(err, OP_ERR_INTERNAL, "diffusion: kernel %d is not odd", K);
+    int h = K / 2, cols = K * K;
     int pw = l->width + 2 * h, ph = l->height + 2 * h;
     /* Tabulated values: for quadrant offset (ax, ay), M = max(ax, ay) + 1 samples, M + 1 levels. */
     int64_t nvalues = 0, ndeltas = 0;
@@ -164,21 +183,29 @@ op_status op_diffusion_generate(const op_layout *l, int threads, op_progress_fn 
         int dx = o % K - h, dy = o / K - h;
         ndeltas += (abs(dx) > abs(dy) ? abs(dx) : abs(dy)) + 1;
     }
-    uint8_t *padded = malloc((size_t)pw * (size_t)ph);
-    float *values = malloc((size_t)nvalues * sizeof(float));
-    int64_t *deltas = malloc((size_t)ndeltas * sizeof(int64_t));
-    offset_plan *plan = malloc((size_t)cols * sizeof *plan);
+    op_diffusion *d = calloc(1, sizeof *d);
     const float **quad = malloc((size_t)(h + 1) * (size_t)(h + 1) * sizeof *quad);
-    if (!padded || !values || !deltas || !plan || !quad) {
-        free(padded), free(values), free(deltas), free(plan), free(quad);
+    if (d) {
+        d->padded = malloc((size_t)pw * (size_t)ph);
+        d->values = malloc((size_t)nvalues * sizeof(float));
+        d->deltas = malloc((size_t)ndeltas * sizeof(int64_t));
+        d->plan = malloc((size_t)cols * sizeof *d->plan);
+    }
+    if (!d || !d->padded || !d->values || !d->deltas || !d->plan || !quad) {
+        op_diffusion_end(d);
+        free(quad);
         return op_error_set(err, OP_ERR_NOMEM, "diffusion: out of memory");
     }
+    d->l = l;
+    d->pw = pw;
+    d->kernel = K;
+    d->cols = cols;
     for (int y = 0; y < ph; y++)
         for (int x = 0; x < pw; x++)
-            padded[(size_t)y * pw + x] = (uint8_t)op_layout_at(l, x - h, y - h);
+            d->padded[(size_t)y * pw + x] = (uint8_t)op_layout_at(l, x - h, y - h);
 
     /* The table of every value an entry can take. */
-    float *v = values;
+    float *v = d->values;
     for (int ay = 0; ay <= h; ay++)
         for (int ax = 0; ax <= h; ax++) {
             int m = (ax > ay ? ax : ay) + 1;
@@ -205,22 +232,32 @@ op_status op_diffusion_generate(const op_layout *l, int threads, op_progress_fn 
     for (int o = 0; o < cols; o++) {
         int dx = o % K - h, dy = o / K - h, ax = abs(dx), ay = abs(dy);
         int m = (ax > ay ? ax : ay) + 1;
-        plan[o] = (offset_plan){dx, dy, o, (int)nd, m, quad[ay * (h + 1) + ax]};
+        d->plan[o] = (offset_plan){dx, dy, o, (int)nd, m, quad[ay * (h + 1) + ax]};
         for (int s = 0; s < m; s++) {
             int64_t sx = 0, sy = 0;
             if (m > 1) {
                 sx = floor_div(2LL * s * dx + (m - 1), 2LL * (m - 1));
                 sy = floor_div(2LL * s * dy + (m - 1), 2LL * (m - 1));
             }
-            deltas[nd++] = sy * pw + sx;
+            d->deltas[nd++] = sy * pw + sx;
         }
     }
+    free(quad);
+    *out = d;
+    return OP_OK;
+}
 
-    diffusion_job job = {.l = l, .padded = padded, .pw = pw, .kernel = K, .cols = cols,
-                         .plan = plan, .deltas = deltas, .out = out};
-    job.progress = op_progress_begin("diffusion", (uint64_t)l->height, progress, progress_user);
-    op_status st = op_parallel_for(threads, l->height, diffusion_row, &job, NULL, err);
-    op_progress_end(job.progress);
-    free(padded), free(values), free(deltas), free(plan), free(quad);
-    return st;
+op_status op_diffusion_fill(const op_diffusion *d, int threads, op_progress *progress,
+                            op_dataset *block, op_error *err)
+{
+    if (block->width != d->l->width || block->height != d->l->height || block->kernel != d->kernel)
+        return op_error_set(err, OP_ERR_INTERNAL, "diffusion: dataset and layout disagree");
+    if (block->nrows == 0)
+        return OP_OK;
+    /* Four tasks per thread: balanced, and the values do not depend on the split. */
+    uint64_t nt = (uint64_t)op_parallel_threads(threads) * 4;
+    uint64_t chunk = (block->nrows + nt - 1) / nt;
+    diffusion_job job = {.d = d, .out = block, .chunk = chunk, .progress = progress};
+    return op_parallel_for(threads, (int)((block->nrows + chunk - 1) / chunk), diffusion_rows,
+                           &job, NULL, err);
 }

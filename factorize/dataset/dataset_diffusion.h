@@ -30,8 +30,16 @@ double op_dipole_total(double sigma_s, double sigma_a, double eta);
  * pixel whose centre is (cx, cy) mm away; n Gauss-Legendre points per half axis (1..16). */
 double op_dipole_pixel(const op_dipole *d, double cx, double cy, double px, double py, int n);
 
-/* Fills out->rd (out allocated for the layout's size and kernel) for every channel. */
-op_status op_diffusion_generate(const op_layout *l, int threads, op_progress_fn progress,
-                                void *progress_user, op_dataset *out, op_error *err);
+/* The generator's tables for a layout and kernel (every value an entry can take, the sample
+ * points of each offset, the map padded periodically): made once, then any block of rows is
+ * filled from them. */
+typedef struct op_diffusion op_diffusion;
+op_status op_diffusion_begin(const op_layout *l, int kernel, op_diffusion **out, op_error *err);
+/* Fills block->rd for its rows (block sized for the layout and kernel), in parallel over
+ * `threads`, advancing progress (may be NULL) by one per row. Each row's values depend on the
+ * row alone: the same for any blocks and thread count. */
+op_status op_diffusion_fill(const op_diffusion *d, int threads, op_progress *progress,
+                            op_dataset *block, op_error *err);
+void op_diffusion_end(op_diffusion *d);
 
 #endif

@@ -63,7 +63,6 @@ typedef struct mc_job {
     op_dataset *out;
     struct mc_thread *threads; /* per worker thread of op_parallel_for */
     uint64_t units;
-    op_progress *progress;
     double *total;      /* per unit: all escaping weight / photons */
     double *rowsum;     /* per unit: row sum */
     double *rowse;      /* per unit: standard error of the row sum */
@@ -185,7 +184,7 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
             t->lost++;
     }
     t->steps += steps;
-    uint64_t row = (uint64_t)py * (uint64_t)l->width + (uint64_t)px;
+    uint64_t row = (uint64_t)py * (uint64_t)l->width + (uint64_t)px - j->out->row0;
     float *rd = j->out->rd[c] + row * (uint64_t)cols, *se = j->out->se[c] + row * (uint64_t)cols;
     double dn = (double)n, rs = 0, rq = 0;
     for (int i = 0; i < cols; i++) {
@@ -202,22 +201,23 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     j->rowse[unit] = sqrt((n > 1 ? fmax(0, (rq - dn * mean * mean) / (dn - 1)) : mean * mean) / dn);
 }
 
-/* Traces unit u: channel u / pixels, incident pixel u % pixels (one op_parallel_for task). */
+/* Traces unit u: channel u / rows, row u % rows of the block (one op_parallel_for task). */
 static void mc_task(void *user, int u, int thread)
 {
     mc_job *j = user;
-    uint64_t pixels = (uint64_t)j->l->width * (uint64_t)j->l->height;
-    int c = (int)((uint64_t)u / pixels);
-    uint64_t p = (uint64_t)u % pixels;
+    uint64_t rows = j->out->nrows;
+    int c = (int)((uint64_t)u / rows);
+    uint64_t p = j->out->row0 + (uint64_t)u % rows;
     trace_unit(&j->threads[thread], c, (int)(p % (uint64_t)j->l->width),
                (int)(p / (uint64_t)j->l->width), (uint64_t)u);
-    op_progress_advance(j->progress, 1);
+    op_progress_advance(j->o->progress, 1);
 }
 
 op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset *out,
                          op_mc_stats *stats, op_error *err)
 {
-    memset(stats, 0, sizeof *stats);
+    if (out->row0 == 0)
+        memset(stats, 0, sizeof *stats);
     int K = out->kernel, cols = K * K;
     if (out->width != l->width || out->height != l->height || !out->se[0] || K < 1 || K % 2 == 0)
         return op_error_set(err, OP_ERR_INTERNAL, "montecarlo: dataset and layout disagree");
@@ -233,7 +233,9 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
     if (3 * pixels > INT_MAX)
         return op_error_set(err, OP_ERR_INPUT, "montecarlo: %llu incident pixels are too many",
                             (unsigned long long)pixels);
-    mc_job job = {.l = l, .o = o, .out = out, .units = 3 * pixels};
+    if (out->nrows == 0)
+        return OP_OK;
+    mc_job job = {.l = l, .o = o, .out = out, .units = 3 * out->nrows};
     job.total = malloc(job.units * sizeof(double));
     job.rowsum = malloc(job.units * sizeof(double));
     job.rowse = malloc(job.units * sizeof(double));
@@ -248,12 +250,10 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
         th[t].sum = tallies + (size_t)t * 2 * (size_t)cols;
         th[t].sq = th[t].sum + cols;
     }
-    job.progress = op_progress_begin("montecarlo", job.units, o->progress, o->progress_user);
     double t0 = op_monotonic_seconds();
     job.threads = th;
     op_status st = op_parallel_for(threads, (int)job.units, mc_task, &job, NULL, err);
-    stats->seconds = op_monotonic_seconds() - t0;
-    op_progress_end(job.progress);
+    stats->seconds += op_monotonic_seconds() - t0;
     if (st != OP_OK) {
         free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);
         return st;
@@ -263,24 +263,23 @@ op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset 
         stats->steps += th[t].steps;
         stats->lost += th[t].lost;
     }
-    stats->photons = job.units * o->photons;
+    stats->photons += job.units * o->photons;
     stats->steps_per_second = stats->seconds > 0 ? (double)stats->steps / stats->seconds : 0;
-    double rel = 0;
-    uint64_t nrel = 0;
     for (uint64_t u = 0; u < job.units; u++) {
-        int c = (int)(u / pixels);
+        int c = (int)(u / out->nrows);
         stats->total_reflectance[c] += job.total[u] / (double)pixels;
         stats->mean_albedo[c] += job.rowsum[u] / (double)pixels;
         if (job.rowsum[u] > 0) {
             double q = job.rowse[u] / job.rowsum[u];
-            rel += q;
-            nrel++;
+            stats->rel_se_sum += q;
+            stats->rel_se_count++;
             if (q > stats->max_rel_se)
                 stats->max_rel_se = q;
         }
     }
-    stats->mean_rel_se = nrel ? rel / (double)nrel : 0;
-    if (stats->lost)
+    stats->mean_rel_se =
+        stats->rel_se_count ? stats->rel_se_sum / (double)stats->rel_se_count : 0;
+    if (stats->lost && out->row0 + out->nrows == pixels)
         op_log(OP_LOG_WARN, "montecarlo: %llu photon(s) stopped after %u steps (counted absorbed)",
                (unsigned long long)stats->lost, OP_MC_MAX_STEPS);
     free(job.total), free(job.rowsum), free(job.rowse), free(th), free(tallies);

@@ -26,8 +26,7 @@ typedef struct op_mc_options {
     uint64_t photons;           /* per channel and incident pixel, >= 1 */
     uint64_t seed;
     int threads;                /* >= 1 */
-    op_progress_fn progress;    /* NULL: op_progress's stderr report */
-    void *progress_user;
+    op_progress *progress;      /* advanced by one per channel and row; NULL: no report */
     op_mc_incidence incidence;  /* OP_MC_DIFFUSE (0, the default) or OP_MC_NORMAL */
 } op_mc_options;
 
@@ -42,11 +41,15 @@ typedef struct op_mc_stats {
     double mean_albedo[3];      /* mean row sum (escaping within the kernel) */
     double mean_rel_se;         /* mean over rows and channels of SE(row sum) / row sum */
     double max_rel_se;
+    double rel_se_sum;          /* the sum and count behind mean_rel_se, over the blocks so far */
+    uint64_t rel_se_count;
 } op_mc_stats;
 
 #define OP_MC_MAX_STEPS 10000000u
 
-/* Fills out->rd and out->se (out allocated with standard errors for the layout's size). */
+/* Fills out->rd and out->se for the rows out holds (out allocated with standard errors for the
+ * layout's size, whole or a block) and adds their figures to stats; the block of row 0 starts
+ * stats afresh. Each row's values depend on the row alone (its own random streams). */
 op_status op_mc_generate(const op_layout *l, const op_mc_options *o, op_dataset *out,
                          op_mc_stats *stats, op_error *err);
 

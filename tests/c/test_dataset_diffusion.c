@@ -203,6 +203,66 @@ static void writes_a_raw_material(void **state)
     op_dataset_free(&d);
 }
 
+/* The whole file's bytes. */
+static unsigned char *slurp(const char *path, long *n)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    *n = ftell(f);
+    rewind(f);
+    unsigned char *b = malloc((size_t)*n);
+    assert_non_null(b);
+    assert_int_equal(fread(b, 1, (size_t)*n, f), (size_t)*n);
+    fclose(f);
+    return b;
+}
+
+/* op_dataset_generate_file, generating and writing in blocks of rows (here 2 blocks, the
+ * second partial), writes the bytes op_dataset_write writes of the whole dataset, for either
+ * generator and any thread count; a writer given too few rows refuses to commit and leaves
+ * nothing. */
+static void file_written_in_blocks_is_the_same(void **state)
+{
+    for (int mc = 0; mc < 2; mc++) {
+        /* rows per block: 64 MiB / (K^2 * 12 bytes, x2 with standard errors) */
+        int k = mc ? 21 : 29, side = mc ? 80 : 82;
+        op_dataset_spec s = small_spec(mc ? "jade" : "chess4x4", side, side, k, 1.0, 1.0);
+        uint64_t per_block = OP_DATASET_BLOCK_BYTES / ((uint64_t)k * k * 12 * (mc ? 2 : 1));
+        assert_true(per_block < (uint64_t)side * side && 2 * per_block > (uint64_t)side * side);
+        s.generator = mc ? OP_GEN_MONTECARLO : OP_GEN_DIFFUSION;
+        s.photons = 1;
+        op_dataset d;
+        generate(&s, &d);
+        const char *whole = op_test_tmp_path("whole.opm");
+        op_error err = {0};
+        OP_ASSERT_OK(op_dataset_write(&d, whole, &err), err);
+        long n0, n1;
+        unsigned char *a = slurp(whole, &n0);
+        for (int threads = 1; threads <= 3; threads += 2) {
+            s.threads = threads;
+            const char *blocks = op_test_tmp_path("blocks.opm");
+            OP_ASSERT_OK(op_dataset_generate_file(&s, blocks, NULL, &err), err);
+            unsigned char *b = slurp(blocks, &n1);
+            assert_int_equal(n0, n1);
+            assert_memory_equal(a, b, (size_t)n0);
+            free(b);
+            unlink(blocks);
+        }
+        free(a);
+        unlink(whole);
+
+        op_dataset_writer *w;
+        const char *part = op_test_tmp_path("part.opm");
+        OP_ASSERT_OK(op_dataset_writer_open(part, &d, mc, &w, &err), err);
+        d.nrows = 5;
+        OP_ASSERT_OK(op_dataset_writer_add(w, &d, &err), err);
+        assert_int_equal(op_dataset_writer_commit(w, &err), OP_ERR_INTERNAL);
+        assert_int_not_equal(access(part, F_OK), 0);
+        op_dataset_free(&d);
+    }
+}
+
 static int run_cmd(const char **args, int n)
 {
     char *argv[32];
@@ -268,6 +328,7 @@ int main(void)
         cmocka_unit_test(threads_do_not_matter),
         cmocka_unit_test(heterogeneity_shows),
         cmocka_unit_test(writes_a_raw_material),
+        cmocka_unit_test(file_written_in_blocks_is_the_same),
         cmocka_unit_test(bad_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
