@@ -2,6 +2,7 @@
 #include "subsurface.h"
 
 #include "sss_dipole.h"
+#include "sss_measured.h"
 #include "sss_tree.h"
 
 #include <float.h>
@@ -16,6 +17,7 @@ typedef struct sss_point {
     float fx, fy;     /* continuous material pixel coordinates, in [0, W) x [0, H) */
     op_v3 e;          /* irradiance */
     op_v3 m;          /* exitance */
+    float a;          /* centred: the surface area it stands for */
 } sss_point;
 
 /* A uniform grid hashed into buckets, stored compressed (bucket starts + point indices). */
@@ -40,6 +42,8 @@ typedef struct sss_shape {
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */
+    int centred;  /* measured: points at material pixel (sub-)centres (sss_measured.h), pair
+                     values at whole-pixel offsets, each point's own area */
     op_sss_tree tree;        /* hier: the tree over the points */
     op_sss_dipole_kernel dk; /* hier: the profile it sums */
     unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
@@ -182,6 +186,47 @@ static float wrap(float x, int n)
     return f >= (float)n || f < 0.0f ? 0.0f : f;
 }
 
+/* The material pixel coordinates of triangle t's vertices, for a material of W x H pixels tiled
+ * every sx x sy scene units: from its texture coordinates when it has a usable uv frame (*ua =
+ * -1), else the box projection along its geometric normal's dominant axis (*ua, *va). */
+static void triangle_pixels(const op_trimesh *m, int t, int W, int H, double sx, double sy,
+                            double xy[3][2], int *ua, int *va)
+{
+    op_v3 a, b, c, tu, tv;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    op_v3 ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    const uint32_t *ix = m->idx + 3 * (size_t)t;
+    if (triangle_uv_frame(m, t, ng, &tu, &tv)) {
+        for (int k = 0; k < 3; k++) {
+            xy[k][0] = (double)m->uv[2 * ix[k]] * W;
+            xy[k][1] = (double)m->uv[2 * ix[k] + 1] * H;
+        }
+        *ua = *va = -1;
+        return;
+    }
+    box_axes(ng, ua, va);
+    op_v3 p[3] = {a, b, c};
+    for (int k = 0; k < 3; k++) {
+        xy[k][0] = (double)v3_get(p[k], *ua) / sx * W;
+        xy[k][1] = (double)v3_get(p[k], *va) / sy * H;
+    }
+}
+
+/* The points a measured material lays on mesh m (sss_measured.h): one per sample of the
+ * material's pixel grid at the density's step. */
+static long long centred_count(const op_trimesh *m, int W, int H, double sx, double sy,
+                               double step)
+{
+    long long n = 0;
+    for (int t = 0; t < m->ntris; t++) {
+        double xy[3][2];
+        int ua, va;
+        triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
+        n += op_sss_measured_raster(xy, step, NULL, NULL);
+    }
+    return n;
+}
+
 op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
 {
     op_v3 ext = v3_sub(scene->bmax, scene->bmin);
@@ -217,11 +262,25 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        if (want > d->max_points)
+        if (!d->is_dipole) {
+            /* a measured material is never coarser than its pixels: maxPoints does not apply
+             * (the total does, below) */
+            const op_material_info *info = op_material_get_info(d->material);
+            want = (double)centred_count(&sh->mesh, info->width, info->height, size_x * 0.01 *
+                                         d->scale, size_y * 0.01 * d->scale,
+                                         op_sss_measured_step(d->density));
+            if (want > INT32_MAX)
+                return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
+                                    "points (one per material pixel at density %g) are more "
+                                    "than a shape can hold (%d)", sh->label, want, d->density,
+                                    INT32_MAX);
+            d->points = want < 1.0 ? 1 : (int)want;
+        } else if (want > d->max_points)
             op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
                    "material pixel; capped at %d (coarser than the material: raise maxPoints or "
                    "lower scale)", sh->label, want, d->max_points);
-        d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
+        if (d->is_dipole)
+            d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         total += d->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
@@ -230,6 +289,80 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
                                 "sss-points=VALUE)", sh->label, total, max_total);
     }
     return OP_OK;
+}
+
+/* Point q's position and normals at barycentrics (b0, b1, b2) of triangle t (vertices a, b, c). */
+static void point_geometry(const op_trimesh *m, int t, float b0, float b1, float b2, sss_point *q)
+{
+    op_v3 a, b, c;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    const uint32_t *ix = m->idx + 3 * (size_t)t;
+    q->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, b1)), v3_scale(c, b2));
+    q->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    q->n = q->ng;
+    if (m->nrm) {
+        const float *nn = m->nrm;
+        op_v3 s = v3_add(v3_add(v3_scale(v3(nn[3 * ix[0]], nn[3 * ix[0] + 1], nn[3 * ix[0] + 2]), b0),
+                                v3_scale(v3(nn[3 * ix[1]], nn[3 * ix[1] + 1], nn[3 * ix[1] + 2]), b1)),
+                         v3_scale(v3(nn[3 * ix[2]], nn[3 * ix[2] + 1], nn[3 * ix[2] + 2]), b2));
+        if (v3_len(s) > 0.0f)
+            q->n = v3_norm(s);
+        if (v3_dot(q->n, q->ng) < 0.0f)
+            q->ng = v3_neg(q->ng);
+    }
+}
+
+/* The box projection's frame at q: world axes ua, va projected into q's tangent plane. */
+static void box_frame(sss_point *q, int ua, int va)
+{
+    op_v3 eu = v3(ua == 0, ua == 1, ua == 2), ev = v3(va == 0, va == 1, va == 2);
+    q->tu = v3_norm(v3_sub(eu, v3_scale(q->n, v3_dot(q->n, eu))));
+    q->tv = v3_sub(ev, v3_scale(q->n, v3_dot(q->n, ev)));
+    q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
+}
+
+typedef struct lay_job {
+    const op_trimesh *m;
+    sss_shape *ss;
+    int t, ua, va, k;
+    float area; /* what one sample of triangle t stands for */
+} lay_job;
+
+static void lay_site(void *user, const op_sss_site *s)
+{
+    lay_job *j = user;
+    if (j->k >= j->ss->n)
+        return;
+    sss_point *q = &j->ss->pts[j->k++];
+    point_geometry(j->m, j->t, (float)(1.0 - s->b1 - s->b2), (float)s->b1, (float)s->b2, q);
+    if (j->ua >= 0 || !triangle_uv_frame(j->m, j->t, q->n, &q->tu, &q->tv)) {
+        int ua = j->ua, va = j->va;
+        if (ua < 0)
+            box_axes(q->n, &ua, &va);
+        box_frame(q, ua, va);
+    }
+    q->fx = wrap((float)s->x, j->ss->width);
+    q->fy = wrap((float)s->y, j->ss->height);
+    q->a = j->area;
+}
+
+/* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h); returns how
+ * many, at most ss->n. */
+static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
+{
+    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
+    for (j.t = 0; j.t < m->ntris && j.k < ss->n; j.t++) {
+        double xy[3][2];
+        triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
+        double samples = 0.5 * fabs((xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1]) -
+                                    (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0])) / (step * step);
+        op_v3 a, b, c;
+        op_trimesh_tri(m, j.t, &a, &b, &c);
+        j.area = samples > 0.0 ? (float)(0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a))) /
+                                         samples) : 0.0f;
+        op_sss_measured_raster(xy, step, lay_site, &j);
+    }
+    return j.k;
 }
 
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
@@ -265,6 +398,17 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     if (!ss->pts)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
     (void)scene;
+    if (!ss->desc->is_dipole) {
+        double step = op_sss_measured_step(ss->desc->density);
+        if (lay_centred(m, ss, sx, sy, step) == n) {
+            ss->centred = 1;
+            ss->a_i = ss->a_pix * (float)(step * step);
+            ss->spacing = (float)step * fmaxf(ss->px, ss->py);
+            return OP_OK;
+        }
+        /* a shape smaller than one sample: one point, as below */
+        memset(ss->pts, 0, (size_t)n * sizeof *ss->pts);
+    }
     for (int k = 0; k < n; k++) {
         sss_point *q = &ss->pts[k];
         /* systematic sampling of the area, an R2 sequence inside each triangle */
@@ -273,22 +417,8 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         float b1, b2;
         op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
         float b0 = 1.0f - b1 - b2;
-        op_v3 a, b, c;
-        op_trimesh_tri(m, t, &a, &b, &c);
         const uint32_t *ix = m->idx + 3 * (size_t)t;
-        q->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, b1)), v3_scale(c, b2));
-        q->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
-        q->n = q->ng;
-        if (m->nrm) {
-            const float *nn = m->nrm;
-            op_v3 s = v3_add(v3_add(v3_scale(v3(nn[3 * ix[0]], nn[3 * ix[0] + 1], nn[3 * ix[0] + 2]), b0),
-                                    v3_scale(v3(nn[3 * ix[1]], nn[3 * ix[1] + 1], nn[3 * ix[1] + 2]), b1)),
-                             v3_scale(v3(nn[3 * ix[2]], nn[3 * ix[2] + 1], nn[3 * ix[2] + 2]), b2));
-            if (v3_len(s) > 0.0f)
-                q->n = v3_norm(s);
-            if (v3_dot(q->n, q->ng) < 0.0f)
-                q->ng = v3_neg(q->ng);
-        }
+        point_geometry(m, t, b0, b1, b2, q);
         float u, v;
         if (triangle_uv_frame(m, t, q->n, &q->tu, &q->tv)) {
             const float *uv = m->uv;
@@ -297,10 +427,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         } else {
             int ua, va;
             box_axes(q->n, &ua, &va);
-            op_v3 eu = v3(ua == 0, ua == 1, ua == 2), ev = v3(va == 0, va == 1, va == 2);
-            q->tu = v3_norm(v3_sub(eu, v3_scale(q->n, v3_dot(q->n, eu))));
-            q->tv = v3_sub(ev, v3_scale(q->n, v3_dot(q->n, ev)));
-            q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
+            box_frame(q, ua, va);
             u = v3_get(q->p, ua) / (float)sx;
             v = v3_get(q->p, va) / (float)sy;
         }
@@ -394,6 +521,26 @@ static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r
     return 1;
 }
 
+/* The centred layout's pair value (sss_measured.h): the kernel at the whole-pixel offset from
+ * the source s's pixel to the one the receiver r falls in, in s's frame, per channel (rows rr,
+ * rg, rb). Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
+static int kernel_centred(const sss_shape *ss, const sss_point *s, const sss_point *r,
+                          const float *rr, const float *rg, const float *rb, float v[3])
+{
+    if (v3_dot(s->n, r->n) <= 0.0f)
+        return 0;
+    op_v3 d = v3_sub(r->p, s->p);
+    int dx, dy, half = ss->kernel / 2;
+    if (!op_sss_measured_offset(s->fx, s->fy, v3_dot(d, s->tu) / ss->px,
+                                v3_dot(d, s->tv) / ss->py, ss->kernel, &dx, &dy))
+        return 0;
+    int col = (dy + half) * ss->kernel + (dx + half);
+    v[0] = rr[col];
+    v[1] = rg[col];
+    v[2] = rb[col];
+    return 1;
+}
+
 /* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
  * acc[3 j + c] += E_i,c g_i,c Rd_c(pixel(i), offset(i -> j)) over the receivers j in i's
  * footprint, where g_i,c (clamped to [1/2, 2]) makes the receivers of i get exactly the row's
@@ -439,11 +586,20 @@ static void scatter_task(void *user, int task, int thread)
         float v[3];
         nrec = 0;
         GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
-            if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
-                continue;
-            got[0] += v[0];
-            got[1] += v[1];
-            got[2] += v[2];
+            if (ss->centred) {
+                if (!kernel_centred(ss, s, &ss->pts[j], rr, rg, rb, v))
+                    continue;
+                float aj = ss->pts[j].a / ss->a_pix; /* the receiver's share of a pixel */
+                got[0] += v[0] * aj;
+                got[1] += v[1] * aj;
+                got[2] += v[2] * aj;
+            } else {
+                if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
+                    continue;
+                got[0] += v[0];
+                got[1] += v[1];
+                got[2] += v[2];
+            }
             if (ss->rmap[j] < 0)
                 continue; /* counts for the normalization only */
             if (nrec == cap) {
@@ -464,10 +620,12 @@ static void scatter_task(void *user, int task, int thread)
         });
         float g[3];
         for (int c = 0; c < 3; c++) {
-            double q = got[c] > 0.0 ? total[c] * expect / got[c] : 1.0;
+            double q = got[c] > 0.0 ? total[c] * (ss->centred ? 1.0 : expect) / got[c] : 1.0;
             g[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q);
         }
         op_v3 e = v3(s->e.x * g[0], s->e.y * g[1], s->e.z * g[2]);
+        if (ss->centred) /* M_j = sum_i E_i g_i (A_i / A_pixel) Rd */
+            e = v3_scale(e, s->a / ss->a_pix);
         for (int k = 0; k < nrec; k++) {
             size_t j = (size_t)rec[k];
             acc[3 * j] += e.x * val[3 * (size_t)k];
@@ -875,7 +1033,7 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
         if (st == OP_OK && atomic_load(&job->nomem))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
         if (st == OP_OK) {
-            float k = ss->a_i / ss->a_pix;
+            float k = ss->centred ? 1.0f : ss->a_i / ss->a_pix;
             for (int j = 0; j < ss->n; j++) {
                 int rj = ss->rmap[j];
                 if (rj < 0)
@@ -1004,9 +1162,12 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     if (st)
         return st;
     int half = ss->kernel / 2;
-    ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
+    ss->h = ss->centred ? 2.0f * ss->spacing : 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
     if (!ss->hier) {
-        ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+        /* centred: a receiver lies less than half + 1 pixels from the source along each of
+         * its frame's axes */
+        ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
+                                 : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
         st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
     } else {
         st = tree_prepare(ss, err);
@@ -1202,31 +1363,48 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
     st->seconds = c->seconds;
 }
 
+/* The weighted mean of the exitance of the points within h of p (same-side normals) into *out
+ * (0 where none); returns 0 when one of them is not a receiver. Weights 1 - r^2/h^2, or for the
+ * centred layout Franke and Little's ((h - r) / r)^2: each point's own value at its position
+ * (the material pixel's exitance at its centre), smooth between. */
+static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *out, float *wsum)
+{
+    float h2 = h * h;
+    op_v3 m = v3s(0.0f);
+    int ok = 1;
+    *wsum = 0.0f;
+    GRID_FOR_EACH(&ss->interp, p, h, i, {
+        const sss_point *q = &ss->pts[i];
+        op_v3 d = v3_sub(q->p, p);
+        float w = 1.0f - v3_dot(d, d) / h2;
+        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
+            continue;
+        if (ss->centred) {
+            float r = sqrtf(1.0f - w);
+            w = (1.0f - r) / (r + 1e-4f);
+            w *= w;
+        }
+        if (!ss->recv[i])
+            ok = 0;
+        *wsum += w;
+        m = v3_add(m, v3_scale(q->m, w));
+    });
+    *out = *wsum > 0.0f ? v3_scale(m, 1.0f / *wsum) : v3s(0.0f);
+    return ok;
+}
+
 int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
 {
     const sss_shape *ss = &c->shapes[sss];
     *out = v3s(0.0f);
     if (!ss->pts)
         return 0;
-    float h2 = ss->h * ss->h, wsum = 0.0f;
-    op_v3 m = v3s(0.0f);
-    int ok = 1;
-    GRID_FOR_EACH(&ss->interp, p, ss->h, i, {
-        const sss_point *q = &ss->pts[i];
-        op_v3 d = v3_sub(q->p, p);
-        float w = 1.0f - v3_dot(d, d) / h2;
-        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
-            continue;
-        if (!ss->recv[i])
-            ok = 0;
-        wsum += w;
-        m = v3_add(m, v3_scale(q->m, w));
-    });
-    if (!ok)
-        return 0;
-    if (wsum > 0.0f)
-        *out = v3_scale(m, 1.0f / wsum);
-    return 1;
+    float wsum;
+    /* centred: the points of p's own material pixel (1.5 spacings: a pixel's (sub-)centres
+     * and not its neighbours'), all within h where none is that close (a stretched map) */
+    if (ss->centred && lookup_within(ss, p, n, 0.75f * ss->h, out, &wsum) && wsum > 0.0f)
+        return 1;
+    return lookup_within(ss, p, n, ss->h, out, &wsum);
 }
 
 op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
