@@ -18,6 +18,9 @@ typedef struct sss_point {
     op_v3 e;          /* irradiance */
     op_v3 m;          /* exitance */
     float a;          /* centred: the surface area it stands for */
+    op_v3 gu, gv;     /* centred: the world gradients of its material pixel coordinates (a
+                         world offset d is dot(d, gu), dot(d, gv) pixels) */
+    float reach;      /* centred: its receivers lie within this distance */
 } sss_point;
 
 /* A uniform grid hashed into buckets, stored compressed (bucket starts + point indices). */
@@ -30,15 +33,26 @@ typedef struct sss_grid {
     int32_t *coord;  /* 3 per point: its cell */
 } sss_grid;
 
+/* A receiver as the centred scatter reads it, stored in the gather grid's bucket order so that
+ * a cell's points are contiguous. */
+typedef struct gather_pt {
+    float x, y, z, nx, ny, nz;
+    float a;        /* its area over the pixel's */
+    int32_t rj;     /* its index among the computed receivers, or -1 */
+    int32_t c[3];   /* its gather cell */
+} gather_pt;
+
 typedef struct sss_shape {
     const op_sss_desc *desc;
     int width, height, kernel, channels;
     float px, py, a_pix, a_i, spacing;
     float radius; /* gather radius: the kernel footprint */
     float h;      /* interpolation radius */
+    float reach;  /* centred: the points' mean reach (the gather grid's cell) */
     int n;
     sss_point *pts;
     sss_grid gather, interp;
+    struct gather_pt *gpts; /* centred: the points in the gather grid's bucket order */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */
@@ -325,8 +339,29 @@ typedef struct lay_job {
     const op_trimesh *m;
     sss_shape *ss;
     int t, ua, va, k;
-    float area; /* what one sample of triangle t stands for */
+    float area;    /* what one sample of triangle t stands for */
+    op_v3 gu, gv;  /* triangle t's gradients of the material pixel coordinates */
 } lay_job;
+
+/* The world gradients of the material pixel coordinates xy over triangle t (in its plane). */
+static void pixel_gradients(const op_trimesh *m, int t, double xy[3][2], op_v3 *gu, op_v3 *gv)
+{
+    op_v3 a, b, c;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    op_v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
+    double g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2);
+    double det = g11 * g22 - g12 * g12;
+    *gu = *gv = v3s(0.0f);
+    if (!(det > 0.0))
+        return;
+    /* the rows of the pseudo-inverse of [e1 e2]: r1 . d, r2 . d are d's edge coordinates */
+    op_v3 r1 = v3_add(v3_scale(e1, (float)(g22 / det)), v3_scale(e2, (float)(-g12 / det)));
+    op_v3 r2 = v3_add(v3_scale(e1, (float)(-g12 / det)), v3_scale(e2, (float)(g11 / det)));
+    double dx1 = xy[1][0] - xy[0][0], dx2 = xy[2][0] - xy[0][0];
+    double dy1 = xy[1][1] - xy[0][1], dy2 = xy[2][1] - xy[0][1];
+    *gu = v3_add(v3_scale(r1, (float)dx1), v3_scale(r2, (float)dx2));
+    *gv = v3_add(v3_scale(r1, (float)dy1), v3_scale(r2, (float)dy2));
+}
 
 static void lay_site(void *user, const op_sss_site *s)
 {
@@ -344,13 +379,15 @@ static void lay_site(void *user, const op_sss_site *s)
     q->fx = wrap((float)s->x, j->ss->width);
     q->fy = wrap((float)s->y, j->ss->height);
     q->a = j->area;
+    q->gu = j->gu;
+    q->gv = j->gv;
 }
 
 /* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h); returns how
  * many, at most ss->n. */
 static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
 {
-    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
+    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f, {0, 0, 0}, {0, 0, 0}};
     for (j.t = 0; j.t < m->ntris && j.k < ss->n; j.t++) {
         double xy[3][2];
         triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
@@ -360,6 +397,7 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
         op_trimesh_tri(m, j.t, &a, &b, &c);
         j.area = samples > 0.0 ? (float)(0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a))) /
                                          samples) : 0.0f;
+        pixel_gradients(m, j.t, xy, &j.gu, &j.gv);
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
@@ -403,7 +441,21 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         if (lay_centred(m, ss, sx, sy, step) == n) {
             ss->centred = 1;
             ss->a_i = ss->a_pix * (float)(step * step);
-            ss->spacing = (float)step * fmaxf(ss->px, ss->py);
+            /* a map that stretches the material spreads its points wider */
+            ss->spacing = fmaxf((float)step * fmaxf(ss->px, ss->py), sqrtf(m->area / (float)n));
+            /* each point's reach as a source: half + 1 of its pixel steps along each material
+             * axis, the step's world length 1 / the smallest singular value of (gu, gv), at
+             * most 4 unstretched pixels; the gather grid's cell is their mean */
+            double sum = 0.0;
+            float cap = 4.0f * fmaxf(ss->px, ss->py), k = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2;
+            for (int i = 0; i < n; i++) {
+                sss_point *q = &ss->pts[i];
+                double a = v3_dot(q->gu, q->gu), b = v3_dot(q->gu, q->gv), c = v3_dot(q->gv, q->gv);
+                double lmin = 0.5 * (a + c) - sqrt(0.25 * (a - c) * (a - c) + b * b);
+                q->reach = k * (lmin > 0.0 ? fminf((float)(1.0 / sqrt(lmin)), cap) : cap);
+                sum += q->reach;
+            }
+            ss->reach = (float)(sum / n);
             return OP_OK;
         }
         /* a shape smaller than one sample: one point, as below */
@@ -531,14 +583,117 @@ static int kernel_centred(const sss_shape *ss, const sss_point *s, const sss_poi
         return 0;
     op_v3 d = v3_sub(r->p, s->p);
     int dx, dy, half = ss->kernel / 2;
-    if (!op_sss_measured_offset(s->fx, s->fy, v3_dot(d, s->tu) / ss->px,
-                                v3_dot(d, s->tv) / ss->py, ss->kernel, &dx, &dy))
+    if (!op_sss_measured_offset(s->fx, s->fy, v3_dot(d, s->gu), v3_dot(d, s->gv), ss->kernel,
+                                &dx, &dy))
         return 0;
     int col = (dy + half) * ss->kernel + (dx + half);
     v[0] = rr[col];
     v[1] = rg[col];
     v[2] = rb[col];
     return 1;
+}
+
+/* The centred layout's scatter of one chunk of sources (scatter_task's contract): the pair
+ * value is the kernel at the whole-pixel offset from the source's pixel to the receiver's
+ * (sss_measured.h), each receiver weighted by its area in the normalization, each source's
+ * energy E_i A_i g_i / A_pixel. */
+static void centred_task(void *user, int task, int thread)
+{
+    build_job *job = user;
+    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    const op_material *mat = ss->desc->material;
+    const sss_grid *g = &ss->gather;
+    int first = task * job->chunk, last = first + job->chunk;
+    if (last > ss->n)
+        last = ss->n;
+    float *acc = ss->acc + (size_t)task * 3 * (size_t)ss->nrecv;
+    int K = ss->kernel, half = K / 2;
+    float *rows = job->rows[thread];
+    int cap = 0, nrec = 0;
+    int32_t *rec = NULL; /* pairs: receiver index, kernel column */
+    int i;
+    for (i = first; i < last; i++) {
+        if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
+            break;
+        const sss_point *s = &ss->pts[i];
+        if (v3_is_black(s->e))
+            continue;
+        int x = (int)s->fx, y = (int)s->fy;
+        for (int c = 0; c < ss->channels; c++)
+            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
+        const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
+                    *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
+        double total[3] = {0, 0, 0};
+        float got[3] = {0, 0, 0};
+        for (int k = 0; k < K * K; k++) {
+            total[0] += rr[k];
+            total[1] += rg[k];
+            total[2] += rb[k];
+        }
+        /* offsets from the source's position inside its pixel (fractions in [0, 1)); a
+         * pixel index is (int)(v + BIAS) - BIAS for |v| < BIAS, without floorf's cost */
+        const float BIAS = 1024.0f;
+        float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
+        int32_t clo[3], chi[3];
+        cell_of(g, v3_sub(s->p, v3s(s->reach)), clo);
+        cell_of(g, v3_add(s->p, v3s(s->reach)), chi);
+        nrec = 0;
+        for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
+            for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
+                for (int32_t cx = clo[0]; cx <= chi[0]; cx++) {
+                    uint32_t b = cell_hash(cx, cy, cz, g->mask);
+                    for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
+                        const gather_pt *r = &ss->gpts[k];
+                        if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                            continue;
+                        if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
+                            continue;
+                        op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+                        float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
+                        if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
+                            continue;
+                        int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
+                        if (ox < -half || ox > half || oy < -half || oy > half)
+                            continue;
+                        int col = (oy + half) * K + (ox + half);
+                        got[0] += rr[col] * r->a;
+                        got[1] += rg[col] * r->a;
+                        got[2] += rb[col] * r->a;
+                        if (r->rj < 0)
+                            continue; /* counts for the normalization only */
+                        if (nrec == cap) {
+                            int nc = cap ? 2 * cap : 2048;
+                            int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
+                            if (!r2) { /* this source's light is lost, reported by the pass */
+                                atomic_store(&job->nomem, 1);
+                                goto next;
+                            }
+                            rec = r2;
+                            cap = nc;
+                        }
+                        rec[2 * nrec] = r->rj;
+                        rec[2 * nrec++ + 1] = col;
+                    }
+                }
+        float gn[3];
+        for (int c = 0; c < 3; c++) {
+            double q = got[c] > 0.0f ? total[c] / got[c] : 1.0;
+            gn[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q) * (s->a / ss->a_pix);
+        }
+        {
+            float ex = s->e.x * gn[0], ey = s->e.y * gn[1], ez = s->e.z * gn[2];
+            for (int k = 0; k < nrec; k++) {
+                float *o = acc + 3 * (size_t)rec[2 * k];
+                int col = rec[2 * k + 1];
+                o[0] += ex * rr[col];
+                o[1] += ey * rg[col];
+                o[2] += ez * rb[col];
+            }
+        }
+    next:;
+    }
+    free(rec);
+    op_progress_advance(job->prog, (uint64_t)(i - first));
 }
 
 /* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
@@ -585,7 +740,7 @@ static void scatter_task(void *user, int task, int thread)
         }
         float v[3];
         nrec = 0;
-        GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
+        GRID_FOR_EACH(&ss->gather, s->p, ss->centred ? s->reach : ss->radius, j, {
             if (ss->centred) {
                 if (!kernel_centred(ss, s, &ss->pts[j], rr, rg, rb, v))
                     continue;
@@ -761,14 +916,27 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
     }
     for (int i = 0; i < ss->n; i++) {
         int32_t lo[3], hi[3], need = 0;
-        cell_of(g, v3_sub(ss->pts[i].p, v3s(ss->radius)), lo);
-        cell_of(g, v3_add(ss->pts[i].p, v3s(ss->radius)), hi);
+        float r = ss->centred ? ss->pts[i].reach : ss->radius;
+        cell_of(g, v3_sub(ss->pts[i].p, v3s(r)), lo);
+        cell_of(g, v3_add(ss->pts[i].p, v3s(r)), hi);
         for (int32_t z = lo[2]; z <= hi[2] && !need; z++)
             for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
                 for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
                     need = ss->bmark[cell_hash(x, y, z, g->mask)];
         if (need)
             add_source(ss, sv, i);
+    }
+    if (ss->centred) {
+        if (!(ss->gpts = malloc((size_t)ss->n * sizeof *ss->gpts)))
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+        for (int k = 0; k < ss->n; k++) {
+            int q = (int)g->items[k];
+            const sss_point *pt = &ss->pts[q];
+            gather_pt *o = &ss->gpts[k];
+            *o = (gather_pt){pt->p.x, pt->p.y, pt->p.z, pt->n.x, pt->n.y, pt->n.z,
+                             pt->a / ss->a_pix, ss->rmap[q], {g->coord[3 * q], g->coord[3 * q + 1],
+                                                             g->coord[3 * q + 2]}};
+        }
     }
     return OP_OK;
 }
@@ -1029,7 +1197,8 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
         job->scatter_shape = s;
         if (st == OP_OK)
-            st = op_parallel_for(opt->threads, ss->nchunks, scatter_task, job, opt->cancel, err);
+            st = op_parallel_for(opt->threads, ss->nchunks, ss->centred ? centred_task : scatter_task,
+                                 job, opt->cancel, err);
         if (st == OP_OK && atomic_load(&job->nomem))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
         if (st == OP_OK) {
@@ -1165,8 +1334,8 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     ss->h = ss->centred ? 2.0f * ss->spacing : 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
     if (!ss->hier) {
         /* centred: a receiver lies less than half + 1 pixels from the source along each of
-         * its frame's axes */
-        ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
+         * its material axes */
+        ss->radius = ss->centred ? ss->reach
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
         st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
     } else {
@@ -1337,6 +1506,7 @@ void op_sss_cache_free(op_sss_cache *c)
         free(ss->rmap);
         free(ss->src);
         free(ss->acc);
+        free(ss->gpts);
         grid_free(&ss->gather);
         grid_free(&ss->interp);
     }
