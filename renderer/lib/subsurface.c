@@ -508,6 +508,8 @@ typedef struct build_job {
  * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
  * summation order does not depend on which points are receivers). */
 enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
+/* the centred scatter's gather cell, in mean reaches (smaller cells visit fewer points) */
+#define CENTRED_CELL 0.5f
 #define MAX_ACC_BYTES (256.0 * 1024 * 1024)
 
 static void irradiance_task(void *user, int task, int thread)
@@ -1337,7 +1339,8 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
          * its material axes */
         ss->radius = ss->centred ? ss->reach
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
+        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin,
+                        ss->centred ? ss->radius * CENTRED_CELL : ss->radius, err);
     } else {
         st = tree_prepare(ss, err);
     }
@@ -1534,7 +1537,7 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
 }
 
 /* The weighted mean of the exitance of the points within h of p (same-side normals) into *out
- * (0 where none); returns 0 when one of them is not a receiver. Weights 1 - r^2/h^2, or for the
+ * (0 where none); returns 0 when one of them is not a receiver (*out is then meaningless). Weights 1 - r^2/h^2, or for the
  * centred layout Franke and Little's ((h - r) / r)^2: each point's own value at its position
  * (the material pixel's exitance at its centre), smooth between. */
 static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *out, float *wsum)
@@ -1574,7 +1577,10 @@ int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
      * and not its neighbours'), all within h where none is that close (a stretched map) */
     if (ss->centred && lookup_within(ss, p, n, 0.75f * ss->h, out, &wsum) && wsum > 0.0f)
         return 1;
-    return lookup_within(ss, p, n, ss->h, out, &wsum);
+    if (lookup_within(ss, p, n, ss->h, out, &wsum))
+        return 1;
+    *out = v3s(0.0f);
+    return 0;
 }
 
 op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
