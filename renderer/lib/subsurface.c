@@ -18,9 +18,8 @@ typedef struct sss_point {
     op_v3 e;          /* irradiance */
     op_v3 m;          /* exitance */
     float a;          /* centred: the surface area it stands for */
-    op_v3 gu, gv;     /* centred: the world gradients of its material pixel coordinates (a
-                         world offset d is dot(d, gu), dot(d, gv) pixels) */
-    float reach;      /* centred: its receivers lie within this distance */
+    op_v3 gu, gv;     /* centred: tu and tv over the pixel size (a world offset d is dot(d,
+                         gu), dot(d, gv) material pixels at the material's physical size) */
 } sss_point;
 
 /* A uniform grid hashed into buckets, stored compressed (bucket starts + point indices). */
@@ -48,7 +47,6 @@ typedef struct sss_shape {
     float px, py, a_pix, a_i, spacing;
     float radius; /* gather radius: the kernel footprint */
     float h;      /* interpolation radius */
-    float reach;  /* centred: the points' mean reach (the gather grid's cell) */
     int n;
     sss_point *pts;
     sss_grid gather, interp;
@@ -226,8 +224,38 @@ static void triangle_pixels(const op_trimesh *m, int t, int W, int H, double sx,
     }
 }
 
+/* The sample step, in material pixels of the map, that lays about `density` points per
+ * material pixel area (a_pix, scene units) on mesh m: op_sss_measured_step for a map that shows
+ * the material at its physical size, divided by the map's mean linear stretch otherwise (the
+ * square root of the mesh's area over its mapped pixels' area), snapped to 1/n or n within 1 %,
+ * so that a map at its physical size or an integer multiple of it keeps the pixel centres. */
+static double centred_step(const op_trimesh *m, int W, int H, double sx, double sy, double a_pix,
+                           double density)
+{
+    double world = 0.0, mapped = 0.0;
+    for (int t = 0; t < m->ntris; t++) {
+        double xy[3][2];
+        int ua, va;
+        triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
+        mapped += 0.5 * fabs((xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1]) -
+                             (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0]));
+        op_v3 a, b, c;
+        op_trimesh_tri(m, t, &a, &b, &c);
+        world += 0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    }
+    double step = op_sss_measured_step(density);
+    if (!(mapped > 0.0 && world > 0.0))
+        return step;
+    double stretch = sqrt(world / (mapped * a_pix));
+    double n = stretch >= 1.0 ? round(stretch) : round(1.0 / stretch), snapped;
+    snapped = stretch >= 1.0 ? n : 1.0 / n;
+    if (n >= 1.0 && fabs(stretch / snapped - 1.0) < 0.01)
+        stretch = snapped;
+    return step / stretch;
+}
+
 /* The points a measured material lays on mesh m (sss_measured.h): one per sample of the
- * material's pixel grid at the density's step. */
+ * material's pixel grid at the step. */
 static long long centred_count(const op_trimesh *m, int W, int H, double sx, double sy,
                                double step)
 {
@@ -280,9 +308,10 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
             /* a measured material is never coarser than its pixels: maxPoints does not apply
              * (the total does, below) */
             const op_material_info *info = op_material_get_info(d->material);
-            want = (double)centred_count(&sh->mesh, info->width, info->height, size_x * 0.01 *
-                                         d->scale, size_y * 0.01 * d->scale,
-                                         op_sss_measured_step(d->density));
+            double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
+            want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy,
+                                         centred_step(&sh->mesh, info->width, info->height, sx,
+                                                      sy, a_pix, d->density));
             if (want > INT32_MAX)
                 return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
                                     "points (one per material pixel at density %g) are more "
@@ -340,28 +369,7 @@ typedef struct lay_job {
     sss_shape *ss;
     int t, ua, va, k;
     float area;    /* what one sample of triangle t stands for */
-    op_v3 gu, gv;  /* triangle t's gradients of the material pixel coordinates */
 } lay_job;
-
-/* The world gradients of the material pixel coordinates xy over triangle t (in its plane). */
-static void pixel_gradients(const op_trimesh *m, int t, double xy[3][2], op_v3 *gu, op_v3 *gv)
-{
-    op_v3 a, b, c;
-    op_trimesh_tri(m, t, &a, &b, &c);
-    op_v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
-    double g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2);
-    double det = g11 * g22 - g12 * g12;
-    *gu = *gv = v3s(0.0f);
-    if (!(det > 0.0))
-        return;
-    /* the rows of the pseudo-inverse of [e1 e2]: r1 . d, r2 . d are d's edge coordinates */
-    op_v3 r1 = v3_add(v3_scale(e1, (float)(g22 / det)), v3_scale(e2, (float)(-g12 / det)));
-    op_v3 r2 = v3_add(v3_scale(e1, (float)(-g12 / det)), v3_scale(e2, (float)(g11 / det)));
-    double dx1 = xy[1][0] - xy[0][0], dx2 = xy[2][0] - xy[0][0];
-    double dy1 = xy[1][1] - xy[0][1], dy2 = xy[2][1] - xy[0][1];
-    *gu = v3_add(v3_scale(r1, (float)dx1), v3_scale(r2, (float)dx2));
-    *gv = v3_add(v3_scale(r1, (float)dy1), v3_scale(r2, (float)dy2));
-}
 
 static void lay_site(void *user, const op_sss_site *s)
 {
@@ -379,15 +387,15 @@ static void lay_site(void *user, const op_sss_site *s)
     q->fx = wrap((float)s->x, j->ss->width);
     q->fy = wrap((float)s->y, j->ss->height);
     q->a = j->area;
-    q->gu = j->gu;
-    q->gv = j->gv;
+    q->gu = v3_scale(q->tu, 1.0f / j->ss->px);
+    q->gv = v3_scale(q->tv, 1.0f / j->ss->py);
 }
 
 /* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h); returns how
  * many, at most ss->n. */
 static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
 {
-    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f, {0, 0, 0}, {0, 0, 0}};
+    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
     for (j.t = 0; j.t < m->ntris && j.k < ss->n; j.t++) {
         double xy[3][2];
         triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
@@ -397,7 +405,6 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
         op_trimesh_tri(m, j.t, &a, &b, &c);
         j.area = samples > 0.0 ? (float)(0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a))) /
                                          samples) : 0.0f;
-        pixel_gradients(m, j.t, xy, &j.gu, &j.gv);
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
@@ -437,25 +444,10 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
     (void)scene;
     if (!ss->desc->is_dipole) {
-        double step = op_sss_measured_step(ss->desc->density);
+        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
+                                   ss->desc->density);
         if (lay_centred(m, ss, sx, sy, step) == n) {
-            ss->centred = 1;
-            ss->a_i = ss->a_pix * (float)(step * step);
-            /* a map that stretches the material spreads its points wider */
-            ss->spacing = fmaxf((float)step * fmaxf(ss->px, ss->py), sqrtf(m->area / (float)n));
-            /* each point's reach as a source: half + 1 of its pixel steps along each material
-             * axis, the step's world length 1 / the smallest singular value of (gu, gv), at
-             * most 4 unstretched pixels; the gather grid's cell is their mean */
-            double sum = 0.0;
-            float cap = 4.0f * fmaxf(ss->px, ss->py), k = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2;
-            for (int i = 0; i < n; i++) {
-                sss_point *q = &ss->pts[i];
-                double a = v3_dot(q->gu, q->gu), b = v3_dot(q->gu, q->gv), c = v3_dot(q->gv, q->gv);
-                double lmin = 0.5 * (a + c) - sqrt(0.25 * (a - c) * (a - c) + b * b);
-                q->reach = k * (lmin > 0.0 ? fminf((float)(1.0 / sqrt(lmin)), cap) : cap);
-                sum += q->reach;
-            }
-            ss->reach = (float)(sum / n);
+            ss->centred = 1; /* a_i and spacing: the mean area and spacing, as above */
             return OP_OK;
         }
         /* a shape smaller than one sample: one point, as below */
@@ -508,7 +500,7 @@ typedef struct build_job {
  * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
  * summation order does not depend on which points are receivers). */
 enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
-/* the centred scatter's gather cell, in mean reaches (smaller cells visit fewer points) */
+/* the centred scatter's gather cell, in kernel reaches (smaller cells visit fewer points) */
 #define CENTRED_CELL 0.5f
 #define MAX_ACC_BYTES (256.0 * 1024 * 1024)
 
@@ -637,8 +629,18 @@ static void centred_task(void *user, int task, int thread)
         const float BIAS = 1024.0f;
         float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
         int32_t clo[3], chi[3];
-        cell_of(g, v3_sub(s->p, v3s(s->reach)), clo);
-        cell_of(g, v3_add(s->p, v3s(s->reach)), chi);
+        /* the receivers lie within half + 1 pixels along tu and tv, and within the reach
+         * (ss->radius) along the normal (the surface may curve away): per world axis the
+         * smaller of that box's extent and the reach */
+        float e[3];
+        for (int a = 0; a < 3; a++)
+            e[a] = fminf(((float)half + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
+                                                fabsf(v3_get(s->tv, a)) * ss->py) +
+                             fabsf(v3_get(s->n, a)) * ss->radius,
+                         ss->radius);
+        op_v3 ext = v3(e[0], e[1], e[2]);
+        cell_of(g, v3_sub(s->p, ext), clo);
+        cell_of(g, v3_add(s->p, ext), chi);
         nrec = 0;
         for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
             for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
@@ -742,7 +744,7 @@ static void scatter_task(void *user, int task, int thread)
         }
         float v[3];
         nrec = 0;
-        GRID_FOR_EACH(&ss->gather, s->p, ss->centred ? s->reach : ss->radius, j, {
+        GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
             if (ss->centred) {
                 if (!kernel_centred(ss, s, &ss->pts[j], rr, rg, rb, v))
                     continue;
@@ -918,9 +920,8 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
     }
     for (int i = 0; i < ss->n; i++) {
         int32_t lo[3], hi[3], need = 0;
-        float r = ss->centred ? ss->pts[i].reach : ss->radius;
-        cell_of(g, v3_sub(ss->pts[i].p, v3s(r)), lo);
-        cell_of(g, v3_add(ss->pts[i].p, v3s(r)), hi);
+        cell_of(g, v3_sub(ss->pts[i].p, v3s(ss->radius)), lo);
+        cell_of(g, v3_add(ss->pts[i].p, v3s(ss->radius)), hi);
         for (int32_t z = lo[2]; z <= hi[2] && !need; z++)
             for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
                 for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
@@ -1336,8 +1337,8 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     ss->h = ss->centred ? 2.0f * ss->spacing : 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
     if (!ss->hier) {
         /* centred: a receiver lies less than half + 1 pixels from the source along each of
-         * its material axes */
-        ss->radius = ss->centred ? ss->reach
+         * its frame's axes */
+        ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
         st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin,
                         ss->centred ? ss->radius * CENTRED_CELL : ss->radius, err);
