@@ -500,8 +500,6 @@ typedef struct build_job {
  * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
  * summation order does not depend on which points are receivers). */
 enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
-/* the centred scatter's gather cell, in kernel reaches (smaller cells visit fewer points) */
-#define CENTRED_CELL 0.5f
 #define MAX_ACC_BYTES (256.0 * 1024 * 1024)
 
 static void irradiance_task(void *user, int task, int thread)
@@ -1340,8 +1338,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
          * its frame's axes */
         ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin,
-                        ss->centred ? ss->radius * CENTRED_CELL : ss->radius, err);
+        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
     } else {
         st = tree_prepare(ss, err);
     }
