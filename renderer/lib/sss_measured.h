@@ -6,11 +6,12 @@
  * Sites are laid per triangle in its material pixel coordinates (texture coordinates times the
  * material's size in pixels, or the box projection), with an exact (integer) inside test and a
  * tie rule that gives a sample on an edge shared by two triangles to exactly one of them: a
- * mesh whose coordinates are continuous gets every sample once. */
+ * mesh whose coordinates are continuous gets every sample once. The pair value of source i and
+ * receiver j is the kernel at the whole-pixel offset floor(f_i + u) - floor(f_i): f_i is i's
+ * material coordinate, u the offset x_j - x_i along i's frame in physical pixels (subsurface.c,
+ * centred_task). */
 #ifndef OP_SSS_MEASURED_H
 #define OP_SSS_MEASURED_H
-
-#include <math.h>
 
 #include "opaline.h"
 
@@ -29,21 +30,5 @@ typedef struct op_sss_site {
  * order; returns how many. A degenerate triangle has none. xy is not changed. */
 long long op_sss_measured_raster(double xy[3][2], double step,
                                  void (*visit)(void *user, const op_sss_site *s), void *user);
-
-/* The kernel offset (dx, dy) in whole pixels from a source at material coordinates (fx, fy)
- * (a sample centre) to a receiver d = (ux, uy) pixels away in the source's frame: the pixel the
- * receiver falls in minus the source's. Returns 0 outside the kernel [-K/2, K/2]^2. */
-static inline int op_sss_measured_offset(float fx, float fy, float ux, float uy, int kernel,
-                                         int *dx, int *dy)
-{
-    int half = kernel / 2;
-    float bx = floorf(fx), by = floorf(fy);
-    float ox = floorf(fx + ux) - bx, oy = floorf(fy + uy) - by;
-    if (!(ox >= (float)-half && ox <= (float)half && oy >= (float)-half && oy <= (float)half))
-        return 0;
-    *dx = (int)ox;
-    *dy = (int)oy;
-    return 1;
-}
 
 #endif

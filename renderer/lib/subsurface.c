@@ -224,6 +224,21 @@ static void triangle_pixels(const op_trimesh *m, int t, int W, int H, double sx,
     }
 }
 
+/* The area of triangle t in scene units, and of the triangle xy (its material pixel
+ * coordinates) in pixels. */
+static double world_area(const op_trimesh *m, int t)
+{
+    op_v3 a, b, c;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    return 0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+}
+
+static double mapped_area(double xy[3][2])
+{
+    return 0.5 * fabs((xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1]) -
+                      (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0]));
+}
+
 /* The sample step, in material pixels of the map, that lays about `density` points per
  * material pixel area (a_pix, scene units) on mesh m: op_sss_measured_step for a map that shows
  * the material at its physical size, divided by the map's mean linear stretch otherwise (the
@@ -237,11 +252,8 @@ static double centred_step(const op_trimesh *m, int W, int H, double sx, double 
         double xy[3][2];
         int ua, va;
         triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
-        mapped += 0.5 * fabs((xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1]) -
-                             (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0]));
-        op_v3 a, b, c;
-        op_trimesh_tri(m, t, &a, &b, &c);
-        world += 0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        mapped += mapped_area(xy);
+        world += world_area(m, t);
     }
     double step = op_sss_measured_step(density);
     if (!(mapped > 0.0 && world > 0.0))
@@ -399,12 +411,8 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
     for (j.t = 0; j.t < m->ntris && j.k < ss->n; j.t++) {
         double xy[3][2];
         triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
-        double samples = 0.5 * fabs((xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1]) -
-                                    (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0])) / (step * step);
-        op_v3 a, b, c;
-        op_trimesh_tri(m, j.t, &a, &b, &c);
-        j.area = samples > 0.0 ? (float)(0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a))) /
-                                         samples) : 0.0f;
+        double samples = mapped_area(xy) / (step * step);
+        j.area = samples > 0.0 ? (float)(world_area(m, j.t) / samples) : 0.0f;
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
@@ -562,26 +570,6 @@ static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r
             v[2] += w * rb[col];
         }
     }
-    return 1;
-}
-
-/* The centred layout's pair value (sss_measured.h): the kernel at the whole-pixel offset from
- * the source s's pixel to the one the receiver r falls in, in s's frame, per channel (rows rr,
- * rg, rb). Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
-static int kernel_centred(const sss_shape *ss, const sss_point *s, const sss_point *r,
-                          const float *rr, const float *rg, const float *rb, float v[3])
-{
-    if (v3_dot(s->n, r->n) <= 0.0f)
-        return 0;
-    op_v3 d = v3_sub(r->p, s->p);
-    int dx, dy, half = ss->kernel / 2;
-    if (!op_sss_measured_offset(s->fx, s->fy, v3_dot(d, s->gu), v3_dot(d, s->gv), ss->kernel,
-                                &dx, &dy))
-        return 0;
-    int col = (dy + half) * ss->kernel + (dx + half);
-    v[0] = rr[col];
-    v[1] = rg[col];
-    v[2] = rb[col];
     return 1;
 }
 
@@ -743,20 +731,11 @@ static void scatter_task(void *user, int task, int thread)
         float v[3];
         nrec = 0;
         GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
-            if (ss->centred) {
-                if (!kernel_centred(ss, s, &ss->pts[j], rr, rg, rb, v))
-                    continue;
-                float aj = ss->pts[j].a / ss->a_pix; /* the receiver's share of a pixel */
-                got[0] += v[0] * aj;
-                got[1] += v[1] * aj;
-                got[2] += v[2] * aj;
-            } else {
-                if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
-                    continue;
-                got[0] += v[0];
-                got[1] += v[1];
-                got[2] += v[2];
-            }
+            if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
+                continue;
+            got[0] += v[0];
+            got[1] += v[1];
+            got[2] += v[2];
             if (ss->rmap[j] < 0)
                 continue; /* counts for the normalization only */
             if (nrec == cap) {
@@ -777,12 +756,10 @@ static void scatter_task(void *user, int task, int thread)
         });
         float g[3];
         for (int c = 0; c < 3; c++) {
-            double q = got[c] > 0.0 ? total[c] * (ss->centred ? 1.0 : expect) / got[c] : 1.0;
+            double q = got[c] > 0.0 ? total[c] * expect / got[c] : 1.0;
             g[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q);
         }
         op_v3 e = v3(s->e.x * g[0], s->e.y * g[1], s->e.z * g[2]);
-        if (ss->centred) /* M_j = sum_i E_i g_i (A_i / A_pixel) Rd */
-            e = v3_scale(e, s->a / ss->a_pix);
         for (int k = 0; k < nrec; k++) {
             size_t j = (size_t)rec[k];
             acc[3 * j] += e.x * val[3 * (size_t)k];
