@@ -240,10 +240,12 @@ static double mapped_area(double xy[3][2])
 }
 
 /* The sample step, in material pixels of the map, that lays about `density` points per
- * material pixel area (a_pix, scene units) on mesh m: op_sss_measured_step for a map that shows
- * the material at its physical size, divided by the map's mean linear stretch otherwise (the
- * square root of the mesh's area over its mapped pixels' area), snapped to 1/n or n within 1 %,
- * so that a map at its physical size or an integer multiple of it keeps the pixel centres. */
+ * material pixel area (a_pix, scene units) on mesh m when the map shows the material at its
+ * physical size or an integer multiple or fraction n or 1/n of it (the map's mean linear
+ * stretch, the square root of the mesh's area over its mapped pixels' area, within 1 % of
+ * one): op_sss_measured_step divided by that stretch. Otherwise 0: whole-pixel offsets at the
+ * physical size would alias against the map's pixels (a beat pattern), and the shape keeps the
+ * area-uniform layout and the bilinear pairs. */
 static double centred_step(const op_trimesh *m, int W, int H, double sx, double sy, double a_pix,
                            double density)
 {
@@ -255,15 +257,14 @@ static double centred_step(const op_trimesh *m, int W, int H, double sx, double 
         mapped += mapped_area(xy);
         world += world_area(m, t);
     }
-    double step = op_sss_measured_step(density);
     if (!(mapped > 0.0 && world > 0.0))
-        return step;
+        return 0.0;
     double stretch = sqrt(world / (mapped * a_pix));
-    double n = stretch >= 1.0 ? round(stretch) : round(1.0 / stretch), snapped;
-    snapped = stretch >= 1.0 ? n : 1.0 / n;
-    if (n >= 1.0 && fabs(stretch / snapped - 1.0) < 0.01)
-        stretch = snapped;
-    return step / stretch;
+    double n = stretch >= 1.0 ? round(stretch) : round(1.0 / stretch);
+    double snapped = stretch >= 1.0 ? n : 1.0 / n;
+    if (!(n >= 1.0 && fabs(stretch / snapped - 1.0) < 0.01))
+        return 0.0;
+    return op_sss_measured_step(density) / snapped;
 }
 
 /* The points a measured material lays on mesh m (sss_measured.h): one per sample of the
@@ -316,25 +317,27 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        if (!d->is_dipole) {
-            /* a measured material is never coarser than its pixels: maxPoints does not apply
-             * (the total does, below) */
+        int capped = d->is_dipole || (d->max_points_set && want > d->max_points);
+        if (!capped) {
+            /* a measured material is not coarsened by the default cap (sss-max-points): only
+             * by a maxPoints the scene sets; the total applies (below) */
             const op_material_info *info = op_material_get_info(d->material);
             double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
-            want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy,
-                                         centred_step(&sh->mesh, info->width, info->height, sx,
-                                                      sy, a_pix, d->density));
+            double step = centred_step(&sh->mesh, info->width, info->height, sx, sy, a_pix,
+                                       d->density);
+            if (step > 0.0)
+                want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy, step);
             if (want > INT32_MAX)
                 return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
                                     "points (one per material pixel at density %g) are more "
                                     "than a shape can hold (%d)", sh->label, want, d->density,
                                     INT32_MAX);
-            d->points = want < 1.0 ? 1 : (int)want;
+            d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
         } else if (want > d->max_points)
             op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
                    "material pixel; capped at %d (coarser than the material: raise maxPoints or "
                    "lower scale)", sh->label, want, d->max_points);
-        if (d->is_dipole)
+        if (capped)
             d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         total += d->points;
         if (total > (double)max_total)
@@ -386,9 +389,9 @@ typedef struct lay_job {
 static void lay_site(void *user, const op_sss_site *s)
 {
     lay_job *j = user;
-    if (j->k >= j->ss->n)
-        return;
-    sss_point *q = &j->ss->pts[j->k++];
+    if (j->k++ >= j->ss->n)
+        return; /* counted only */
+    sss_point *q = &j->ss->pts[j->k - 1];
     point_geometry(j->m, j->t, (float)(1.0 - s->b1 - s->b2), (float)s->b1, (float)s->b2, q);
     if (j->ua >= 0 || !triangle_uv_frame(j->m, j->t, q->n, &q->tu, &q->tv)) {
         int ua = j->ua, va = j->va;
@@ -403,12 +406,12 @@ static void lay_site(void *user, const op_sss_site *s)
     q->gv = v3_scale(q->tv, 1.0f / j->ss->py);
 }
 
-/* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h); returns how
- * many, at most ss->n. */
+/* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h), at most ss->n
+ * of them; returns how many samples there are (the layout is complete when that is ss->n). */
 static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
 {
     lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
-    for (j.t = 0; j.t < m->ntris && j.k < ss->n; j.t++) {
+    for (j.t = 0; j.t < m->ntris && j.k <= ss->n; j.t++) {
         double xy[3][2];
         triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
         double samples = mapped_area(xy) / (step * step);
@@ -454,11 +457,11 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     if (!ss->desc->is_dipole) {
         double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
                                    ss->desc->density);
-        if (lay_centred(m, ss, sx, sy, step) == n) {
+        if (step > 0.0 && lay_centred(m, ss, sx, sy, step) == n) {
             ss->centred = 1; /* a_i and spacing: the mean area and spacing, as above */
             return OP_OK;
         }
-        /* a shape smaller than one sample: one point, as below */
+        /* a map not at the physical size (or a shape smaller than one sample): as below */
         memset(ss->pts, 0, (size_t)n * sizeof *ss->pts);
     }
     for (int k = 0; k < n; k++) {
