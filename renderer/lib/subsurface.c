@@ -238,13 +238,12 @@ static double mapped_area(double xy[3][2])
                       (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0]));
 }
 
-/* The sample step, in material pixels of the map, that lays about `density` points per
- * material pixel area (a_pix, scene units) on mesh m when the map shows the material at its
- * physical size or an integer multiple or fraction n or 1/n of it (the map's mean linear
- * stretch, the square root of the mesh's area over its mapped pixels' area, within 1 % of
- * one): op_sss_measured_step divided by that stretch. Otherwise 0: whole-pixel offsets at the
- * physical size would alias against the map's pixels (a beat pattern), and the shape keeps the
- * area-uniform layout and the bilinear pairs. */
+/* The sample step, in material pixels of the map, that lays `density` points per material
+ * pixel area (a_pix, scene units) on mesh m when the map shows the material at its physical
+ * size (the map's mean linear stretch, the square root of the mesh's area over its mapped
+ * pixels' area, within 1 % of 1): op_sss_measured_step. Otherwise 0: whole-pixel offsets at
+ * the physical size would alias against the map's pixels (a beat pattern), and the shape keeps
+ * the area-uniform layout and the bilinear pairs. */
 static double centred_step(const op_trimesh *m, int W, int H, double sx, double sy, double a_pix,
                            double density)
 {
@@ -259,11 +258,7 @@ static double centred_step(const op_trimesh *m, int W, int H, double sx, double 
     if (!(mapped > 0.0 && world > 0.0))
         return 0.0;
     double stretch = sqrt(world / (mapped * a_pix));
-    double n = stretch >= 1.0 ? round(stretch) : round(1.0 / stretch);
-    double snapped = stretch >= 1.0 ? n : 1.0 / n;
-    if (!(n >= 1.0 && fabs(stretch / snapped - 1.0) < 0.01))
-        return 0.0;
-    return op_sss_measured_step(density) / snapped;
+    return fabs(stretch - 1.0) < 0.01 ? op_sss_measured_step(density) : 0.0;
 }
 
 /* The points a measured material lays on mesh m (sss_measured.h): one per sample of the
