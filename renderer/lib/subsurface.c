@@ -2,6 +2,7 @@
 #include "subsurface.h"
 
 #include "sss_dipole.h"
+#include "sss_measured.h"
 #include "sss_tree.h"
 
 #include <float.h>
@@ -15,6 +16,9 @@ typedef struct sss_point {
     float fx, fy;     /* continuous material pixel coordinates, in [0, W) x [0, H) */
     op_v3 e;          /* irradiance */
     op_v3 m;          /* exitance */
+    float a;          /* centred: the surface area it stands for */
+    op_v3 gu, gv;     /* centred: tu and tv over the pixel size (a world offset d is dot(d,
+                         gu), dot(d, gv) material pixels at the material's physical size) */
 } sss_point;
 
 /* A uniform grid hashed into buckets, stored compressed (bucket starts + point indices). */
@@ -27,6 +31,15 @@ typedef struct sss_grid {
     int32_t *coord;  /* 3 per point: its cell */
 } sss_grid;
 
+/* A receiver as the centred scatter reads it, stored in the gather grid's bucket order so that
+ * a cell's points are contiguous. */
+typedef struct gather_pt {
+    float x, y, z, nx, ny, nz;
+    float a;        /* its area over the pixel's */
+    int32_t rj;     /* its index among the computed receivers, or -1 */
+    int32_t c[3];   /* its gather cell */
+} gather_pt;
+
 typedef struct sss_shape {
     const op_sss_desc *desc;
     int width, height, kernel, channels;
@@ -36,9 +49,12 @@ typedef struct sss_shape {
     int n;
     sss_point *pts;
     sss_grid gather, interp;
+    struct gather_pt *gpts; /* centred: the points in the gather grid's bucket order */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */
+    int centred;  /* measured: points at material pixel (sub-)centres (sss_measured.h), pair
+                     values at whole-pixel offsets, each point's own area */
     op_sss_tree tree;        /* hier: the tree over the points */
     op_sss_dipole_kernel dk; /* hier: the profile it sums */
     unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
@@ -181,6 +197,85 @@ static float wrap(float x, int n)
     return f >= (float)n || f < 0.0f ? 0.0f : f;
 }
 
+/* The material pixel coordinates of triangle t's vertices, for a material of W x H pixels tiled
+ * every sx x sy scene units: from its texture coordinates when it has a usable uv frame (*ua =
+ * -1), else the box projection along its geometric normal's dominant axis (*ua, *va). */
+static void triangle_pixels(const op_trimesh *m, int t, int W, int H, double sx, double sy,
+                            double xy[3][2], int *ua, int *va)
+{
+    op_v3 a, b, c, tu, tv;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    op_v3 ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    const uint32_t *ix = m->idx + 3 * (size_t)t;
+    if (triangle_uv_frame(m, t, ng, &tu, &tv)) {
+        for (int k = 0; k < 3; k++) {
+            xy[k][0] = (double)m->uv[2 * ix[k]] * W;
+            xy[k][1] = (double)m->uv[2 * ix[k] + 1] * H;
+        }
+        *ua = *va = -1;
+        return;
+    }
+    box_axes(ng, ua, va);
+    op_v3 p[3] = {a, b, c};
+    for (int k = 0; k < 3; k++) {
+        xy[k][0] = (double)v3_get(p[k], *ua) / sx * W;
+        xy[k][1] = (double)v3_get(p[k], *va) / sy * H;
+    }
+}
+
+/* The area of triangle t in scene units, and of the triangle xy (its material pixel
+ * coordinates) in pixels. */
+static double world_area(const op_trimesh *m, int t)
+{
+    op_v3 a, b, c;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    return 0.5 * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+}
+
+static double mapped_area(double xy[3][2])
+{
+    return 0.5 * fabs((xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1]) -
+                      (xy[1][1] - xy[0][1]) * (xy[2][0] - xy[0][0]));
+}
+
+/* The sample step, in material pixels of the map, that lays `density` points per material
+ * pixel area (a_pix, scene units) on mesh m when the map shows the material at its physical
+ * size (the map's mean linear stretch, the square root of the mesh's area over its mapped
+ * pixels' area, within 1 % of 1): op_sss_measured_step. Otherwise 0: whole-pixel offsets at
+ * the physical size would alias against the map's pixels (a beat pattern), and the shape keeps
+ * the area-uniform layout and the bilinear pairs. */
+static double centred_step(const op_trimesh *m, int W, int H, double sx, double sy, double a_pix,
+                           double density)
+{
+    double world = 0.0, mapped = 0.0;
+    for (int t = 0; t < m->ntris; t++) {
+        double xy[3][2];
+        int ua, va;
+        triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
+        mapped += mapped_area(xy);
+        world += world_area(m, t);
+    }
+    if (!(mapped > 0.0 && world > 0.0))
+        return 0.0;
+    double stretch = sqrt(world / (mapped * a_pix));
+    return fabs(stretch - 1.0) < 0.01 ? op_sss_measured_step(density) : 0.0;
+}
+
+/* The points a measured material lays on mesh m (sss_measured.h): one per sample of the
+ * material's pixel grid at the step. */
+static long long centred_count(const op_trimesh *m, int W, int H, double sx, double sy,
+                               double step)
+{
+    long long n = 0;
+    for (int t = 0; t < m->ntris; t++) {
+        double xy[3][2];
+        int ua, va;
+        triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
+        n += op_sss_measured_raster(xy, step, NULL, NULL);
+    }
+    return n;
+}
+
 op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
 {
     op_v3 ext = v3_sub(scene->bmax, scene->bmin);
@@ -216,11 +311,28 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        if (want > d->max_points)
+        int capped = d->is_dipole || (d->max_points_set && want > d->max_points);
+        if (!capped) {
+            /* a measured material is not coarsened by the default cap (sss-max-points): only
+             * by a maxPoints the scene sets; the total applies (below) */
+            const op_material_info *info = op_material_get_info(d->material);
+            double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
+            double step = centred_step(&sh->mesh, info->width, info->height, sx, sy, a_pix,
+                                       d->density);
+            if (step > 0.0)
+                want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy, step);
+            if (want > INT32_MAX)
+                return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
+                                    "points (one per material pixel at density %g) are more "
+                                    "than a shape can hold (%d)", sh->label, want, d->density,
+                                    INT32_MAX);
+            d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
+        } else if (want > d->max_points)
             op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
                    "material pixel; capped at %d (coarser than the material: raise maxPoints or "
                    "lower scale)", sh->label, want, d->max_points);
-        d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
+        if (capped)
+            d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         total += d->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
@@ -229,6 +341,78 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
                                 "sss-points=VALUE)", sh->label, total, max_total);
     }
     return OP_OK;
+}
+
+/* Point q's position and normals at barycentrics (b0, b1, b2) of triangle t (vertices a, b, c). */
+static void point_geometry(const op_trimesh *m, int t, float b0, float b1, float b2, sss_point *q)
+{
+    op_v3 a, b, c;
+    op_trimesh_tri(m, t, &a, &b, &c);
+    const uint32_t *ix = m->idx + 3 * (size_t)t;
+    q->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, b1)), v3_scale(c, b2));
+    q->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    q->n = q->ng;
+    if (m->nrm) {
+        const float *nn = m->nrm;
+        op_v3 s = v3_add(v3_add(v3_scale(v3(nn[3 * ix[0]], nn[3 * ix[0] + 1], nn[3 * ix[0] + 2]), b0),
+                                v3_scale(v3(nn[3 * ix[1]], nn[3 * ix[1] + 1], nn[3 * ix[1] + 2]), b1)),
+                         v3_scale(v3(nn[3 * ix[2]], nn[3 * ix[2] + 1], nn[3 * ix[2] + 2]), b2));
+        if (v3_len(s) > 0.0f)
+            q->n = v3_norm(s);
+        if (v3_dot(q->n, q->ng) < 0.0f)
+            q->ng = v3_neg(q->ng);
+    }
+}
+
+/* The box projection's frame at q: world axes ua, va projected into q's tangent plane. */
+static void box_frame(sss_point *q, int ua, int va)
+{
+    op_v3 eu = v3(ua == 0, ua == 1, ua == 2), ev = v3(va == 0, va == 1, va == 2);
+    q->tu = v3_norm(v3_sub(eu, v3_scale(q->n, v3_dot(q->n, eu))));
+    q->tv = v3_sub(ev, v3_scale(q->n, v3_dot(q->n, ev)));
+    q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
+}
+
+typedef struct lay_job {
+    const op_trimesh *m;
+    sss_shape *ss;
+    int t, ua, va, k;
+    float area;    /* what one sample of triangle t stands for */
+} lay_job;
+
+static void lay_site(void *user, const op_sss_site *s)
+{
+    lay_job *j = user;
+    if (j->k++ >= j->ss->n)
+        return; /* counted only */
+    sss_point *q = &j->ss->pts[j->k - 1];
+    point_geometry(j->m, j->t, (float)(1.0 - s->b1 - s->b2), (float)s->b1, (float)s->b2, q);
+    if (j->ua >= 0 || !triangle_uv_frame(j->m, j->t, q->n, &q->tu, &q->tv)) {
+        int ua = j->ua, va = j->va;
+        if (ua < 0)
+            box_axes(q->n, &ua, &va);
+        box_frame(q, ua, va);
+    }
+    q->fx = wrap((float)s->x, j->ss->width);
+    q->fy = wrap((float)s->y, j->ss->height);
+    q->a = j->area;
+    q->gu = v3_scale(q->tu, 1.0f / j->ss->px);
+    q->gv = v3_scale(q->tv, 1.0f / j->ss->py);
+}
+
+/* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h), at most ss->n
+ * of them; returns how many samples there are (the layout is complete when that is ss->n). */
+static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
+{
+    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
+    for (j.t = 0; j.t < m->ntris && j.k <= ss->n; j.t++) {
+        double xy[3][2];
+        triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
+        double samples = mapped_area(xy) / (step * step);
+        j.area = samples > 0.0 ? (float)(world_area(m, j.t) / samples) : 0.0f;
+        op_sss_measured_raster(xy, step, lay_site, &j);
+    }
+    return j.k;
 }
 
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
@@ -264,6 +448,16 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     if (!ss->pts)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
     (void)scene;
+    if (!ss->desc->is_dipole) {
+        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
+                                   ss->desc->density);
+        if (step > 0.0 && lay_centred(m, ss, sx, sy, step) == n) {
+            ss->centred = 1; /* a_i and spacing: the mean area and spacing, as above */
+            return OP_OK;
+        }
+        /* a map not at the physical size (or a shape smaller than one sample): as below */
+        memset(ss->pts, 0, (size_t)n * sizeof *ss->pts);
+    }
     for (int k = 0; k < n; k++) {
         sss_point *q = &ss->pts[k];
         /* systematic sampling of the area, an R2 sequence inside each triangle */
@@ -272,22 +466,8 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         float b1, b2;
         op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
         float b0 = 1.0f - b1 - b2;
-        op_v3 a, b, c;
-        op_trimesh_tri(m, t, &a, &b, &c);
         const uint32_t *ix = m->idx + 3 * (size_t)t;
-        q->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, b1)), v3_scale(c, b2));
-        q->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
-        q->n = q->ng;
-        if (m->nrm) {
-            const float *nn = m->nrm;
-            op_v3 s = v3_add(v3_add(v3_scale(v3(nn[3 * ix[0]], nn[3 * ix[0] + 1], nn[3 * ix[0] + 2]), b0),
-                                    v3_scale(v3(nn[3 * ix[1]], nn[3 * ix[1] + 1], nn[3 * ix[1] + 2]), b1)),
-                             v3_scale(v3(nn[3 * ix[2]], nn[3 * ix[2] + 1], nn[3 * ix[2] + 2]), b2));
-            if (v3_len(s) > 0.0f)
-                q->n = v3_norm(s);
-            if (v3_dot(q->n, q->ng) < 0.0f)
-                q->ng = v3_neg(q->ng);
-        }
+        point_geometry(m, t, b0, b1, b2, q);
         float u, v;
         if (triangle_uv_frame(m, t, q->n, &q->tu, &q->tv)) {
             const float *uv = m->uv;
@@ -296,10 +476,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         } else {
             int ua, va;
             box_axes(q->n, &ua, &va);
-            op_v3 eu = v3(ua == 0, ua == 1, ua == 2), ev = v3(va == 0, va == 1, va == 2);
-            q->tu = v3_norm(v3_sub(eu, v3_scale(q->n, v3_dot(q->n, eu))));
-            q->tv = v3_sub(ev, v3_scale(q->n, v3_dot(q->n, ev)));
-            q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
+            box_frame(q, ua, va);
             u = v3_get(q->p, ua) / (float)sx;
             v = v3_get(q->p, va) / (float)sy;
         }
@@ -391,6 +568,119 @@ static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r
         }
     }
     return 1;
+}
+
+/* The centred layout's scatter of one chunk of sources (scatter_task's contract): the pair
+ * value is the kernel at the whole-pixel offset from the source's pixel to the receiver's
+ * (sss_measured.h), each receiver weighted by its area in the normalization, each source's
+ * energy E_i A_i g_i / A_pixel. */
+static void centred_task(void *user, int task, int thread)
+{
+    build_job *job = user;
+    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    const op_material *mat = ss->desc->material;
+    const sss_grid *g = &ss->gather;
+    int first = task * job->chunk, last = first + job->chunk;
+    if (last > ss->n)
+        last = ss->n;
+    float *acc = ss->acc + (size_t)task * 3 * (size_t)ss->nrecv;
+    int K = ss->kernel, half = K / 2;
+    float *rows = job->rows[thread];
+    int cap = 0, nrec = 0;
+    int32_t *rec = NULL; /* pairs: receiver index, kernel column */
+    int i;
+    for (i = first; i < last; i++) {
+        if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
+            break;
+        const sss_point *s = &ss->pts[i];
+        if (v3_is_black(s->e))
+            continue;
+        int x = (int)s->fx, y = (int)s->fy;
+        for (int c = 0; c < ss->channels; c++)
+            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
+        const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
+                    *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
+        double total[3] = {0, 0, 0};
+        float got[3] = {0, 0, 0};
+        for (int k = 0; k < K * K; k++) {
+            total[0] += rr[k];
+            total[1] += rg[k];
+            total[2] += rb[k];
+        }
+        /* offsets from the source's position inside its pixel (fractions in [0, 1)); a
+         * pixel index is (int)(v + BIAS) - BIAS for |v| < BIAS, without floorf's cost */
+        const float BIAS = 1024.0f;
+        float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
+        int32_t clo[3], chi[3];
+        /* the receivers lie within half + 1 pixels along tu and tv, and within the reach
+         * (ss->radius) along the normal (the surface may curve away): per world axis the
+         * smaller of that box's extent and the reach */
+        float e[3];
+        for (int a = 0; a < 3; a++)
+            e[a] = fminf(((float)half + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
+                                                fabsf(v3_get(s->tv, a)) * ss->py) +
+                             fabsf(v3_get(s->n, a)) * ss->radius,
+                         ss->radius);
+        op_v3 ext = v3(e[0], e[1], e[2]);
+        cell_of(g, v3_sub(s->p, ext), clo);
+        cell_of(g, v3_add(s->p, ext), chi);
+        nrec = 0;
+        for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
+            for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
+                for (int32_t cx = clo[0]; cx <= chi[0]; cx++) {
+                    uint32_t b = cell_hash(cx, cy, cz, g->mask);
+                    for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
+                        const gather_pt *r = &ss->gpts[k];
+                        if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                            continue;
+                        if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
+                            continue;
+                        op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+                        float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
+                        if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
+                            continue;
+                        int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
+                        if (ox < -half || ox > half || oy < -half || oy > half)
+                            continue;
+                        int col = (oy + half) * K + (ox + half);
+                        got[0] += rr[col] * r->a;
+                        got[1] += rg[col] * r->a;
+                        got[2] += rb[col] * r->a;
+                        if (r->rj < 0)
+                            continue; /* counts for the normalization only */
+                        if (nrec == cap) {
+                            int nc = cap ? 2 * cap : 2048;
+                            int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
+                            if (!r2) { /* this source's light is lost, reported by the pass */
+                                atomic_store(&job->nomem, 1);
+                                goto next;
+                            }
+                            rec = r2;
+                            cap = nc;
+                        }
+                        rec[2 * nrec] = r->rj;
+                        rec[2 * nrec++ + 1] = col;
+                    }
+                }
+        float gn[3];
+        for (int c = 0; c < 3; c++) {
+            double q = got[c] > 0.0f ? total[c] / got[c] : 1.0;
+            gn[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q) * (s->a / ss->a_pix);
+        }
+        {
+            float ex = s->e.x * gn[0], ey = s->e.y * gn[1], ez = s->e.z * gn[2];
+            for (int k = 0; k < nrec; k++) {
+                float *o = acc + 3 * (size_t)rec[2 * k];
+                int col = rec[2 * k + 1];
+                o[0] += ex * rr[col];
+                o[1] += ey * rg[col];
+                o[2] += ez * rb[col];
+            }
+        }
+    next:;
+    }
+    free(rec);
+    op_progress_advance(job->prog, (uint64_t)(i - first));
 }
 
 /* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
@@ -622,6 +912,18 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
                     need = ss->bmark[cell_hash(x, y, z, g->mask)];
         if (need)
             add_source(ss, sv, i);
+    }
+    if (ss->centred) {
+        if (!(ss->gpts = malloc((size_t)ss->n * sizeof *ss->gpts)))
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+        for (int k = 0; k < ss->n; k++) {
+            int q = (int)g->items[k];
+            const sss_point *pt = &ss->pts[q];
+            gather_pt *o = &ss->gpts[k];
+            *o = (gather_pt){pt->p.x, pt->p.y, pt->p.z, pt->n.x, pt->n.y, pt->n.z,
+                             pt->a / ss->a_pix, ss->rmap[q], {g->coord[3 * q], g->coord[3 * q + 1],
+                                                             g->coord[3 * q + 2]}};
+        }
     }
     return OP_OK;
 }
@@ -882,11 +1184,12 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
         job->scatter_shape = s;
         if (st == OP_OK)
-            st = op_parallel_for(opt->threads, ss->nchunks, scatter_task, job, opt->cancel, err);
+            st = op_parallel_for(opt->threads, ss->nchunks, ss->centred ? centred_task : scatter_task,
+                                 job, opt->cancel, err);
         if (st == OP_OK && atomic_load(&job->nomem))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
         if (st == OP_OK) {
-            float k = ss->a_i / ss->a_pix;
+            float k = ss->centred ? 1.0f : ss->a_i / ss->a_pix;
             for (int j = 0; j < ss->n; j++) {
                 int rj = ss->rmap[j];
                 if (rj < 0)
@@ -1008,9 +1311,12 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     if (st)
         return st;
     int half = ss->kernel / 2;
-    ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
+    ss->h = ss->centred ? 2.0f * ss->spacing : 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
     if (!ss->hier) {
-        ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+        /* centred: a receiver lies less than half + 1 pixels from the source along each of
+         * its frame's axes */
+        ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
+                                 : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
         st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
     } else {
         st = tree_prepare(ss, err);
@@ -1180,6 +1486,7 @@ void op_sss_cache_free(op_sss_cache *c)
         free(ss->rmap);
         free(ss->src);
         free(ss->acc);
+        free(ss->gpts);
         grid_free(&ss->gather);
         grid_free(&ss->interp);
     }
@@ -1206,31 +1513,51 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
     st->seconds = c->seconds;
 }
 
+/* The weighted mean of the exitance of the points within h of p (same-side normals) into *out
+ * (0 where none); returns 0 when one of them is not a receiver (*out is then meaningless). Weights 1 - r^2/h^2, or for the
+ * centred layout Franke and Little's ((h - r) / r)^2: each point's own value at its position
+ * (the material pixel's exitance at its centre), smooth between. */
+static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *out, float *wsum)
+{
+    float h2 = h * h;
+    op_v3 m = v3s(0.0f);
+    int ok = 1;
+    *wsum = 0.0f;
+    GRID_FOR_EACH(&ss->interp, p, h, i, {
+        const sss_point *q = &ss->pts[i];
+        op_v3 d = v3_sub(q->p, p);
+        float w = 1.0f - v3_dot(d, d) / h2;
+        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
+            continue;
+        if (ss->centred) {
+            float r = sqrtf(1.0f - w);
+            w = (1.0f - r) / (r + 1e-4f);
+            w *= w;
+        }
+        if (!ss->recv[i])
+            ok = 0;
+        *wsum += w;
+        m = v3_add(m, v3_scale(q->m, w));
+    });
+    *out = *wsum > 0.0f ? v3_scale(m, 1.0f / *wsum) : v3s(0.0f);
+    return ok;
+}
+
 int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
 {
     const sss_shape *ss = &c->shapes[sss];
     *out = v3s(0.0f);
     if (!ss->pts)
         return 0;
-    float h2 = ss->h * ss->h, wsum = 0.0f;
-    op_v3 m = v3s(0.0f);
-    int ok = 1;
-    GRID_FOR_EACH(&ss->interp, p, ss->h, i, {
-        const sss_point *q = &ss->pts[i];
-        op_v3 d = v3_sub(q->p, p);
-        float w = 1.0f - v3_dot(d, d) / h2;
-        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
-            continue;
-        if (!ss->recv[i])
-            ok = 0;
-        wsum += w;
-        m = v3_add(m, v3_scale(q->m, w));
-    });
-    if (!ok)
-        return 0;
-    if (wsum > 0.0f)
-        *out = v3_scale(m, 1.0f / wsum);
-    return 1;
+    float wsum;
+    /* centred: the points of p's own material pixel (1.5 spacings: a pixel's (sub-)centres
+     * and not its neighbours'), all within h where none is that close (a stretched map) */
+    if (ss->centred && lookup_within(ss, p, n, 0.75f * ss->h, out, &wsum) && wsum > 0.0f)
+        return 1;
+    if (lookup_within(ss, p, n, ss->h, out, &wsum))
+        return 1;
+    *out = v3s(0.0f);
+    return 0;
 }
 
 op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
