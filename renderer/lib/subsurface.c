@@ -86,12 +86,14 @@ static op_status grid_build(sss_grid *g, const sss_point *pts, int n, const unsi
     memset(g, 0, sizeof *g);
     g->cell = cell;
     g->origin = origin;
-    uint32_t buckets = 1;
-    while (buckets < 2u * (uint32_t)n && buckets < (1u << 30))
+    uint32_t buckets = 1, count = 0;
+    for (int i = 0; i < n; i++)
+        count += !only || only[i];
+    while (buckets < 2u * count && buckets < (1u << 30))
         buckets <<= 1;
     g->mask = buckets - 1;
     g->start = calloc((size_t)buckets + 1, sizeof *g->start);
-    g->items = malloc((size_t)n * sizeof *g->items);
+    g->items = malloc((size_t)(count ? count : 1) * sizeof *g->items);
     g->coord = malloc(3 * (size_t)n * sizeof *g->coord);
     uint32_t *fill = calloc((size_t)buckets, sizeof *fill);
     if (!g->start || !g->items || !g->coord || !fill) {
