@@ -29,7 +29,7 @@ import statistics
 import subprocess
 import sys
 
-POINT_SIDES_MM = [20, 40, 80, 160, 320]
+POINT_SIDES_MM = [10, 20, 40, 80, 160, 320]
 DIPOLE_DENSITIES = [1 / 16, 1 / 8, 1 / 4, 1 / 2, 1]
 DIPOLE_REACH_MM, DIPOLE_SPACING_MM = 68.0, 0.368  # Marble (docs/subsurface-rendering.md)
 MEASURED_KS = [9, 17, 29, 41]
@@ -163,7 +163,7 @@ def main():
     sides = {after: [int(v) for v in os.environ.get("SIDES", " ".join(map(str, POINT_SIDES_MM))).split()]}
     if before:
         sides[before] = [int(v) for v in os.environ.get("SIDES_BEFORE", " ".join(
-            map(str, POINT_SIDES_MM + [640, 1280]))).split()]
+            map(str, sides[after]))).split()]
     scenes = []
     for side in sorted(set(sum(sides.values(), []))):
         path = os.path.join(out, f"marble_{side}mm.xml")
