@@ -7,7 +7,7 @@
  * normals, tangents, irradiance, exitance: 92), the dipole's tree (nodes, order, positions,
  * normals, weights, aggregates: about 160) and the weights handed to it (36), three hashed
  * grids (interpolation, the normalization's ball, the thinned receivers: 32 each), the
- * receiver and source maps (11) and the pre-pass cache's copy (25): about 420 (measured: 345
+ * receiver and source maps (11) and the pre-pass cache's copy (25): about 420 (measured: 352
  * for a Marble square of 754579 points). A measured material's scatter accumulators take at
  * most 16 x 12 bytes per point and SSS_SCATTER_BYTES (subsurface.c's MAX_ACC_BYTES) more. */
 enum { SSS_BYTES_PER_POINT = 448, IMAGE_BYTES_PER_PIXEL = 2 * 4 * sizeof(float) };
