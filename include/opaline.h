@@ -362,6 +362,41 @@ op_status op_material_writer_commit(op_material_writer *w, op_error *err);
 /* Removes the temporary file and frees w. Accepts NULL. */
 void op_material_writer_abort(op_material_writer *w);
 
+/* Each method's section layout has one home, libopaline/method_<name>.c, which writes the
+ * sections (these functions) and reads them back (op_material_open); docs/formats.md is the
+ * specification. info is the META w was opened with; every array holds the count info implies
+ * (rows = width * height, n = kernel * kernel, T = terms, C = clusters), row-major. shift (rows
+ * u32) and max (rows float32) are each row's shift and maximum, required exactly when
+ * info->shifted. Call them in the order given for a method: the file's layout follows it. */
+/* The prefix of a raw material's (a dataset's) per-channel Rd sections (op_channel_tag). */
+#define OP_RAW_SECTION "RD."
+/* raw: channel c's Rd values, rows x n. */
+op_status op_write_raw_channel(op_material_writer *w, const op_material_info *info, int c,
+                               const float *rd, op_error *err);
+/* svd: channel c's U (rows x T, scaled by the singular values) and V (n x T). */
+op_status op_write_svd_channel(op_material_writer *w, const op_material_info *info, int c,
+                               const float *u, const float *v, const uint32_t *shift,
+                               const float *max, op_error *err);
+/* tucker: U (rows x T), V (n x T), RANGE (rows x 2), BETA (channels x rows x (degree + 1)). */
+op_status op_write_tucker(op_material_writer *w, const op_material_info *info, const float *u,
+                          const float *v, const float *range, const float *beta,
+                          const uint32_t *shift, const float *max, op_error *err);
+/* kcta, per channel: BASIS (C x n x T), KIDX (rows x km indices of index_bytes, 2 or 4, each),
+ * KCOEF (rows x km x T); after the channels op_write_kcta_params. */
+op_status op_write_kcta_channel(op_material_writer *w, const op_material_info *info, int c,
+                                int km, int index_bytes, const float *basis, const void *idx,
+                                const float *coef, const uint32_t *shift, const float *max,
+                                op_error *err);
+op_status op_write_kcta_params(op_material_writer *w, int km, int index_bytes, op_error *err);
+/* nmf: channel c's PROF (n), SCALE (rows), W (rows x T) and H (n x T). */
+op_status op_write_nmf_channel(op_material_writer *w, const op_material_info *info, int c,
+                               const float *prof, const float *scale, const float *wf,
+                               const float *h, op_error *err);
+/* Any factored method, last: the row sums of the reconstruction (channels x rows), which
+ * op_material_albedo_map then copies. */
+op_status op_write_albedo(op_material_writer *w, const op_material_info *info,
+                          const float *albedo, op_error *err);
+
 /* CRC-32 (zlib's) of a buffer, continuing from crc (start with 0). */
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
 /* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */

@@ -6,6 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The row sums of a factored material's reconstruction (channels x rows float32). */
+#define ALBEDO_TAG "ALBEDO"
+
 static const op_method_ops *method_ops(op_method m)
 {
     switch (m) {
@@ -30,11 +33,11 @@ op_status op_material_open(const char *path, op_material **out, op_error *err)
     if (st == OP_OK && (st = m->ops->prepare(m, err)) != OP_OK)
         m->ops = NULL; /* prepare cleans up after itself on failure */
     /* Factorizers store the row sums of their reconstruction, so the albedo map is a copy. */
-    if (st == OP_OK && op_material_section(m, "ALBEDO", NULL)) {
+    if (st == OP_OK && op_material_section(m, ALBEDO_TAG, NULL)) {
         uint64_t n = (uint64_t)op_material_rows(m) * (uint64_t)m->info.channels;
-        st = op_material_float_section(m, "ALBEDO", n, 1, &m->albedo, err);
+        st = op_material_float_section(m, ALBEDO_TAG, n, 1, &m->albedo, err);
         if (st == OP_OK)
-            st = op_material_check_albedo(m, "ALBEDO", m->albedo, n, err);
+            st = op_material_check_albedo(m, ALBEDO_TAG, m->albedo, n, err);
     }
     if (st != OP_OK) {
         op_material_close(m);
@@ -89,4 +92,11 @@ op_status op_material_albedo_map(const op_material *m, float *out, op_error *err
     }
     free(row);
     return OP_OK;
+}
+
+op_status op_write_albedo(op_material_writer *w, const op_material_info *info,
+                          const float *albedo, op_error *err)
+{
+    uint64_t count = (uint64_t)info->width * (uint64_t)info->height * (uint64_t)info->channels;
+    return op_material_writer_add(w, ALBEDO_TAG, albedo, count * sizeof *albedo, err);
 }

@@ -64,6 +64,15 @@ op_status op_material_channel_floats(const op_material *m, const char *prefix, i
  * the channel-less "SHIFT" and "MAX" when c < 0. *shift and *max are set only when valid. */
 op_status op_material_shift_sections(const op_material *m, int c, const uint32_t **shift,
                                      const float **max, op_error *err);
+/* Writing, the other half of each method's layout (opaline.h's op_write_* functions): channel
+ * c's section prefix + "R"/"G"/"B" (or "Y") of `bytes` bytes. */
+op_status op_material_write_channel(op_material_writer *w, const op_material_info *info,
+                                    const char *prefix, int c, const void *data, uint64_t bytes,
+                                    op_error *err);
+/* Writes the per-row shift and maximum sections op_material_shift_sections reads (channel c's,
+ * or the channel-less ones when c < 0), when info->shifted; nothing otherwise. */
+op_status op_material_write_shift(op_material_writer *w, const op_material_info *info, int c,
+                                  const uint32_t *shift, const float *max, op_error *err);
 /* out[t] = max over j < n of |v[j * T + t]| for t < T, v being n x T row-major: the factor
  * bound the methods' overflow checks start from. */
 void op_column_abs_max(const float *v, int n, int T, double *out);

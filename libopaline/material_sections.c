@@ -7,6 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The per-row shift and maximum of a shifted material (paper section 4.1): "SHIFT" and "MAX",
+ * or per channel "SHIFT.c" and "MAX.c". */
+#define SHIFT_TAG "SHIFT"
+#define MAX_TAG "MAX"
+
 op_status op_material_sized_section(const op_material *m, const char *tag, uint64_t bytes,
                                     const void **out, op_error *err)
 {
@@ -89,9 +94,9 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
     int cols = op_material_cols(m);
     const void *p = NULL;
     if (c < 0)
-        snprintf(tag, sizeof tag, "SHIFT");
+        snprintf(tag, sizeof tag, SHIFT_TAG);
     else
-        op_channel_tag(tag, sizeof tag, "SHIFT.", &m->info, c);
+        op_channel_tag(tag, sizeof tag, SHIFT_TAG ".", &m->info, c);
     op_status st = op_material_sized_section(m, tag, (uint64_t)rows * sizeof(uint32_t), &p, err);
     if (st != OP_OK)
         return st;
@@ -102,14 +107,42 @@ op_status op_material_shift_sections(const op_material *m, int c, const uint32_t
                                 m->path, tag, (long long)r, sh[r], cols);
     *shift = sh;
     if (c < 0)
-        snprintf(tag, sizeof tag, "MAX");
+        snprintf(tag, sizeof tag, MAX_TAG);
     else
-        op_channel_tag(tag, sizeof tag, "MAX.", &m->info, c);
+        op_channel_tag(tag, sizeof tag, MAX_TAG ".", &m->info, c);
     const float *mx = NULL;
     st = op_material_float_section(m, tag, (uint64_t)rows, 1, &mx, err);
     if (st == OP_OK && (st = op_material_check_albedo(m, tag, mx, (uint64_t)rows, err)) == OP_OK)
         *max = mx;
     return st;
+}
+
+op_status op_material_write_channel(op_material_writer *w, const op_material_info *info,
+                                    const char *prefix, int c, const void *data, uint64_t bytes,
+                                    op_error *err)
+{
+    char tag[16];
+    op_channel_tag(tag, sizeof tag, prefix, info, c);
+    return op_material_writer_add(w, tag, data, bytes, err);
+}
+
+op_status op_material_write_shift(op_material_writer *w, const op_material_info *info, int c,
+                                  const uint32_t *shift, const float *max, op_error *err)
+{
+    if (!info->shifted)
+        return OP_OK;
+    if (!shift || !max)
+        return op_error_set(err, OP_ERR_INTERNAL, "a shifted material without its row shifts");
+    uint64_t rows = (uint64_t)info->width * (uint64_t)info->height;
+    if (c < 0) {
+        op_status st = op_material_writer_add(w, SHIFT_TAG, shift, rows * sizeof *shift, err);
+        return st != OP_OK ? st : op_material_writer_add(w, MAX_TAG, max, rows * sizeof *max, err);
+    }
+    op_status st = op_material_write_channel(w, info, SHIFT_TAG ".", c, shift,
+                                             rows * sizeof *shift, err);
+    return st != OP_OK ? st
+                       : op_material_write_channel(w, info, MAX_TAG ".", c, max,
+                                                   rows * sizeof *max, err);
 }
 
 float *op_transpose(const float *v, int n, int T)

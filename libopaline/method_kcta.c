@@ -18,6 +18,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define PARAMS_TAG "KCTA"
+#define BASIS_TAG "BASIS."
+#define KIDX_TAG "KIDX."
+#define KCOEF_TAG "KCOEF."
+
 typedef struct kcta_state {
     int clusters, km, terms, cols, ibytes;
     int64_t rows;
@@ -37,7 +42,7 @@ static op_status load_indices(const op_material *m, kcta_state *s, int c, op_err
 {
     char tag[16];
     uint64_t count = (uint64_t)s->rows * (uint64_t)s->km;
-    op_channel_tag(tag, sizeof tag, "KIDX.", &m->info, c);
+    op_channel_tag(tag, sizeof tag, KIDX_TAG, &m->info, c);
     op_status st = op_material_sized_section(m, tag, count * (uint64_t)s->ibytes, &s->idx[c], err);
     if (st != OP_OK)
         return st;
@@ -99,11 +104,11 @@ static op_status kcta_prepare(op_material *m, op_error *err)
     s->cols = op_material_cols(m);
     s->rows = op_material_rows(m);
     const void *p = NULL;
-    op_status st = op_material_sized_section(m, "KCTA", 2 * sizeof(uint32_t), &p, err);
+    op_status st = op_material_sized_section(m, PARAMS_TAG, 2 * sizeof(uint32_t), &p, err);
     const uint32_t *par = p;
     if (st == OP_OK && (par[0] < 1 || par[0] > 64 || par[0] > (uint32_t)s->clusters ||
                         (par[1] != 2 && par[1] != 4) || (par[1] == 2 && s->clusters > 65536)))
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: section 'KCTA' says K_m = %u and index width "
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: section '" PARAMS_TAG "' says K_m = %u and index width "
                           "%u (need 1 <= K_m <= min(64, %d) and width 2 or 4)", m->path, par[0],
                           par[1], s->clusters);
     if (st == OP_OK) {
@@ -112,11 +117,11 @@ static op_status kcta_prepare(op_material *m, op_error *err)
     }
     uint64_t rows = (uint64_t)s->rows, T = (uint64_t)s->terms;
     for (int c = 0; c < in->channels && st == OP_OK; c++) {
-        st = op_material_channel_floats(m, "BASIS.", c,
+        st = op_material_channel_floats(m, BASIS_TAG, c,
                                         (uint64_t)s->clusters * (uint64_t)s->cols * T, 0,
                                         &s->basis[c], err);
         if (st == OP_OK)
-            st = op_material_channel_floats(m, "KCOEF.", c, rows * (uint64_t)s->km * T, 0,
+            st = op_material_channel_floats(m, KCOEF_TAG, c, rows * (uint64_t)s->km * T, 0,
                                             &s->coef[c], err);
         if (st == OP_OK)
             st = load_indices(m, s, c, err);
@@ -168,6 +173,31 @@ static void kcta_eval_row(const op_material *m, int channel, int64_t row, float 
         out[j + sh] = mx * entry(s, channel, row, j);
     for (int j = n - sh; j < n; j++)
         out[j + sh - n] = mx * entry(s, channel, row, j);
+}
+
+op_status op_write_kcta_channel(op_material_writer *w, const op_material_info *info, int c,
+                                int km, int index_bytes, const float *basis, const void *idx,
+                                const float *coef, const uint32_t *shift, const float *max,
+                                op_error *err)
+{
+    uint64_t rows = (uint64_t)info->width * (uint64_t)info->height, T = (uint64_t)info->terms;
+    uint64_t n = (uint64_t)info->kernel * (uint64_t)info->kernel;
+    uint64_t nidx = rows * (uint64_t)km;
+    op_status st = op_material_write_channel(w, info, BASIS_TAG, c, basis,
+                                             (uint64_t)info->clusters * n * T * sizeof *basis,
+                                             err);
+    if (st == OP_OK)
+        st = op_material_write_channel(w, info, KIDX_TAG, c, idx, nidx * (uint64_t)index_bytes,
+                                       err);
+    if (st == OP_OK)
+        st = op_material_write_channel(w, info, KCOEF_TAG, c, coef, nidx * T * sizeof *coef, err);
+    return st == OP_OK ? op_material_write_shift(w, info, c, shift, max, err) : st;
+}
+
+op_status op_write_kcta_params(op_material_writer *w, int km, int index_bytes, op_error *err)
+{
+    uint32_t par[2] = {(uint32_t)km, (uint32_t)index_bytes};
+    return op_material_writer_add(w, PARAMS_TAG, par, sizeof par, err);
 }
 
 const op_method_ops op_method_kcta_ops = {

@@ -16,6 +16,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define PROF_TAG "PROF."
+#define SCALE_TAG "SCALE."
+#define W_TAG "W."
+#define H_TAG "H."
+
 typedef struct nmf_state {
     int terms, cols;
     int64_t rows;
@@ -56,18 +61,18 @@ static op_status nmf_prepare(op_material *m, op_error *err)
     uint64_t rows = (uint64_t)s->rows, n = (uint64_t)s->cols, T = (uint64_t)s->terms;
     op_status st = OP_OK;
     for (int c = 0; c < in->channels && st == OP_OK; c++) {
-        st = op_material_channel_floats(m, "PROF.", c, n, 1, &s->prof[c], err);
+        st = op_material_channel_floats(m, PROF_TAG, c, n, 1, &s->prof[c], err);
         if (st == OP_OK)
-            st = op_material_channel_floats(m, "SCALE.", c, rows, 1, &s->scale[c], err);
+            st = op_material_channel_floats(m, SCALE_TAG, c, rows, 1, &s->scale[c], err);
         if (st == OP_OK) {
             char tag[16];
-            op_channel_tag(tag, sizeof tag, "SCALE.", in, c);
+            op_channel_tag(tag, sizeof tag, SCALE_TAG, in, c);
             st = op_material_check_albedo(m, tag, s->scale[c], rows, err);
         }
         if (st == OP_OK)
-            st = op_material_channel_floats(m, "W.", c, rows * T, 1, &s->w[c], err);
+            st = op_material_channel_floats(m, W_TAG, c, rows * T, 1, &s->w[c], err);
         if (st == OP_OK)
-            st = op_material_channel_floats(m, "H.", c, n * T, 1, &s->h[c], err);
+            st = op_material_channel_floats(m, H_TAG, c, n * T, 1, &s->h[c], err);
         if (st == OP_OK)
             st = check_range(m, s, c, err);
     }
@@ -94,6 +99,22 @@ static void nmf_eval_row(const op_material *m, int channel, int64_t row, float *
     const nmf_state *s = m->state;
     for (int j = 0; j < s->cols; j++)
         out[j] = entry(s, channel, row, j);
+}
+
+op_status op_write_nmf_channel(op_material_writer *w, const op_material_info *info, int c,
+                               const float *prof, const float *scale, const float *wf,
+                               const float *h, op_error *err)
+{
+    uint64_t rows = (uint64_t)info->width * (uint64_t)info->height, T = (uint64_t)info->terms;
+    uint64_t n = (uint64_t)info->kernel * (uint64_t)info->kernel;
+    op_status st = op_material_write_channel(w, info, PROF_TAG, c, prof, n * sizeof *prof, err);
+    if (st == OP_OK)
+        st = op_material_write_channel(w, info, SCALE_TAG, c, scale, rows * sizeof *scale, err);
+    if (st == OP_OK)
+        st = op_material_write_channel(w, info, W_TAG, c, wf, rows * T * sizeof *wf, err);
+    if (st == OP_OK)
+        st = op_material_write_channel(w, info, H_TAG, c, h, n * T * sizeof *h, err);
+    return st;
 }
 
 const op_method_ops op_method_nmf_ops = {

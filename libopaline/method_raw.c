@@ -19,7 +19,7 @@ typedef struct raw_state {
 static op_status check_channel(const op_material *m, int c, const float **out, op_error *err)
 {
     char tag[16];
-    op_channel_tag(tag, sizeof tag, "RD.", &m->info, c);
+    op_channel_tag(tag, sizeof tag, OP_RAW_SECTION, &m->info, c);
     int64_t rows = op_material_rows(m);
     int cols = op_material_cols(m), w = m->info.width, k = m->info.kernel;
     const void *p = NULL;
@@ -93,6 +93,14 @@ static void raw_eval_row(const op_material *m, int channel, int64_t row, float *
     const raw_state *s = m->state;
     int cols = op_material_cols(m);
     memcpy(out, s->rd[channel] + row * cols, (size_t)cols * sizeof *out);
+}
+
+op_status op_write_raw_channel(op_material_writer *w, const op_material_info *info, int c,
+                               const float *rd, op_error *err)
+{
+    uint64_t count = (uint64_t)info->width * (uint64_t)info->height * (uint64_t)info->kernel *
+                     (uint64_t)info->kernel;
+    return op_material_write_channel(w, info, OP_RAW_SECTION, c, rd, count * sizeof *rd, err);
 }
 
 const op_method_ops op_method_raw_ops = {

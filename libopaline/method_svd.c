@@ -17,6 +17,9 @@
 #include <string.h>
 #include <sys/mman.h>
 
+#define U_TAG "U."
+#define V_TAG "V."
+
 typedef struct svd_state {
     int terms, cols;
     int stride;               /* floats per row of rowdata, a multiple of 16 */
@@ -110,10 +113,10 @@ static op_status svd_prepare(op_material *m, op_error *err)
     int64_t rows = op_material_rows(m);
     op_status st = OP_OK;
     for (int c = 0; c < in->channels && st == OP_OK; c++) {
-        st = op_material_channel_floats(m, "U.", c, (uint64_t)rows * (uint64_t)s->terms, 0,
+        st = op_material_channel_floats(m, U_TAG, c, (uint64_t)rows * (uint64_t)s->terms, 0,
                                         &s->u[c], err);
         if (st == OP_OK)
-            st = op_material_channel_floats(m, "V.", c, (uint64_t)s->cols * (uint64_t)s->terms,
+            st = op_material_channel_floats(m, V_TAG, c, (uint64_t)s->cols * (uint64_t)s->terms,
                                             0, &s->v[c], err);
         if (st == OP_OK && in->shifted)
             st = op_material_shift_sections(m, c, &s->shift[c], &s->max[c], err);
@@ -247,6 +250,18 @@ static void svd_destroy(op_material *m)
 {
     free_state(m->state);
     m->state = NULL;
+}
+
+op_status op_write_svd_channel(op_material_writer *w, const op_material_info *info, int c,
+                               const float *u, const float *v, const uint32_t *shift,
+                               const float *max, op_error *err)
+{
+    uint64_t rows = (uint64_t)info->width * (uint64_t)info->height, T = (uint64_t)info->terms;
+    uint64_t n = (uint64_t)info->kernel * (uint64_t)info->kernel;
+    op_status st = op_material_write_channel(w, info, U_TAG, c, u, rows * T * sizeof *u, err);
+    if (st == OP_OK)
+        st = op_material_write_channel(w, info, V_TAG, c, v, n * T * sizeof *v, err);
+    return st == OP_OK ? op_material_write_shift(w, info, c, shift, max, err) : st;
 }
 
 const op_method_ops op_method_svd_ops = {

@@ -16,6 +16,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define U_TAG "U"
+#define V_TAG "V"
+#define RANGE_TAG "RANGE"
+#define BETA_TAG "BETA"
+
 typedef struct tucker_state {
     int terms, degree, cols;
     int64_t rows;
@@ -65,13 +70,13 @@ static op_status tucker_prepare(op_material *m, op_error *err)
     s->cols = op_material_cols(m);
     s->rows = op_material_rows(m);
     uint64_t rows = (uint64_t)s->rows, T = (uint64_t)s->terms;
-    op_status st = op_material_float_section(m, "U", rows * T, 0, &s->u, err);
+    op_status st = op_material_float_section(m, U_TAG, rows * T, 0, &s->u, err);
     if (st == OP_OK)
-        st = op_material_float_section(m, "V", (uint64_t)s->cols * T, 0, &s->v, err);
+        st = op_material_float_section(m, V_TAG, (uint64_t)s->cols * T, 0, &s->v, err);
     if (st == OP_OK)
-        st = op_material_float_section(m, "RANGE", rows * 2, 0, &s->range, err);
+        st = op_material_float_section(m, RANGE_TAG, rows * 2, 0, &s->range, err);
     if (st == OP_OK)
-        st = op_material_float_section(m, "BETA",
+        st = op_material_float_section(m, BETA_TAG,
                                        (uint64_t)in->channels * rows * (uint64_t)(s->degree + 1),
                                        0, &s->beta, err);
     if (st == OP_OK && in->shifted)
@@ -164,6 +169,23 @@ static void tucker_destroy(op_material *m)
     if (s)
         free(s->vt);
     op_method_free_state(m);
+}
+
+op_status op_write_tucker(op_material_writer *w, const op_material_info *info, const float *u,
+                          const float *v, const float *range, const float *beta,
+                          const uint32_t *shift, const float *max, op_error *err)
+{
+    uint64_t rows = (uint64_t)info->width * (uint64_t)info->height, T = (uint64_t)info->terms;
+    uint64_t n = (uint64_t)info->kernel * (uint64_t)info->kernel;
+    uint64_t nbeta = (uint64_t)info->channels * rows * ((uint64_t)info->degree + 1);
+    op_status st = op_material_writer_add(w, U_TAG, u, rows * T * sizeof *u, err);
+    if (st == OP_OK)
+        st = op_material_writer_add(w, V_TAG, v, n * T * sizeof *v, err);
+    if (st == OP_OK)
+        st = op_material_writer_add(w, RANGE_TAG, range, rows * 2 * sizeof *range, err);
+    if (st == OP_OK)
+        st = op_material_writer_add(w, BETA_TAG, beta, nbeta * sizeof *beta, err);
+    return st == OP_OK ? op_material_write_shift(w, info, -1, shift, max, err) : st;
 }
 
 const op_method_ops op_method_tucker_ops = {

@@ -42,8 +42,8 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
     kind: EnumProperty(
         name="Kind",
         items=[('PRESET', "Factored preset", "A factored measured material from the preset "
-                "folders (svd, tucker, kcta, nmf or raw: the type is read from the preset)",
-                'MATERIAL', 0),
+                "folders (%s or %s: the type is read from the preset)"
+                % (", ".join(presets.METHODS[:-1]), presets.METHODS[-1]), 'MATERIAL', 0),
                ('DIPOLE', "Dipole material type", "A homogeneous medium from the Jensen et al. "
                 "2001 table, rendered with the dipole model", 'SHADING_RENDERED', 1),
                ('FILE', "Material file", "An .opm material file", 'FILE', 2)],

@@ -1,14 +1,11 @@
-/* factor_cmd.c - `opaline-factor factor`: turns a raw dataset into a material (svd, tucker,
- * kcta, nmf or raw), checks the result by reading it back through libopaline, and reports. */
+/* factor_cmd.c - `opaline-factor factor`: reads a raw dataset, runs a method's entry of the
+ * method table (fit_table.h) to turn it into a material, checks the result by reading it back
+ * through libopaline, and reports. */
 #include "commands.h"
-#include "kcta.h"
-#include "nmf.h"
+#include "fit_table.h"
 #include "opaline.h"
 #include "preprocess.h"
 #include "report.h"
-#include "rsvd.h"
-#include "tucker.h"
-
 
 #include <errno.h>
 #include <math.h>
@@ -16,47 +13,50 @@
 #include <string.h>
 #include <unistd.h>
 
-#define MAX_SECTIONS 32
 
-/* What the command was asked to do. */
-typedef struct factor_args {
-    const char *input, *output, *report, *albedo_png, *name;
-    op_method method;
-    int terms, degree, shift, sanitize;
-    int threads; /* preprocessing threads (0: all cores) */
-    int clusters, km, iters; /* kcta's C and K_m; kcta's or nmf's iterations (-1: default) */
-    double homog_exp;        /* nmf: the remainder is Rd / H^homog_exp */
-    double log_a, log_b;
-    op_rsvd_options svd;
-    int block_rows; /* svd from a dataset streamed in blocks of this many rows: > 0 given, 0
-                       never, -1 when the dataset is larger than half the physical memory */
-} factor_args;
+/* The arguments before any option is read: every method-specific option "not given" (-1). */
+static void args_blank(factor_args *a)
+{
+    memset(a, 0, sizeof *a);
+    a->method = OP_METHOD_COUNT;
+    a->terms = -1;
+    a->degree = -1;
+    a->clusters = a->km = a->iters = -1;
+    a->homog_exp = -1;
+    a->shift = 1;
+    a->log_a = 100.0;
+    a->log_b = 1.0;
+    a->svd = op_rsvd_defaults();
+    a->block_rows = -1;
+}
 
-/* The sections of the material being written; data is owned by the list. */
-typedef struct section_list {
-    int n;
-    char tag[MAX_SECTIONS][9];
-    void *data[MAX_SECTIONS];
-    uint64_t bytes[MAX_SECTIONS];
-} section_list;
-
-/* The dataset as read: its META and one read-only rows x cols matrix per channel. */
-typedef struct dataset {
-    op_material *file;
-    op_material_info info;
-    int64_t rows;
-    int cols;
-    const float *rd[3];
-    int64_t block_rows; /* > 0: read in passes of this many rows, pages released after each */
-} dataset;
+/* "svd 10, tucker 15, ...": each method's default -T, from its entry's defaults(). */
+static void terms_defaults(char *buf, size_t n)
+{
+    const fit_method *fm;
+    size_t len = 0;
+    buf[0] = '\0';
+    for (size_t i = 0; (fm = op_fit_method(i)) != NULL && len < n; i++) {
+        factor_args t;
+        op_error e = {0};
+        args_blank(&t);
+        t.method = fm->method;
+        if (fm->defaults(&t, &e) != OP_OK || t.terms <= 0)
+            continue;
+        int k = snprintf(buf + len, n - len, "%s%s %s%d", len ? ", " : "",
+                         op_method_name(fm->method), fm->terms_help, t.terms);
+        len += k > 0 ? (size_t)k : 0;
+    }
+}
 
 static void usage(FILE *f)
 {
+    char names[128], terms[256];
+    op_fit_names(0, "|", "|", names, sizeof names);
+    terms_defaults(terms, sizeof terms);
     fprintf(f,
-            "usage: opaline-factor factor IN.opm -o OUT.opm --method svd|tucker|kcta|nmf|raw "
-            "[options]\n"
-            "  -T N               terms (svd 10, tucker 15, kcta rank per cluster 4, nmf rank "
-            "10)\n"
+            "usage: opaline-factor factor IN.opm -o OUT.opm --method %s [options]\n"
+            "  -T N               terms (%s)\n"
             "  -P N               tucker polynomial degree (default 7)\n"
             "  -C N               kcta clusters (default 8)\n"
             "  --km N             kcta clusters mixed per row, K_m (default 2)\n"
@@ -83,51 +83,10 @@ static void usage(FILE *f)
             "                     memory, in blocks of about 64 MiB; 0: never)\n"
             "  -t THREADS         preprocessing and evaluation threads (default: all cores;\n"
             "                     the SVD uses OpenBLAS's own: OPENBLAS_NUM_THREADS)\n"
-            "  -v / -q            more / less output on stderr\n");
+            "  -v / -q            more / less output on stderr\n",
+            names, terms);
 }
 
-static void sections_free(section_list *s)
-{
-    for (int i = 0; i < s->n; i++)
-        free(s->data[i]);
-    s->n = 0;
-}
-
-/* Takes ownership of data (freed by sections_free even when this fails). */
-static op_status sections_add(section_list *s, const char *tag, void *data, uint64_t bytes,
-                              op_error *err)
-{
-    if (s->n == MAX_SECTIONS) {
-        free(data);
-        return op_error_set(err, OP_ERR_INTERNAL, "too many sections");
-    }
-    snprintf(s->tag[s->n], sizeof s->tag[0], "%.8s", tag);
-    s->data[s->n] = data;
-    s->bytes[s->n++] = bytes;
-    return OP_OK;
-}
-
-/* Hands data to s as section tag when st is OP_OK, else frees it; returns the resulting status.
- * Chained calls thus pass on the first failure and free everything after it. */
-static op_status sections_add_if(section_list *s, op_status st, const char *tag, void *data,
-                                 uint64_t bytes, op_error *err)
-{
-    if (st != OP_OK) {
-        free(data);
-        return st;
-    }
-    return sections_add(s, tag, data, bytes, err);
-}
-
-/* sections_add_if for channel c's section prefix + "R"/"G"/"B" (or "Y"). */
-static op_status channel_add_if(section_list *s, op_status st, const char *prefix,
-                                const dataset *ds, int c, void *data, uint64_t bytes,
-                                op_error *err)
-{
-    char tag[16];
-    op_channel_tag(tag, sizeof tag, prefix, &ds->info, c);
-    return sections_add_if(s, st, tag, data, bytes, err);
-}
 
 static op_status parse_number(const char *opt, const char *val, double lo, double hi,
                               double *out, op_error *err)
@@ -144,17 +103,7 @@ static op_status parse_number(const char *opt, const char *val, double lo, doubl
 
 static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err)
 {
-    memset(a, 0, sizeof *a);
-    a->method = OP_METHOD_COUNT;
-    a->terms = -1;
-    a->degree = -1;
-    a->clusters = a->km = a->iters = -1;
-    a->homog_exp = -1;
-    a->shift = 1;
-    a->log_a = 100.0;
-    a->log_b = 1.0;
-    a->svd = op_rsvd_defaults();
-    a->block_rows = -1;
+    args_blank(a);
     /* The options taking a number in [lo, hi]: a whole one into ival, or any into dval. */
     const struct {
         const char *name;
@@ -211,10 +160,12 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
                 a->name = val;
             else if (!strcmp(o, "--method")) {
                 a->method = op_method_from_name(val);
-                if (a->method == OP_METHOD_COUNT)
-                    return op_error_set(err, OP_ERR_INPUT,
-                                        "--method must be svd, tucker, kcta, nmf or raw, not "
-                                        "'%s'", val);
+                if (!op_fit_find(a->method)) {
+                    char names[128];
+                    op_fit_names(0, ", ", " or ", names, sizeof names);
+                    return op_error_set(err, OP_ERR_INPUT, "--method must be %s, not '%s'", names,
+                                        val);
+                }
             } else if (!strcmp(val, "single") || !strcmp(val, "double")) {
                 a->svd.precision = !strcmp(val, "double") ? OP_SVD_DOUBLE : OP_SVD_SINGLE;
             } else {
@@ -238,53 +189,32 @@ static op_status parse_args(int argc, char **argv, factor_args *a, op_error *err
     }
     if (!a->input || !a->output || a->method == OP_METHOD_COUNT)
         return op_error_set(err, OP_ERR_INPUT, "need IN.opm, -o OUT.opm and --method");
-    if (a->terms < 0)
-        a->terms = a->method == OP_METHOD_TUCKER ? 15
-                   : a->method == OP_METHOD_SVD  ? 10
-                   : a->method == OP_METHOD_KCTA ? op_kcta_defaults().terms
-                   : a->method == OP_METHOD_NMF  ? op_nmf_defaults().rank
-                                                 : 0;
-    if (a->method == OP_METHOD_KCTA) {
-        op_kcta_options k = op_kcta_defaults();
-        a->clusters = a->clusters < 0 ? k.clusters : a->clusters;
-        a->km = a->km < 0 ? k.km : a->km;
-        a->iters = a->iters < 0 ? k.max_iters : a->iters;
-        if (a->km > a->clusters)
-            return op_error_set(err, OP_ERR_INPUT, "--km %d exceeds the %d clusters (-C)", a->km,
-                                a->clusters);
-        if (a->iters > OP_KCTA_MAX_HISTORY)
-            return op_error_set(err, OP_ERR_INPUT, "kcta takes at most %d iterations",
-                                OP_KCTA_MAX_HISTORY);
-    } else if ((a->clusters >= 0 || a->km >= 0)) {
-        return op_error_set(err, OP_ERR_INPUT, "-C and --km apply to --method kcta only");
-    }
-    if (a->method == OP_METHOD_NMF) {
-        a->iters = a->iters < 0 ? op_nmf_defaults().max_iter : a->iters;
-        a->homog_exp = a->homog_exp < 0 ? 1.0 : a->homog_exp;
-        a->shift = 0; /* the homogeneous approximation takes the place of shifting */
-    } else if (a->method != OP_METHOD_KCTA && a->iters >= 0) {
-        return op_error_set(err, OP_ERR_INPUT, "--iters applies to --method kcta and nmf only");
-    }
-    if (a->method != OP_METHOD_NMF && a->homog_exp >= 0)
-        return op_error_set(err, OP_ERR_INPUT, "--homog-exp applies to --method nmf only");
-    if (a->degree < 0)
-        a->degree = a->method == OP_METHOD_TUCKER ? 7 : 0;
-    if (a->method == OP_METHOD_RAW)
-        a->terms = a->degree = 0;
-    if (a->method != OP_METHOD_TUCKER)
-        a->degree = 0;
-    if (a->block_rows > 0 && a->method != OP_METHOD_SVD)
-        return op_error_set(err, OP_ERR_INPUT, "--block-rows applies to --method svd only");
-    if (a->block_rows > 0 && a->svd.exact)
-        return op_error_set(err, OP_ERR_INPUT, "--block-rows needs the randomized SVD, not "
-                            "--exact-svd");
-    return OP_OK;
+    /* The options only some methods take: refused by the others, naming those that take them. */
+    const struct {
+        unsigned option;
+        int given;
+        const char *what;
+    } only[] = {
+        {FIT_OPT_CLUSTERS, a->clusters >= 0 || a->km >= 0, "-C and --km apply"},
+        {FIT_OPT_ITERS, a->iters >= 0, "--iters applies"},
+        {FIT_OPT_HOMOG, a->homog_exp >= 0, "--homog-exp applies"},
+        {FIT_OPT_BLOCK_ROWS, a->block_rows > 0, "--block-rows applies"},
+    };
+    const fit_method *fm = op_fit_find(a->method);
+    for (size_t k = 0; k < sizeof only / sizeof only[0]; k++)
+        if (only[k].given && !(fm->options & only[k].option)) {
+            char names[128];
+            op_fit_names(only[k].option, ", ", " and ", names, sizeof names);
+            return op_error_set(err, OP_ERR_INPUT, "%s to --method %s only", only[k].what, names);
+        }
+    return fm->defaults(a, err);
 }
 
 /* Rows per pass over the dataset for a: 0 when it is read whole. */
 static int64_t stream_rows(const factor_args *a, uint64_t file_bytes, int cols)
 {
-    if (a->block_rows >= 0 || a->method != OP_METHOD_SVD || a->svd.exact)
+    if (a->block_rows >= 0 || !(op_fit_find(a->method)->options & FIT_OPT_BLOCK_ROWS) ||
+        a->svd.exact)
         return a->block_rows > 0 ? a->block_rows : 0;
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     if (pages <= 0 || page <= 0 || file_bytes <= (uint64_t)pages * (uint64_t)page / 2)
@@ -350,7 +280,7 @@ static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_repor
     for (int c = 0; c < ds->info.channels; c++) {
         char tag[16];
         uint64_t bytes = 0;
-        op_channel_tag(tag, sizeof tag, "RD.", &ds->info, c);
+        op_channel_tag(tag, sizeof tag, OP_RAW_SECTION, &ds->info, c);
         ds->rd[c] = op_material_section(ds->file, tag, &bytes);
         if (!ds->rd[c])
             return op_error_set(err, OP_ERR_FORMAT, "%s: section '%s' is missing", a->input, tag);
@@ -385,436 +315,6 @@ static op_status load_dataset(const factor_args *a, dataset *ds, op_factor_repor
     return OP_OK;
 }
 
-static void *alloc_or_null(uint64_t bytes)
-{
-    return bytes > (uint64_t)SIZE_MAX ? NULL : malloc(bytes ? (size_t)bytes : 1);
-}
-
-/* Allocates one rows x cols float matrix of ds into *mat. */
-static op_status alloc_matrix(const dataset *ds, float **mat, op_error *err)
-{
-    *mat = alloc_or_null((uint64_t)ds->rows * (uint64_t)ds->cols * sizeof **mat);
-    if (!*mat)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for a %lld x %d matrix",
-                            (long long)ds->rows, ds->cols);
-    return OP_OK;
-}
-
-/* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, and
- * log-transformed as the svd method does when with_log, into mat (rows x cols). The per-row
- * shifts and maxima go to *shift and *max, owned by the caller (both NULL when not shifted). */
-static op_status prepare_channel(const factor_args *a, const dataset *ds, int c, int with_log,
-                                 float *mat, uint32_t **shift, float **max, op_error *err)
-{
-    int64_t rows = ds->rows;
-    *shift = NULL;
-    *max = NULL;
-    if (a->shift) {
-        *shift = alloc_or_null((uint64_t)rows * sizeof **shift);
-        *max = alloc_or_null((uint64_t)rows * sizeof **max);
-        if (!*shift || !*max) {
-            free(*shift);
-            free(*max);
-            *shift = NULL;
-            *max = NULL;
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        }
-    }
-    op_status st = op_prep_rows(ds->rd[c], rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
-                                a->log_b, a->threads, mat, err);
-    if (st != OP_OK) {
-        free(*shift);
-        free(*max);
-        *shift = NULL;
-        *max = NULL;
-    }
-    return st;
-}
-
-/* Hands channel c's per-row shifts and maxima to out as "SHIFT.c" and "MAX.c" when st is OP_OK
- * (else frees them); returns the resulting status. Accepts NULL (not shifted). */
-static op_status add_peaks(section_list *out, const dataset *ds, int c, uint32_t *shift,
-                           float *max, op_status st, op_error *err)
-{
-    uint64_t rows = (uint64_t)ds->rows;
-    if (!shift) {
-        free(max);
-        return st;
-    }
-    st = channel_add_if(out, st, "SHIFT.", ds, c, shift, rows * sizeof *shift, err);
-    return channel_add_if(out, st, "MAX.", ds, c, max, rows * sizeof *max, err);
-}
-
-/* The raw method: the cleaned dataset itself. */
-static op_status factor_raw(const dataset *ds, section_list *out, op_error *err)
-{
-    uint64_t count = (uint64_t)ds->rows * (uint64_t)ds->cols;
-    for (int c = 0; c < ds->info.channels; c++) {
-        float *v = alloc_or_null(count * sizeof *v);
-        if (!v)
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        for (uint64_t i = 0; i < count; i++)
-            v[i] = op_prep_clean(ds->rd[c][i]);
-        op_status st = channel_add_if(out, OP_OK, "RD.", ds, c, v, count * sizeof *v, err);
-        if (st != OP_OK)
-            return st;
-    }
-    return OP_OK;
-}
-
-/* Rows of the transformed matrix of channel c, for the SVD: from mat (rows x cols) when it is
- * in memory, else preprocessed from the dataset one block at a time (op_row_source). */
-typedef struct svd_rows {
-    const factor_args *a;
-    const dataset *ds;
-    int c;
-    const float *mat;
-    const uint32_t *shift;
-    const float *max;
-} svd_rows;
-
-static op_status fetch_rows(void *user, int64_t r0, int64_t count, float *dst, op_error *err)
-{
-    const svd_rows *s = user;
-    const dataset *ds = s->ds;
-    const float *src = ds->rd[s->c] + r0 * ds->cols;
-    op_status st = op_prep_rows_given_peaks(src, count, ds->cols, s->shift ? s->shift + r0 : NULL,
-                                            s->max ? s->max + r0 : NULL, s->a->log_a,
-                                            s->a->log_b, s->a->threads, dst, err);
-    op_material_release(ds->file, src, (size_t)count * (size_t)ds->cols * sizeof *src);
-    return st;
-}
-
-/* Row r of the transformed matrix into *row: in mat, or fetched into buf (cols floats). */
-static op_status svd_row(const svd_rows *s, int64_t r, float *buf, const float **row,
-                         op_error *err)
-{
-    *row = s->mat ? s->mat + r * s->ds->cols : buf;
-    return s->mat ? OP_OK : fetch_rows((void *)s, r, 1, buf, err);
-}
-
-/* Refuses --log-a/--log-b that make ln(R'/A + B) lose channel c's data: the transformed matrix
- * (rows x cols, float) must be finite, map back to the preprocessed values within 1e-3
- * (relative, over up to 4096 sampled rows), and stay within [1e-15, 60] in magnitude, so that
- * the float SVD neither underflows nor the reconstruction A e^x overflows its checks. */
-static op_status check_log_transform(const factor_args *a, const svd_rows *t, op_error *err)
-{
-    const dataset *ds = t->ds;
-    const uint32_t *shift = t->shift;
-    const float *max = t->max;
-    int c = t->c;
-    int64_t rows = ds->rows, step = rows > 4096 ? rows / 4096 : 1;
-    int n = ds->cols;
-    double err2 = 0, ref2 = 0, xmax = 0;
-    int finite = 1;
-    float *buf = t->mat ? NULL : malloc((size_t)n * sizeof *buf);
-    if (!t->mat && !buf)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    for (int64_t r = 0; r < rows; r += step) {
-        const float *row;
-        op_status st = svd_row(t, r, buf, &row, err);
-        if (st != OP_OK) {
-            free(buf);
-            return st;
-        }
-        int s = shift ? (int)shift[r] : 0;
-        double mx = max ? max[r] : 1.0;
-        for (int j = 0; j < n; j++) {
-            int col = j + s < n ? j + s : j + s - n;
-            double v = mx > 0 ? op_prep_clean(ds->rd[c][r * n + col]) / mx : 0.0;
-            double x = row[j];
-            finite &= isfinite(x);
-            double back = a->log_a * expm1(x) + a->log_a * (1.0 - a->log_b);
-            err2 += (back - v) * (back - v);
-            ref2 += v * v;
-            xmax = fmax(xmax, fabs(x));
-        }
-    }
-    const char *why = !finite                         ? "some values are infinite"
-                      : ref2 > 0 && xmax < 1e-15       ? "its values underflow single precision"
-                      : xmax > 60                      ? "its values are too large"
-                      : ref2 > 0 && err2 > 1e-6 * ref2 ? "it does not map back within 1e-3"
-                                                       : NULL;
-    free(buf);
-    if (why)
-        return op_error_set(err, OP_ERR_INPUT, "--log-a %g --log-b %g: the transform ln(R/A + B) "
-                            "loses channel %d's data (%s); choose A near the data's scale (the "
-                            "default is 100) and B = 1", a->log_a, a->log_b, c, why);
-    return OP_OK;
-}
-
-/* Streaming: channel c's per-row shifts and maxima (when a->shift; else both NULL), found in
- * passes of ds->block_rows rows whose pages are released after. */
-static op_status stream_peaks(const factor_args *a, const dataset *ds, int c, uint32_t **shift,
-                              float **max, op_error *err)
-{
-    *shift = NULL;
-    *max = NULL;
-    if (!a->shift)
-        return OP_OK;
-    *shift = alloc_or_null((uint64_t)ds->rows * sizeof **shift);
-    *max = alloc_or_null((uint64_t)ds->rows * sizeof **max);
-    if (!*shift || !*max) {
-        free(*shift);
-        free(*max);
-        *shift = NULL;
-        *max = NULL;
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    }
-    for (int64_t r0 = 0; r0 < ds->rows; r0 += ds->block_rows) {
-        int64_t nb = ds->rows - r0 < ds->block_rows ? ds->rows - r0 : ds->block_rows;
-        const float *src = ds->rd[c] + r0 * ds->cols;
-        op_prep_find_peaks(src, nb, ds->cols, *shift + r0, *max + r0);
-        op_material_release(ds->file, src, (size_t)nb * (size_t)ds->cols * sizeof *src);
-    }
-    return OP_OK;
-}
-
-/* The svd method, channel by channel: preprocess, log transform, truncated SVD (in memory, or
- * streaming: every product with the matrix a pass that preprocesses the dataset's rows). */
-static op_status factor_svd(const factor_args *a, const dataset *ds, int terms,
-                            section_list *out, double *prep_seconds, op_error *err)
-{
-    int64_t rows = ds->rows;
-    int cols = ds->cols;
-    float *mat = NULL;
-    op_status st = ds->block_rows ? OP_OK : alloc_matrix(ds, &mat, err);
-    if (st != OP_OK)
-        return st;
-    op_progress *prog = op_progress_begin(
-        "svd", (uint64_t)ds->info.channels *
-                   (1 + op_rsvd_progress_units(rows, cols, terms, &a->svd)), NULL, NULL);
-    for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        uint32_t *shift = NULL;
-        float *max = NULL;
-        double t0 = op_monotonic_seconds();
-        st = ds->block_rows ? stream_peaks(a, ds, c, &shift, &max, err)
-                            : prepare_channel(a, ds, c, 1, mat, &shift, &max, err);
-        svd_rows t = {a, ds, c, mat, shift, max};
-        if (st == OP_OK)
-            st = check_log_transform(a, &t, err);
-        if (ds->block_rows) /* its sampled rows (and the pages the kernel mapped around them) */
-            op_material_release(ds->file, ds->rd[c],
-                                (size_t)rows * (size_t)cols * sizeof *ds->rd[c]);
-        if (st != OP_OK) {
-            free(shift);
-            free(max);
-        }
-        if (st != OP_OK)
-            break;
-        op_progress_advance(prog, 1);
-        double t1 = op_monotonic_seconds();
-        *prep_seconds += t1 - t0;
-        float *us = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *us);
-        float *v = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *v);
-        if (!us || !v)
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        op_row_source src = {fetch_rows, &t, ds->block_rows};
-        if (st == OP_OK)
-            st = ds->block_rows
-                     ? op_rsvd_rows(&src, rows, cols, terms, &a->svd, us, v, NULL, prog, err)
-                     : op_rsvd(mat, rows, cols, terms, &a->svd, us, v, NULL, prog, err);
-        op_log(OP_LOG_DEBUG, "channel %d: preprocessing %.3f s, SVD of %lld x %d to rank %d "
-               "%.3f s", c, t1 - t0, (long long)rows, cols, terms, op_monotonic_seconds() - t1);
-        if (st != OP_OK) {
-            op_error_prefix(err, "channel %d: ", c);
-            free(us);
-            free(v);
-            free(shift);
-            free(max);
-            break;
-        }
-        st = channel_add_if(out, st, "U.", ds, c, us,
-                            (uint64_t)rows * (uint64_t)terms * sizeof *us, err);
-        st = channel_add_if(out, st, "V.", ds, c, v, (uint64_t)cols * (uint64_t)terms * sizeof *v,
-                            err);
-        st = add_peaks(out, ds, c, shift, max, st, err);
-    }
-    op_progress_end(prog);
-    free(mat);
-    return st;
-}
-
-/* The tucker method: the factors of tucker.c as sections. */
-static op_status factor_tucker(const factor_args *a, const dataset *ds, int terms,
-                               section_list *out, op_factor_report *rep, op_error *err)
-{
-    op_tucker_result t;
-    op_status st = op_tucker_factor(ds->rd, ds->info.channels, ds->rows, ds->cols, terms,
-                                    a->degree, a->shift, &a->svd, a->threads, &t, err);
-    if (st != OP_OK)
-        return st;
-    rep->has_fit = 1;
-    rep->fit_condition = t.fit.cond_max;
-    rep->fit_coef_max = t.fit.coef_max;
-    rep->fit_storage_error = t.fit.data_sq > 0 ? sqrt(t.fit.storage_sq / t.fit.data_sq) : 0.0;
-    if (rep->fit_storage_error > 1e-4)
-        op_log(OP_LOG_WARN, "tucker: storing the colour fit as float32 changes it by %.2g "
-               "(relative), more than 1e-4", rep->fit_storage_error);
-    if (!(rep->fit_condition < 1e10))
-        op_log(OP_LOG_WARN, "tucker: a colour fit is ill-conditioned (condition %.3g)",
-               rep->fit_condition);
-    /* Every factor goes to out (or is freed): t holds nothing afterwards. */
-    uint64_t rows = (uint64_t)ds->rows, np = (uint64_t)a->degree + 1;
-    st = sections_add_if(out, st, "U", t.u, rows * (uint64_t)terms * sizeof(float), err);
-    st = sections_add_if(out, st, "V", t.v,
-                         (uint64_t)ds->cols * (uint64_t)terms * sizeof(float), err);
-    st = sections_add_if(out, st, "RANGE", t.range, rows * 2 * sizeof(float), err);
-    st = sections_add_if(out, st, "BETA", t.beta,
-                         (uint64_t)ds->info.channels * rows * np * sizeof(float), err);
-    if (t.shift)
-        st = sections_add_if(out, st, "SHIFT", t.shift, rows * sizeof(uint32_t), err);
-    if (t.max)
-        st = sections_add_if(out, st, "MAX", t.max, rows * sizeof(float), err);
-    return st;
-}
-
-/* The kcta method, channel by channel: preprocess (shift and normalize, no log transform: the
- * clusters are linear subspaces), then K-CTA (kcta.h). *clusters may be lowered to the rows. */
-static op_status factor_kcta(const factor_args *a, const dataset *ds, int terms, int clusters,
-                             section_list *out, double *prep_seconds, op_error *err)
-{
-    int64_t rows = ds->rows;
-    int cols = ds->cols;
-    float *mat = NULL;
-    op_status st = alloc_matrix(ds, &mat, err);
-    if (st != OP_OK)
-        return st;
-    op_kcta_options opt = op_kcta_defaults();
-    opt.clusters = clusters;
-    opt.km = a->km;
-    opt.terms = terms;
-    opt.max_iters = a->iters;
-    opt.svd = a->svd;
-    int wide = clusters > 65536 ? 4 : 2;
-    op_progress *prog = op_progress_begin(
-        "kcta", (uint64_t)ds->info.channels * (uint64_t)(1 + opt.max_iters), NULL, NULL);
-    for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        uint32_t *shift = NULL;
-        float *max = NULL;
-        double t0 = op_monotonic_seconds();
-        st = prepare_channel(a, ds, c, 0, mat, &shift, &max, err);
-        if (st != OP_OK)
-            break;
-        double t1 = op_monotonic_seconds();
-        *prep_seconds += t1 - t0;
-        op_kcta_model md;
-        st = op_kcta_factor(mat, rows, cols, &opt, &md, prog, err);
-        if (st != OP_OK) {
-            op_error_prefix(err, "channel %d: ", c);
-            free(shift);
-            free(max);
-            break;
-        }
-        double norm = 0;
-        for (uint64_t q = 0; q < (uint64_t)rows * (uint64_t)cols; q++)
-            norm += (double)mat[q] * mat[q];
-        op_log(OP_LOG_INFO, "kcta channel %d: %d iteration(s)%s, %d empty cluster(s) split, "
-               "relative error %.4g of the preprocessed matrix (%.3f s)", c, md.iterations,
-               md.restored ? " (one more raised the error and was undone)" : "", md.splits,
-               norm > 0 ? sqrt(md.history[md.nhistory - 1] / norm) : 0.0, op_monotonic_seconds() - t1);
-        uint64_t nidx = (uint64_t)rows * (uint64_t)md.km;
-        void *idx = alloc_or_null(nidx * (uint64_t)wide);
-        if (!idx) {
-            op_kcta_free(&md);
-            free(shift);
-            free(max);
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-            break;
-        }
-        for (uint64_t q = 0; q < nidx; q++) {
-            if (wide == 2)
-                ((uint16_t *)idx)[q] = (uint16_t)md.idx[q];
-            else
-                ((uint32_t *)idx)[q] = md.idx[q];
-        }
-        free(md.idx);
-        st = channel_add_if(out, st, "BASIS.", ds, c, md.basis,
-                            (uint64_t)clusters * (uint64_t)cols * (uint64_t)terms * sizeof(float),
-                            err);
-        st = channel_add_if(out, st, "KIDX.", ds, c, idx, nidx * (uint64_t)wide, err);
-        st = channel_add_if(out, st, "KCOEF.", ds, c, md.coef,
-                            nidx * (uint64_t)terms * sizeof(float), err);
-        st = add_peaks(out, ds, c, shift, max, st, err);
-    }
-    op_progress_end(prog);
-    free(mat);
-    if (st == OP_OK) {
-        uint32_t *par = alloc_or_null(2 * sizeof *par);
-        if (!par)
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        par[0] = (uint32_t)a->km;
-        par[1] = (uint32_t)wide;
-        st = sections_add(out, "KCTA", par, 2 * sizeof *par, err);
-    }
-    return st;
-}
-
-/* The nmf method, channel by channel: the homogeneous approximation, the remainder, HALS. */
-static op_status factor_nmf(const factor_args *a, const dataset *ds, int terms,
-                            section_list *out, double *prep_seconds, op_error *err)
-{
-    int64_t rows = ds->rows;
-    int cols = ds->cols;
-    float *q = NULL;
-    op_status st = alloc_matrix(ds, &q, err);
-    if (st != OP_OK)
-        return st;
-    op_nmf_options opt = op_nmf_defaults();
-    opt.rank = terms;
-    opt.max_iter = a->iters;
-    opt.svd = a->svd;
-    op_progress *prog = op_progress_begin(
-        "nmf", (uint64_t)ds->info.channels * (uint64_t)opt.max_iter, NULL, NULL);
-    for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
-        double t0 = op_monotonic_seconds();
-        float *prof = alloc_or_null((uint64_t)cols * sizeof *prof);
-        float *scale = alloc_or_null((uint64_t)rows * sizeof *scale);
-        float *w = alloc_or_null((uint64_t)rows * (uint64_t)terms * sizeof *w);
-        float *h = alloc_or_null((uint64_t)cols * (uint64_t)terms * sizeof *h);
-        if (!prof || !scale || !w || !h) {
-            free(prof);
-            free(scale);
-            free(w);
-            free(h);
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-            break;
-        }
-        op_nmf_homogeneous(ds->rd[c], rows, ds->info.kernel, a->homog_exp, prof, scale);
-        op_nmf_remainder(ds->rd[c], rows, cols, prof, scale, q);
-        double t1 = op_monotonic_seconds();
-        *prep_seconds += t1 - t0;
-        op_nmf_stats ns;
-        st = op_nmf_hals(q, rows, cols, &opt, w, h, &ns, prog, err);
-        if (st == OP_OK)
-            op_log(OP_LOG_INFO, "nmf channel %d: %d HALS iteration(s), %s; remainder relative "
-                   "error %.4g (NNDSVD start %.4g) (%.3f s)", c, ns.iterations,
-                   ns.converged ? "converged" : "stopped at --iters",
-                   ns.norm > 0 ? sqrt(ns.objective / ns.norm) : 0.0,
-                   ns.norm > 0 ? sqrt(ns.initial / ns.norm) : 0.0, op_monotonic_seconds() - t1);
-        else
-            op_error_prefix(err, "channel %d: ", c);
-        st = channel_add_if(out, st, "PROF.", ds, c, prof, (uint64_t)cols * sizeof *prof, err);
-        st = channel_add_if(out, st, "SCALE.", ds, c, scale, (uint64_t)rows * sizeof *scale,
-                            err);
-        st = channel_add_if(out, st, "W.", ds, c, w,
-                            (uint64_t)rows * (uint64_t)terms * sizeof *w, err);
-        st = channel_add_if(out, st, "H.", ds, c, h,
-                            (uint64_t)cols * (uint64_t)terms * sizeof *h, err);
-    }
-    op_progress_end(prog);
-    free(q);
-    return st;
-}
-
-/* Adds the sections of s to w. */
-static op_status write_sections(op_material_writer *w, const section_list *s, op_error *err)
-{
-    op_status st = OP_OK;
-    for (int i = 0; i < s->n && st == OP_OK; i++)
-        st = op_material_writer_add(w, s->tag[i], s->data[i], s->bytes[i], err);
-    return st;
-}
 
 /* Reads the material back through libopaline and compares every row with the dataset; fills
  * the error figures of rep and the albedo map (channels x rows). */
@@ -1011,7 +511,6 @@ int op_cmd_factor(int argc, char **argv)
     double t0 = op_monotonic_seconds(), t = t0;
     op_factor_report rep = {0};
     dataset ds = {0};
-    section_list secs = {0};
     float *albedo = NULL;
     op_material_writer *writer = NULL;
     op_output *report = NULL;
@@ -1027,25 +526,17 @@ int op_cmd_factor(int argc, char **argv)
                terms, (long long)mn, (long long)mn);
         terms = (int)mn;
     }
-    int clusters = a.clusters;
-    if (a.method == OP_METHOD_KCTA && clusters > ds.rows) {
-        op_log(OP_LOG_WARN, "-C %d exceeds the %lld rows; using %lld", clusters,
-               (long long)ds.rows, (long long)ds.rows);
-        clusters = (int)ds.rows;
-    }
-    if (a.method == OP_METHOD_KCTA && a.km > clusters) {
-        st = op_error_set(&err, OP_ERR_INPUT, "--km %d exceeds the %d clusters", a.km, clusters);
-        goto done;
-    }
+    const fit_method *fm = op_fit_find(a.method);
     op_material_info info = ds.info;
     info.method = a.method;
     info.terms = terms;
     info.degree = a.degree;
-    info.clusters = a.method == OP_METHOD_KCTA ? clusters : 0;
-    info.shifted = a.method == OP_METHOD_RAW ? 0 : a.shift;
-    info.log_a = a.method == OP_METHOD_SVD ? a.log_a : 0.0;
-    info.log_b = a.method == OP_METHOD_SVD ? a.log_b : 0.0;
+    info.clusters = 0;
+    info.shifted = a.shift;
+    info.log_a = info.log_b = 0.0;
     info.dataset_crc = rep.dataset_crc;
+    if (fm->describe && (st = fm->describe(&a, &ds, &info, &err)) != OP_OK)
+        goto done;
     if (a.name)
         snprintf(info.name, sizeof info.name, "%s", a.name);
     for (char *p = info.name; *p; p++) /* META is one key=value per line */
@@ -1056,36 +547,26 @@ int op_cmd_factor(int argc, char **argv)
     if ((st = op_material_writer_open(a.output, &info, &writer, &err)) != OP_OK)
         goto done;
     t = op_monotonic_seconds();
-    double prep = 0;
-    if (a.method == OP_METHOD_SVD)
-        st = factor_svd(&a, &ds, terms, &secs, &prep, &err);
-    else if (a.method == OP_METHOD_TUCKER)
-        st = factor_tucker(&a, &ds, terms, &secs, &rep, &err);
-    else if (a.method == OP_METHOD_KCTA)
-        st = factor_kcta(&a, &ds, terms, clusters, &secs, &prep, &err);
-    else if (a.method == OP_METHOD_NMF)
-        st = factor_nmf(&a, &ds, terms, &secs, &prep, &err);
-    else
-        st = factor_raw(&ds, &secs, &err);
-    if (st != OP_OK)
+    fit_job job = {.a = &a, .ds = &ds, .info = &info, .w = writer, .rep = &rep};
+    if ((st = fm->fit(&job, &err)) != OP_OK)
         goto done;
-    if (prep > 0)
-        op_report_stage(&rep, "preprocess", prep);
-    op_report_stage(&rep, "factor", op_monotonic_seconds() - t - prep);
+    if (job.prep_seconds > 0)
+        op_report_stage(&rep, "preprocess", job.prep_seconds);
+    op_report_stage(&rep, "factor", op_monotonic_seconds() - t - job.prep_seconds);
 
-    /* Write without the albedo map and read the file back (still under its temporary name) to
-     * measure it and the errors; then add the map. Every output is put in place only at the
-     * end, the material last: an interruption or a failure before leaves the old files. */
+    /* The fit wrote its sections; complete the file without the albedo map and read it back
+     * (still under its temporary name) to measure it and the errors; then add the map. Every
+     * output is put in place only at the end, the material last: an interruption or a failure
+     * before leaves the old files. */
     t = op_monotonic_seconds();
     uint64_t albedo_count = (uint64_t)ds.rows * (uint64_t)ds.info.channels;
-    albedo = alloc_or_null(albedo_count * sizeof *albedo);
+    albedo = op_fit_alloc(albedo_count * sizeof *albedo);
     if (!albedo) {
         st = op_error_set(&err, OP_ERR_NOMEM, "out of memory");
         goto done;
     }
     const char *pending;
-    if ((st = write_sections(writer, &secs, &err)) != OP_OK ||
-        (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK)
+    if ((st = op_material_writer_finish(writer, &pending, &err)) != OP_OK)
         goto done;
     op_report_stage(&rep, "write", op_monotonic_seconds() - t);
     t = op_monotonic_seconds();
@@ -1094,10 +575,8 @@ int op_cmd_factor(int argc, char **argv)
         goto done;
     op_report_stage(&rep, "evaluate", op_monotonic_seconds() - t);
     t = op_monotonic_seconds();
-    if (a.method != OP_METHOD_RAW &&
-        ((st = op_material_writer_add(writer, "ALBEDO", albedo, albedo_count * sizeof *albedo,
-                                      &err)) != OP_OK ||
-         (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK))
+    if (fm->albedo && ((st = op_write_albedo(writer, &info, albedo, &err)) != OP_OK ||
+                       (st = op_material_writer_finish(writer, &pending, &err)) != OP_OK))
         goto done;
     op_report_stage(&rep, "finish", op_monotonic_seconds() - t);
 
@@ -1151,7 +630,6 @@ done:
     op_output_abort(report);
     op_material_writer_abort(writer);
     free(albedo);
-    sections_free(&secs);
     op_material_close(ds.file);
     return st == OP_OK ? 0 : fail(st, &err);
 }

@@ -468,8 +468,8 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
     return trace(ctx, org, dir, tmin, tmax, NULL, NULL, ps, alpha);
 }
 
-int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float tmax,
-                      int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine)
+void op_camera_sss_hits(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float tmax,
+                        int max_bounces, op_rng *rng, op_sss_cam_fn hit_fn, void *user)
 {
     const op_integrator *ig = &s->integrator;
     int max_depth = ig->type == OP_INT_DIRECT ? 2 : ig->max_depth;
@@ -477,37 +477,43 @@ int op_camera_sss_hit(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float
     ray_walk w = walk_start(org, dir, tmin, tmax);
     for (int depth = 0;;) {
         op_ray_hit hit;
+        op_isect it;
         if (!walk_intersect(s, &w, &hit))
-            return 0;
-        op_isect_from_hit(s, &hit, w.org, w.dir, it);
+            return;
+        op_isect_from_hit(s, &hit, w.org, w.dir, &it);
         len += hit.t;
-        const op_shape_rec *sh = &s->shapes[it->shape];
-        const op_bsdf *mask = shape_mask(s, it->shape);
+        const op_shape_rec *sh = &s->shapes[it.shape];
+        const op_bsdf *mask = shape_mask(s, it.shape);
         if (mask && op_bsdf_opacity_prob(mask) < 1.0f) {
-            if (!walk_past(&w, it->p, it->ng, hit.t))
-                return 0;
+            if (!walk_past(&w, it.p, it.ng, hit.t))
+                return;
             continue;
         }
         if (max_depth >= 0 && depth + 2 > max_depth)
-            return 0;
-        if (sh->sss >= 0) {
-            *dist = len;
-            *cosine = fabsf(v3_dot(w.dir, it->ng));
-            return 1;
+            return;
+        const op_bsdf *bsdf;
+        if (sh->sss < 0) {
+            bsdf = &s->bsdfs[sh->bsdf];
+        } else {
+            /* the path tracer goes on with the sheen's reflection where the exitance is known,
+             * which the hit makes it */
+            const op_sss_desc *d = &s->sss[sh->sss];
+            if (!hit_fn(user, &it, len, fabsf(v3_dot(w.dir, it.ng))) || !d->has_boundary)
+                return;
+            bsdf = &d->sheen;
         }
-        const op_bsdf *bsdf = &s->bsdfs[sh->bsdf];
         if (!op_bsdf_is_smooth_only(bsdf) || depth >= max_bounces)
-            return 0;
-        op_v3 wi_l = op_frame_to_local(&it->frame, v3_neg(w.dir));
+            return;
+        op_v3 wi_l = op_frame_to_local(&it.frame, v3_neg(w.dir));
         float u1 = op_rng_float(rng), u2 = op_rng_float(rng), u3 = op_rng_float(rng);
         op_bsdf_sample bs;
         if (!op_bsdf_sample_dir(bsdf, wi_l, u1, u2, u3, &bs))
-            return 0;
-        op_v3 wo = op_frame_to_world(&it->frame, bs.wo);
-        if ((v3_dot(wo, it->ng) > 0.0f) != (bs.wo.z > 0.0f))
-            return 0;
+            return;
+        op_v3 wo = op_frame_to_world(&it.frame, bs.wo);
+        if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f))
+            return;
         depth++;
-        w = walk_start(op_offset_origin(it->p, it->ng, wo), wo, 0.0f, INFINITY);
+        w = walk_start(op_offset_origin(it.p, it.ng, wo), wo, 0.0f, INFINITY);
     }
 }
 
@@ -532,4 +538,4 @@ op_v3 op_irradiance(const op_scene *scene, int sss, op_v3 p, op_v3 ng, op_v3 ns,
     return v3_scale(L, OP_PI);
 }
 
-const op_sss_transport op_path_transport = {op_irradiance, op_camera_sss_hit};
+const op_sss_transport op_path_transport = {op_irradiance, op_camera_sss_hits};

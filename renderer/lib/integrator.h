@@ -31,18 +31,20 @@ op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tma
             op_path_sampler *ps, float *alpha);
 /* Follows the camera segment of a path from the camera ray (org, dir, tmin, tmax) the way the
  * path tracer would: through masked surfaces (every mask that is not fully opaque is passed) and
- * along smooth (delta) bounces, at most max_bounces of them, drawing choices from rng. Returns 1
- * and fills *it, *dist (the path's length to it) and *cosine (|cos| between the last segment
- * and the surface) when it ends on a translucent shape whose exitance the path tracer would use
- * there (within maxDepth); 0 otherwise. */
-int op_camera_sss_hit(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
-                      int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
+ * along smooth (delta) bounces, at most max_bounces of them, drawing choices from rng. Calls
+ * hit(user, it, dist, cosine) (dist: the path's length to it; cosine: |cos| between the last
+ * segment and the surface) for every translucent shape it meets whose exitance the path tracer
+ * would use there (within maxDepth); a translucent shape with a smooth sheen (a surface bsdf
+ * whose reflection is a delta lobe) does not end the segment: it goes on along the reflection,
+ * a bounce like any other. Stops when hit returns 0. */
+void op_camera_sss_hits(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
+                        int max_bounces, op_rng *rng, op_sss_cam_fn hit, void *user);
 /* One-sample estimate of the irradiance at surface point p (normals ng, ns) of translucent shape
  * sss (-1: none): pi times the radiance a white Lambertian surface would reflect there, with
  * direct and indirect light (translucent shapes acting as their stand-ins); where shape sss has
  * a surface bsdf, the irradiance that crosses it (each direction weighted by t(cos)). */
 op_v3 op_irradiance(const op_scene *scene, int sss, op_v3 p, op_v3 ng, op_v3 ns, op_rng *rng);
-/* The light transport the subsurface pre-pass asks for: op_irradiance and op_camera_sss_hit. */
+/* The light transport the subsurface pre-pass asks for: op_irradiance and op_camera_sss_hits. */
 extern const op_sss_transport op_path_transport;
 
 #endif

@@ -340,9 +340,14 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     low[nl] = '\0';
     int dipole = strcmp(low, "dipole") == 0;
     op_method want = op_method_from_name(low);
-    if (!dipole && want == OP_METHOD_COUNT)
+    if (!dipole && want == OP_METHOD_COUNT) {
+        char types[128] = "";
+        for (int m = 0; m < OP_METHOD_COUNT; m++)
+            snprintf(types + strlen(types), sizeof types - strlen(types), "%s, ",
+                     op_method_name((op_method)m));
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: unknown type "
-                            "(svd, tucker, kcta, nmf, raw, dipole)", node->file, node->line, t);
+                            "(%sdipole)", node->file, node->line, t, types);
+    }
     if (!op_array_grow((void **)&s->sss, &b->cap_sss, s->nsss, sizeof *s->sss))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_sss_desc *d = &s->sss[s->nsss];

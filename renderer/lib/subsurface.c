@@ -7,7 +7,6 @@
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 
 typedef struct sss_point {
@@ -575,39 +574,51 @@ typedef struct cam_job {
 
 enum { CAM_MAX_BOUNCES = 8 };
 
+/* Appends one translucent hit of a camera segment to its row (cam_hit_fn's user). */
+typedef struct cam_add {
+    const op_scene *scene;
+    cam_row *row;
+    atomic_int *nomem;
+} cam_add;
+
+static int cam_hit_fn(void *user, const op_isect *it, float dist, float cosine)
+{
+    cam_add *a = user;
+    cam_row *row = a->row;
+    if (row->n == row->cap) {
+        int nc = row->cap ? 2 * row->cap : 64;
+        cam_hit *h = realloc(row->h, (size_t)nc * sizeof *h);
+        if (!h) {
+            atomic_store(a->nomem, 1);
+            return 0;
+        }
+        row->h = h;
+        row->cap = nc;
+    }
+    cam_hit *h = &row->h[row->n++];
+    h->p = it->p;
+    h->span = dist / fmaxf(cosine, 0.05f);
+    h->sss = a->scene->shapes[it->shape].sss;
+    return 1;
+}
+
 /* Traces the camera segments through the pixel corners of one row of the ray grid. */
 static void camera_task(void *user, int task, int thread)
 {
     (void)thread;
     cam_job *job = user;
     const op_scene *s = job->scene;
-    cam_row *row = &job->rows[task];
+    cam_add add = {s, &job->rows[task], &job->nomem};
     float fy = (float)(task - job->ext);
-    for (int ix = 0; ix < job->gw; ix++) {
+    for (int ix = 0; ix < job->gw && !atomic_load(&job->nomem); ix++) {
         float fx = (float)(ix - job->ext);
         op_v3 org, dir;
-        float tmin, tmax, dist, cosine;
+        float tmin, tmax;
         op_camera_ray(&s->camera, fx, fy, &org, &dir, &tmin, &tmax);
         op_rng rng = op_rng_seed(job->seed ^ 0x43414d4552414d4bull,
                                  (uint64_t)task * (uint64_t)job->gw + (uint64_t)ix, 0);
-        op_isect it;
-        if (!job->transport->camera_hit(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, &it,
-                                        &dist, &cosine))
-            continue;
-        if (row->n == row->cap) {
-            int nc = row->cap ? 2 * row->cap : 64;
-            cam_hit *h = realloc(row->h, (size_t)nc * sizeof *h);
-            if (!h) {
-                atomic_store(&job->nomem, 1);
-                return;
-            }
-            row->h = h;
-            row->cap = nc;
-        }
-        cam_hit *h = &row->h[row->n++];
-        h->p = it.p;
-        h->span = dist / fmaxf(cosine, 0.05f);
-        h->sss = s->shapes[it.shape].sss;
+        job->transport->camera_hits(s, org, dir, tmin, tmax, CAM_MAX_BOUNCES, &rng, cam_hit_fn,
+                                    &add);
     }
 }
 
@@ -1079,13 +1090,6 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
     }
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* The camera-marking phase: which translucent shapes some camera segment reaches (all of them
  * when opt->everywhere), and the segments' hits (*gh rows in cam->rows, owned by the caller
  * and freed with cam_free). */
@@ -1239,7 +1243,7 @@ static op_status irradiance_phase(build_job *job, const op_sss_build_options *op
 op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
                              op_sss_cache **out, op_error *err)
 {
-    double t0 = now_s();
+    double t0 = op_monotonic_seconds();
     op_sss_cache *c = calloc(1, sizeof *c);
     if (!c)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -1252,11 +1256,11 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     cam_job cam;
     int gh = 0;
     op_status st = mark_reached(scene, c, opt, &cam, &gh, err);
-    double tc = now_s();
+    double tc = op_monotonic_seconds();
     if (st == OP_OK)
         st = prepare_shapes(scene, c, opt, &cam, gh, err);
     cam_free(&cam, gh);
-    double tp = now_s();
+    double tp = op_monotonic_seconds();
     build_job job;
     memset(&job, 0, sizeof job);
     job.scene = scene;
@@ -1266,7 +1270,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     job.cancel = opt->cancel;
     if (st == OP_OK)
         st = irradiance_phase(&job, opt, err);
-    double t1 = now_s();
+    double t1 = op_monotonic_seconds();
     /* with a store, every irradiance a scatter needs may be known already */
     int scatter = 0;
     for (int s = 0; s < c->n; s++)
@@ -1275,7 +1279,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         st = scatter_pass(&job, opt, err);
     free(job.task_shape);
     free(job.task_first);
-    double te = now_s();
+    double te = op_monotonic_seconds();
     c->seconds = te - t0;
     if (st == OP_OK && c->n > 0)
         op_log(OP_LOG_INFO, "subsurface pre-pass: %.3f s (camera pass %.3f s, points %.3f s, "

@@ -34,14 +34,16 @@ typedef struct op_sss_cache op_sss_cache;
  * tracer's, integrator.h's op_path_transport): the pre-pass lays points, marks and sums, and
  * traces nothing itself. irradiance: a one-sample estimate of pi times the radiance a white
  * Lambertian at (p, ng, ns) of translucent shape sss (its subsurface index) reflects, behind the
- * shape's surface bsdf where it has one (what crosses the boundary). camera_hit: follows a camera ray's segment as the path
- * tracer would and says whether (and where, how far, at what cosine) it ends on a translucent
- * shape whose exitance the path tracer would use. Both draw only from rng. */
+ * shape's surface bsdf where it has one (what crosses the boundary). camera_hits: follows a
+ * camera ray's segment as the path tracer would and calls hit for every translucent shape whose
+ * exitance the path tracer would use on it (where, how far along the path, at what cosine): the
+ * first, and those seen in a smooth sheen's reflection. Both draw only from rng. */
+typedef int (*op_sss_cam_fn)(void *user, const op_isect *it, float dist, float cosine);
 typedef struct op_sss_transport {
     op_v3 (*irradiance)(const op_scene *scene, int sss, op_v3 p, op_v3 ng, op_v3 ns,
                         op_rng *rng);
-    int (*camera_hit)(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
-                      int max_bounces, op_rng *rng, op_isect *it, float *dist, float *cosine);
+    void (*camera_hits)(const op_scene *scene, op_v3 org, op_v3 dir, float tmin, float tmax,
+                        int max_bounces, op_rng *rng, op_sss_cam_fn hit, void *user);
 } op_sss_transport;
 
 /* What earlier pre-passes of the same key (sss_cache.h) computed for one translucent shape:

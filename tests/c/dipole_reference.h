@@ -36,4 +36,23 @@ static inline double ref_dipole_total(double sp, double sa, double eta)
     return 0.5 * alpha * (1.0 + exp(-4.0 / 3.0 * ref_dipole_a(eta) * s)) * exp(-s);
 }
 
+/* The exitance at distance x from the centre of a disk of radius a lit by a point light of
+ * intensity D^2 at height D (irradiance D^3 / (D^2 + rho^2)^1.5, 1 at the centre): the profile
+ * integrated over the disk (midpoint rule in polar coordinates about the disk's centre). */
+static inline double ref_dipole_spot(double sp, double sa, double eta, double a, double D,
+                                     double x)
+{
+    const int nr = 240, nphi = 240;
+    double sum = 0.0;
+    for (int i = 0; i < nr; i++) {
+        double rho = a * (i + 0.5) / nr, e = D * D * D / pow(D * D + rho * rho, 1.5);
+        for (int j = 0; j < nphi; j++) {
+            double phi = M_PI * (j + 0.5) / nphi; /* symmetric: half the circle, twice */
+            double d2 = x * x + rho * rho - 2.0 * x * rho * cos(phi);
+            sum += e * ref_dipole_rd(sp, sa, eta, sqrt(d2 > 0.0 ? d2 : 0.0)) * rho;
+        }
+    }
+    return sum * 2.0 * (a / nr) * (M_PI / nphi);
+}
+
 #endif

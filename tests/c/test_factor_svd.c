@@ -663,6 +663,71 @@ static void single_and_double_precision(void **state)
     free(d.v);
 }
 
+/* What the quick benchmark checked on its datasets, on a small one: the raw method reproduces
+ * the dataset exactly; the svd method's error does not grow with T (beyond float noise) while
+ * its file grows; and each channel's stored factors are within 1 % of the best rank-T
+ * approximation (Eckart-Young) of the matrix the method factors, built here independently:
+ * every row circularly shifted to start at its maximum, divided by it, then ln(v / 100 + 1).
+ * (The quick benchmark's run no longer checks its figures: tests/e2e/test_bench_quick.sh.) */
+static void method_errors_on_a_dataset(void **state)
+{
+    ds_spec d = ds_chess(24, 20, 7, 0.1);
+    int rows = d.w * d.h, cols = d.k * d.k;
+    char *in = ds_write(&d);
+    char out[1024], errtext[8192];
+    snprintf(out, sizeof out, "%s", op_test_tmp_path("quick.opm"));
+    const char *raw[] = {"--method", "raw", NULL};
+    assert_int_equal(run_factor(in, out, errtext, sizeof errtext, raw), 0);
+    double max_abs = -1, rel = ds_compare(&d, out, &max_abs);
+    assert_true(rel == 0.0 && max_abs == 0.0);
+    float *mat = malloc((size_t)rows * cols * sizeof *mat);
+    double prev = INFINITY;
+    uint64_t prev_size = 0;
+    for (int T = 1; T <= 8; T++) {
+        char t[8];
+        snprintf(t, sizeof t, "%d", T);
+        const char *args[] = {"--method", "svd", "-T", t, NULL};
+        assert_int_equal(run_factor(in, out, errtext, sizeof errtext, args), 0);
+        rel = ds_compare(&d, out, NULL);
+        op_material *m = open_valid(out);
+        uint64_t size = op_material_file_size(m);
+        print_message("  svd T=%d: relative RMSE %.6g, %llu bytes\n", T, rel,
+                      (unsigned long long)size);
+        assert_true(rel <= prev * 1.0001);
+        assert_true(size > prev_size);
+        prev = rel;
+        prev_size = size;
+        for (int c = 0; c < 3; c++) {
+            for (int r = 0; r < rows; r++) {
+                const float *src = ds_at(&d, c, r, 0);
+                int top = 0;
+                for (int j = 1; j < cols; j++)
+                    top = src[j] > src[top] ? j : top;
+                for (int j = 0; j < cols; j++)
+                    mat[(size_t)r * cols + j] =
+                        (float)log((double)src[(j + top) % cols] / src[top] / 100.0 + 1.0);
+            }
+            char tu[8], tv[8];
+            snprintf(tu, sizeof tu, "U.%c", "RGB"[c]);
+            snprintf(tv, sizeof tv, "V.%c", "RGB"[c]);
+            const float *u = op_material_section(m, tu, NULL), *v = op_material_section(m, tv, NULL);
+            assert_non_null(u);
+            assert_non_null(v);
+            double got = residual(mat, rows, cols, T, u, v), best = optimal_error(mat, rows, cols, T);
+            double norm = optimal_error(mat, rows, cols, 0);
+            if (c == 0)
+                print_message("    channel R: log-domain error %.6g, optimum %.6g (ratio %.5f)\n",
+                              got, best, got / best);
+            /* plus 1e-6 of ||M||: float32 rounding, which is all that is left at T = 7 and 8 */
+            assert_true(got <= 1.01 * best + 1e-6 * norm);
+        }
+        op_material_close(m);
+    }
+    free(mat);
+    free(in);
+    free(d.v);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -670,6 +735,7 @@ int main(void)
         cmocka_unit_test(eckart_young_flat_spectrum),
         cmocka_unit_test(rsvd_deterministic_and_exact_when_small),
         cmocka_unit_test(svd_end_to_end),
+        cmocka_unit_test(method_errors_on_a_dataset),
         cmocka_unit_test(same_result_for_any_thread_count),
         cmocka_unit_test(streamed_rsvd_matches),
         cmocka_unit_test(streamed_factor_matches),

@@ -52,19 +52,7 @@ static double diffusion_length(const medium *m, int c)
  * receivers, 2 threads) and returns the scene and cache. */
 static op_sss_cache *prepass(const char *name, const char *text, op_scene **scene, double *seconds)
 {
-    const char *path = op_test_tmp_path(name);
-    op_test_write_text(path, text);
-    op_error err = {0};
-    op_status st = op_scene_load(path, NULL, 0, scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    st = op_sss_cache_build(*scene, &o, &cache, &err);
-    OP_ASSERT_OK(st, err);
-    op_sss_stats stats;
-    op_sss_cache_stats(cache, &stats);
-    *seconds = stats.seconds;
-    return cache;
+    return op_test_sss_prepass(op_test_write_temp(name, text), scene, seconds);
 }
 
 /* The scene: a rectangle [x0, x1] x [y0, y1] in z = 0 of the medium (millimetres, scale 1000),
@@ -90,24 +78,6 @@ static void scene_text(char *text, size_t cap, const medium *m, double x0, doubl
              "</scene>",
              fov, cx, 2.0 * w, cx, nx, ny, emitter, 0.5 * (x1 - x0), 0.5 * (y1 - y0),
              0.5 * (x0 + x1), 0.5 * (y0 + y1), m->name);
-}
-
-/* The exitance at distance x from the centre of the disk of radius a lit by a point light of
- * intensity D^2 at height D (irradiance D^3 / (D^2 + rho^2)^1.5, 1 at the centre): the profile
- * integrated over the disk (midpoint rule in polar coordinates about the disk's centre). */
-static double ref_spot(const medium *m, int c, double a, double D, double x)
-{
-    const int nr = 240, nphi = 240;
-    double sum = 0.0;
-    for (int i = 0; i < nr; i++) {
-        double rho = a * (i + 0.5) / nr, e = D * D * D / pow(D * D + rho * rho, 1.5);
-        for (int j = 0; j < nphi; j++) {
-            double phi = M_PI * (j + 0.5) / nphi; /* symmetric: half the circle, twice */
-            double d2 = x * x + rho * rho - 2.0 * x * rho * cos(phi);
-            sum += e * ref_dipole_rd(m->sp[c], m->sa[c], m->eta, sqrt(d2 > 0.0 ? d2 : 0.0)) * rho;
-        }
-    }
-    return sum * 2.0 * (a / nr) * (M_PI / nphi);
 }
 
 static void test_spot_every_distance(void **state)
@@ -148,7 +118,8 @@ static void test_spot_every_distance(void **state)
             double L = diffusion_length(m, c);
             printf("%-10s  %d  %6.3f ", m->name, c, L);
             for (int q = 0; q < 3; q++) {
-                double x = a + (double)(1 << q) * L, want = ref_spot(m, c, a, D, x);
+                double x = a + (double)(1 << q) * L;
+                double want = ref_dipole_spot(m->sp[c], m->sa[c], m->eta, a, D, x);
                 op_v3 got;
                 if (!op_sss_lookup(cache, 0, v3((float)x, 0.0f, 0.0f), v3(0.0f, 0.0f, 1.0f), &got))
                     fail_msg("%s: no exitance at x = %g mm (not a receiver)", m->name, x);

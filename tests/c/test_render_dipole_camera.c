@@ -17,9 +17,9 @@
 #include <string.h>
 
 #include "dipole_reference.h"
-#include "integrator.h"
 #include "opaline_render.h"
 #include "render_scene.h"
+#include "subsurface.h"
 #include "test_support.h"
 
 static const double sk_sp[3] = {0.70, 1.22, 1.90}, sk_a[3] = {0.0014, 0.0025, 0.0142};
@@ -173,19 +173,6 @@ static void test_spot(void **state)
     op_image_free(&img);
 }
 
-/* The pre-pass of scene file path: camera-marked (everywhere 0) or of every point, threads. */
-static op_sss_cache *prepass(const char *path, int everywhere, int threads, op_scene **scene)
-{
-    op_error err = {0};
-    op_status st = op_scene_load(path, NULL, 0, scene, &err);
-    OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    st = op_sss_cache_build(*scene, &o, &cache, &err);
-    OP_ASSERT_OK(st, err);
-    return cache;
-}
-
 static void test_receivers_thinned(void **state)
 {
     (void)state;
@@ -208,8 +195,10 @@ static void test_receivers_thinned(void **state)
         "  <float name=\"scale\" value=\"1000\"/><float name=\"density\" value=\"0.0625\"/>"
         "  <integer name=\"irrSamples\" value=\"4\"/></subsurface></shape></scene>");
     op_scene *s2 = NULL, *s1 = NULL, *sall = NULL;
-    op_sss_cache *c2 = prepass(path, 0, 2, &s2), *c1 = prepass(path, 0, 1, &s1);
-    op_sss_cache *call = prepass(path, 1, 2, &sall);
+    double secs;
+    op_sss_cache *c2 = op_test_sss_prepass_with(path, 0, 2, &s2, &secs);
+    op_sss_cache *c1 = op_test_sss_prepass_with(path, 0, 1, &s1, &secs);
+    op_sss_cache *call = op_test_sss_prepass_with(path, 1, 2, &sall, &secs);
     op_sss_stats st;
     op_sss_cache_stats(c2, &st);
     printf("%lld points, %lld receivers\n", st.points, st.receivers);

@@ -1,6 +1,9 @@
 /* test_support.c - see test_support.h. */
 #include "test_support.h"
 
+#include "integrator.h"
+#include "subsurface.h"
+
 #include <dirent.h>
 #include <math.h>
 #include <stdio.h>
@@ -151,4 +154,25 @@ void op_test_write_gaussian_raw(const char *path, const double albedo[3], int va
     st = op_material_writer_commit(wr, &err);
     OP_ASSERT_OK(st, err);
     free(rd);
+}
+
+op_sss_cache *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds)
+{
+    return op_test_sss_prepass_with(path, 0, 2, scene, seconds);
+}
+
+op_sss_cache *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
+                                       op_scene **scene, double *seconds)
+{
+    op_error err = {0};
+    op_status st = op_scene_load(path, NULL, 0, scene, &err);
+    OP_ASSERT_OK(st, err);
+    op_sss_build_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL, &op_path_transport};
+    op_sss_cache *cache = NULL;
+    st = op_sss_cache_build(*scene, &o, &cache, &err);
+    OP_ASSERT_OK(st, err);
+    op_sss_stats stats;
+    op_sss_cache_stats(cache, &stats);
+    *seconds = stats.seconds;
+    return cache;
 }

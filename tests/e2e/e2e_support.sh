@@ -1,5 +1,66 @@
 # Sourced by the end-to-end tests: what several of them share.
 
+# e2e_setup NAME PROGRAM...: exits 77 (skip) unless every PROGRAM is built in $OPALINE_BIN_DIR
+# and python3 is found; then sets BIN, R (opaline-render), C (opaline-cluster) and T, a fresh
+# temp folder NAME.XXXXXX that the caller's trap removes.
+e2e_setup() {
+  local name=$1 p
+  shift
+  BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
+  R=$BIN/opaline-render
+  C=$BIN/opaline-cluster
+  for p in "$@"; do
+    [ -x "$BIN/$p" ] || { echo "skip: $BIN/$p not built"; exit 77; }
+  done
+  command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+  T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/$name.XXXXXX")
+}
+
+# fail MESSAGE: the test fails with MESSAGE and the head of $T/err (stderr of the last command
+# that saved it there). Tests that have more to show define their own after sourcing this file.
+fail() {
+  echo "FAIL: $*"
+  [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -20
+  exit 1
+}
+
+# dipole_sphere_scene DIR [FLOOR-XML]: writes DIR/scene.xml, a 48 x 40 film (2 spp, Gaussian filter) of a
+# sphere of radius 0.5 resting at z = 0.5 with a dipole subsurface medium, on a grey 6 x 6
+# floor (DIR/floor.obj, a mesh file), lit by a point light at (1, -2, lightz), seen from
+# (camx, -4, 2); camx (0), lightz (4) and medium (Skin1) are scene defaults (-D name=value).
+# FLOOR-XML (optional) goes into the floor's <bsdf>.
+dipole_sphere_scene() {
+  cat > "$1/scene.xml" <<XML
+<scene version="0.6.0">
+  <default name="camx" value="0"/>
+  <default name="lightz" value="4"/>
+  <default name="medium" value="Skin1"/>
+  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="30"/>
+    <transform name="toWorld"><lookat origin="\$camx, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="2"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="40"/>
+      <rfilter type="gaussian"/></film>
+  </sensor>
+  <emitter type="point">
+    <point name="position" x="1" y="-2" z="\$lightz"/>
+    <spectrum name="intensity" value="30"/>
+  </emitter>
+  <shape type="sphere">
+    <point name="center" x="0" y="0" z="0.5"/>
+    <float name="radius" value="0.5"/>
+    <subsurface type="dipole"><string name="material" value="\$medium"/></subsurface>
+  </shape>
+  <shape type="obj">
+    <string name="filename" value="floor.obj"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/>${2:-}</bsdf>
+  </shape>
+</scene>
+XML
+  printf 'v -3 -3 0\nv 3 -3 0\nv 3 3 0\nv -3 3 0\nf 1 2 3\nf 1 3 4\n' > "$1/floor.obj"
+}
+
 # sphere_scene FILE WIDTH HEIGHT SPP SURFACE-XML: writes the tests' small paper-style scene to
 # FILE: a sphere of radius 0.5 resting at z = 0.5 that carries SURFACE-XML (a <subsurface> or
 # <bsdf> element), on a grey 6 x 6 diffuse floor, under a 40 degree spot light from 6 above,

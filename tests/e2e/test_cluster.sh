@@ -7,18 +7,12 @@
 # names a file outside the shared folder refused. Daemons stopped and the folder removed on any
 # exit; the test fails when a process of its own is left. Skips (77) without root or packages.
 set -uo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 SRC=${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}
-R=$BIN/opaline-render
-C=$BIN/opaline-cluster
-[ -x "$R" ] && [ -x "$C" ] || { echo "skip: $R or $C not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+source "$SRC/tests/e2e/e2e_support.sh"
 [ -f "${OPALINE_PRESETS_DIR:-}/SVD_S10_Chess4x4.opm" ] ||
   { echo "skip: the preset SVD_S10_Chess4x4 is not built"; exit 77; }
 source "$SRC/cluster/local_cluster.sh"
-source "$SRC/tests/e2e/e2e_support.sh"
-
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/cluster.XXXXXX")
+e2e_setup cluster opaline-render opaline-cluster
 chmod 755 "$T"
 # Processes of this test: every one names $T in its command line (daemons, tasks, renders).
 ours() { pgrep -f -- "$T/"; }

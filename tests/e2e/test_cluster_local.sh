@@ -5,16 +5,9 @@
 # merge job depending afterok on the render job's array); opaline-render --estimate prints
 # the film and a memory estimate; --merge-tiles refuses a gap and an overlap by line.
 set -uo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-SRC=${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}
-R=$BIN/opaline-render
-C=$BIN/opaline-cluster
-[ -x "$R" ] && [ -x "$C" ] || { echo "skip: $R or $C not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-source "$SRC/tests/e2e/e2e_support.sh"
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/cluster_local.XXXXXX")
+source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+e2e_setup cluster_local opaline-render opaline-cluster
 trap 'rm -rf "$T"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
 
 sphere_scene "$T/still.xml" 30 22 3 '<bsdf type="roughplastic"/>'
 "$R" --estimate -q "$T/still.xml" > "$T/est" || fail "--estimate exited $?"

@@ -8,43 +8,11 @@
 # the whole film and cropped tiles then compute nothing and match the full render bit for bit;
 # two renders writing one cache at once each leave a complete file.
 set -uo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-R=$BIN/opaline-render
-[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/render_sss_cache.XXXXXX")
+source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+e2e_setup render_sss_cache opaline-render
 trap 'rm -rf "$T"' EXIT
-fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -20; exit 1; }
 
-cat > "$T/scene.xml" <<'XML'
-<scene version="0.6.0">
-  <default name="camx" value="0"/>
-  <default name="lightz" value="4"/>
-  <default name="medium" value="Skin1"/>
-  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="30"/>
-    <transform name="toWorld"><lookat origin="$camx, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="2"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="40"/>
-      <rfilter type="gaussian"/></film>
-  </sensor>
-  <emitter type="point">
-    <point name="position" x="1" y="-2" z="$lightz"/>
-    <spectrum name="intensity" value="30"/>
-  </emitter>
-  <shape type="sphere">
-    <point name="center" x="0" y="0" z="0.5"/>
-    <float name="radius" value="0.5"/>
-    <subsurface type="dipole"><string name="material" value="$medium"/></subsurface>
-  </shape>
-  <shape type="obj">
-    <string name="filename" value="floor.obj"/>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-  </shape>
-</scene>
-XML
-printf 'v -3 -3 0\nv 3 -3 0\nv 3 3 0\nv -3 3 0\nf 1 2 3\nf 1 3 4\n' > "$T/floor.obj"
+dipole_sphere_scene "$T"
 render() { "$R" -v -t 2 --limit sss-max-points=2000 "$@" "$T/scene.xml" 2>"$T/err"; }
 # "computed: irradiance at N" of the -v log (the irradiance values this run computed)
 computed_irr() { sed -n 's/.*computed: irradiance at \([0-9]*\),.*/\1/p' "$T/err"; }

@@ -7,40 +7,11 @@
 # LOG record). --crop renders only a window of the film, each pixel bit-identical to the full
 # render's (a translucent scene: the pre-pass too); a window outside the film exits 2.
 set -uo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-R=$BIN/opaline-render
-[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/render_stream_stages.XXXXXX")
+source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+e2e_setup render_stream_stages opaline-render
 trap 'rm -rf "$T"' EXIT
-fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -20; exit 1; }
 
-cat > "$T/scene.xml" <<'XML'
-<scene version="0.6.0">
-  <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="30"/>
-    <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="2"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="40"/>
-      <rfilter type="gaussian"/></film>
-  </sensor>
-  <emitter type="point">
-    <point name="position" x="1" y="-2" z="4"/>
-    <spectrum name="intensity" value="30"/>
-  </emitter>
-  <shape type="sphere">
-    <point name="center" x="0" y="0" z="0.5"/>
-    <float name="radius" value="0.5"/>
-    <subsurface type="dipole"><string name="material" value="Skin1"/></subsurface>
-  </shape>
-  <shape type="rectangle">
-    <transform name="toWorld"><scale value="3"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/>
-      <float name="intIOR" value="1.5"/></bsdf>
-  </shape>
-</scene>
-XML
+dipole_sphere_scene "$T" '<float name="intIOR" value="1.5"/>' # unused: a warning to log
 
 "$R" --stream --stream-log -t 2 --limit sss-max-points=300 -o "$T/full.pfm" "$T/scene.xml" \
     >"$T/stream" 2>"$T/err" || fail "the stream run exited $?"
