@@ -112,13 +112,14 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
                              description="Subsurface pre-pass: paths per irradiance point "
                                          "(more: less noise in translucent objects, longer "
                                          "pre-pass)")
-    max_sss_points: IntProperty(name="Irradiance Point Cap", default=250000, min=1,
+    max_sss_points: IntProperty(name="Irradiance Point Cap", default=0, min=0,
                                 max=50000000, soft_max=5000000,
                                 description="Subsurface pre-pass: most irradiance points per "
-                                            "translucent object (maxPoints; F12 also passes it "
-                                            "as --limit sss-max-points). Above it the points "
-                                            "are coarser than the material and the render "
-                                            "warns: raise it (more memory and pre-pass time)")
+                                            "translucent object (0: the renderer's own default, "
+                                            "--limit sss-max-points; else written as maxPoints "
+                                            "and passed by F12). Above it the points are "
+                                            "coarser than the material and the render warns: "
+                                            "raise it (more memory and pre-pass time)")
     threads: IntProperty(name="Threads", default=0, min=0,
                          description="Worker threads for opaline-render (0: all cores)")
     keep_temp: BoolProperty(name="Keep exported files", default=False,

@@ -45,7 +45,13 @@ typedef struct sss_shape {
     int width, height, kernel, channels;
     float px, py, a_pix, a_i, spacing;
     float radius; /* gather radius: the kernel footprint */
-    float h;      /* interpolation radius */
+    float h;      /* the interp grid's cell: 2 point spacings */
+    float hr;     /* the lookup's interpolation radius: h, or 2 sqrt(3) x the receiver
+                     spacing where the receivers are thinned */
+    unsigned char *rep; /* hier, NULL or per point: it may be a receiver (one per cell of the
+                           receiver spacing and normal class); NULL: every point may */
+    sss_grid look;      /* hier with rep: the grid of the rep points, of cell hr */
+    sss_grid ballg;     /* hier: the grid of the points, of the profile's ball as cell */
     int n;
     sss_point *pts;
     sss_grid gather, interp;
@@ -88,18 +94,21 @@ static void cell_of(const sss_grid *g, op_v3 p, int32_t c[3])
     c[2] = (int32_t)floorf((p.z - g->origin.z) / g->cell);
 }
 
-static op_status grid_build(sss_grid *g, const sss_point *pts, int n, op_v3 origin, float cell,
-                            op_error *err)
+/* The grid of the points i < n with only[i] set (every point when only is NULL). */
+static op_status grid_build(sss_grid *g, const sss_point *pts, int n, const unsigned char *only,
+                            op_v3 origin, float cell, op_error *err)
 {
     memset(g, 0, sizeof *g);
     g->cell = cell;
     g->origin = origin;
-    uint32_t buckets = 1;
-    while (buckets < 2u * (uint32_t)n && buckets < (1u << 30))
+    uint32_t buckets = 1, count = 0;
+    for (int i = 0; i < n; i++)
+        count += !only || only[i];
+    while (buckets < 2u * count && buckets < (1u << 30))
         buckets <<= 1;
     g->mask = buckets - 1;
     g->start = calloc((size_t)buckets + 1, sizeof *g->start);
-    g->items = malloc((size_t)n * sizeof *g->items);
+    g->items = malloc((size_t)(count ? count : 1) * sizeof *g->items);
     g->coord = malloc(3 * (size_t)n * sizeof *g->coord);
     uint32_t *fill = calloc((size_t)buckets, sizeof *fill);
     if (!g->start || !g->items || !g->coord || !fill) {
@@ -108,11 +117,15 @@ static op_status grid_build(sss_grid *g, const sss_point *pts, int n, op_v3 orig
     }
     for (int i = 0; i < n; i++) {
         cell_of(g, pts[i].p, g->coord + 3 * i);
+        if (only && !only[i])
+            continue;
         g->start[cell_hash(g->coord[3 * i], g->coord[3 * i + 1], g->coord[3 * i + 2], g->mask) + 1]++;
     }
     for (uint32_t b = 0; b < buckets; b++)
         g->start[b + 1] += g->start[b];
     for (int i = 0; i < n; i++) {
+        if (only && !only[i])
+            continue;
         uint32_t b = cell_hash(g->coord[3 * i], g->coord[3 * i + 1], g->coord[3 * i + 2], g->mask);
         g->items[g->start[b] + fill[b]++] = (uint32_t)i;
     }
@@ -413,6 +426,62 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
+typedef struct morton_key {
+    uint64_t key;
+    int index;
+} morton_key;
+
+static int morton_cmp(const void *a, const void *b)
+{
+    const morton_key *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+/* 21 bits of v spread to every third bit. */
+static uint64_t spread3(uint32_t v)
+{
+    uint64_t x = v & 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffull;
+    x = (x | x << 16) & 0x1f0000ff0000ffull;
+    x = (x | x << 8) & 0x100f00f00f00f00full;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ull;
+    x = (x | x << 2) & 0x1249249249249249ull;
+    return x;
+}
+
+/* Puts the laid points in Morton order of their positions in the scene's bounds (ties by the
+ * order laid): neighbours in space are neighbours in memory for the hierarchical sum's grids.
+ * Depends on the positions only. */
+static op_status spatial_order(sss_shape *ss, op_v3 lo, op_v3 hi, op_error *err)
+{
+    morton_key *k = malloc((size_t)ss->n * sizeof *k);
+    sss_point *p = malloc((size_t)ss->n * sizeof *p);
+    if (!k || !p) {
+        free(k);
+        free(p);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    }
+    op_v3 e = v3_sub(hi, lo);
+    float ext = fmaxf(e.x, fmaxf(e.y, e.z)), scale = ext > 0.0f ? 2097151.0f / ext : 0.0f;
+    for (int i = 0; i < ss->n; i++) {
+        op_v3 d = v3_scale(v3_sub(ss->pts[i].p, lo), scale);
+        uint32_t q[3];
+        for (int a = 0; a < 3; a++) {
+            float x = v3_get(d, a);
+            q[a] = x > 0.0f ? (x < 2097151.0f ? (uint32_t)x : 2097151u) : 0u;
+        }
+        k[i].key = spread3(q[0]) | spread3(q[1]) << 1 | spread3(q[2]) << 2;
+        k[i].index = i;
+    }
+    qsort(k, (size_t)ss->n, sizeof *k, morton_cmp);
+    for (int i = 0; i < ss->n; i++)
+        p[i] = ss->pts[k[i].index];
+    free(k);
+    free(ss->pts);
+    ss->pts = p;
+    return OP_OK;
 }
 
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
@@ -447,7 +516,6 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     ss->pts = calloc((size_t)n, sizeof *ss->pts);
     if (!ss->pts)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
-    (void)scene;
     if (!ss->desc->is_dipole) {
         double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
                                    ss->desc->density);
@@ -483,7 +551,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         q->fx = wrap(u * (float)ss->width, ss->width);
         q->fy = wrap(v * (float)ss->height, ss->height);
     }
-    return OP_OK;
+    return ss->hier ? spatial_order(ss, scene->bmin, scene->bmax, err) : OP_OK;
 }
 
 typedef struct build_job {
@@ -841,16 +909,60 @@ static void camera_task(void *user, int task, int thread)
     }
 }
 
-/* Marks as receivers the points within r of p (exactly: a hashed cell mark would also catch
- * the far cells that share its bucket). */
+/* Marks as receivers the points that may be (rep) within r of p (exactly: a hashed cell mark
+ * would also catch the far cells that share its bucket). */
 static void mark_near(sss_shape *ss, op_v3 p, float r)
 {
     float r2 = r * r;
-    GRID_FOR_EACH(&ss->interp, p, r, i, {
+    GRID_FOR_EACH(ss->rep ? &ss->look : &ss->interp, p, r, i, {
         op_v3 d = v3_sub(ss->pts[i].p, p);
         if (v3_dot(d, d) <= r2)
             ss->recv[i] = 1;
     });
+}
+
+/* The receivers' thinning of a hierarchical shape whose camera needs its exitance no finer
+ * than sr apart (sr at least 2 point spacings): one point may be a receiver per cell of side sr
+ * and normal class (the signed dominant axis of its normal), the lowest point index in it. A
+ * surface point lies within a point spacing plus a cell's diagonal, so within
+ * hr = 2 sqrt(3) sr, of one that may. Sets rep, hr and look; depends on the points and sr only,
+ * so a receiver's exitance is what the full computation gives it. */
+static op_status thin_receivers(sss_shape *ss, op_v3 origin, float sr, op_error *err)
+{
+    uint32_t size = 1;
+    while (size < 2u * (uint32_t)ss->n && size < (1u << 30))
+        size <<= 1;
+    int32_t *tab = malloc((size_t)size * 4 * sizeof *tab); /* cell x, y, z, class; class -1: empty */
+    ss->rep = calloc((size_t)ss->n, 1);
+    if (!tab || !ss->rep) {
+        free(tab);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    }
+    for (uint32_t b = 0; b < size; b++)
+        tab[4 * (size_t)b + 3] = -1;
+    sss_grid cells = {.cell = sr, .origin = origin};
+    for (int i = 0; i < ss->n; i++) {
+        int32_t c[4];
+        cell_of(&cells, ss->pts[i].p, c);
+        op_v3 n = ss->pts[i].n;
+        float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+        int a = ax >= ay && ax >= az ? 0 : ay >= az ? 1 : 2;
+        c[3] = 2 * a + (v3_get(n, a) < 0.0f);
+        uint32_t b = cell_hash(c[0], c[1], c[2] * 8 + c[3], size - 1);
+        for (;; b = (b + 1) & (size - 1)) {
+            int32_t *e = tab + 4 * (size_t)b;
+            if (e[3] < 0) { /* the first of its cell and class */
+                memcpy(e, c, sizeof c);
+                ss->rep[i] = 1;
+                break;
+            }
+            if (e[0] == c[0] && e[1] == c[1] && e[2] == c[2] && e[3] == c[3])
+                break;
+        }
+    }
+    free(tab);
+    ss->hr = 2.0f * sqrtf(3.0f) * sr;
+    return grid_build(&ss->look, ss->pts, ss->n, ss->rep, origin, ss->hr, err);
 }
 
 /* From the receivers marked in recv and what sv (NULL: nothing) already holds: the receivers
@@ -930,7 +1042,7 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
 
 /* The hierarchical sum's structures of a laid shape: the tree over its points and the
  * dipole's profile for points of its area and spacing. */
-static op_status tree_prepare(sss_shape *ss, op_error *err)
+static op_status tree_prepare(sss_shape *ss, op_v3 origin, op_error *err)
 {
     op_v3 *p = malloc((size_t)ss->n * sizeof *p), *n = malloc((size_t)ss->n * sizeof *n);
     op_status st = OP_OK;
@@ -946,6 +1058,9 @@ static op_status tree_prepare(sss_shape *ss, op_error *err)
     free(n);
     if (st == OP_OK)
         st = op_sss_dipole_kernel_init(&ss->dk, &ss->desc->dipole, ss->a_i, ss->spacing, err);
+    /* the normalization's neighbourhoods (within the ball) in a few cells each */
+    if (st == OP_OK)
+        st = grid_build(&ss->ballg, ss->pts, ss->n, NULL, origin, ss->dk.radial.ball, err);
     return st;
 }
 
@@ -1004,7 +1119,7 @@ static op_status select_tree(sss_shape *ss, const op_sss_saved *sv, const op_sss
         if (ss->rmap[j] < 0)
             continue;
         op_v3 p = ss->pts[j].p;
-        GRID_FOR_EACH(&ss->interp, p, ball, i, {
+        GRID_FOR_EACH(&ss->ballg, p, ball, i, {
             if (v3_len(v3_sub(ss->pts[i].p, p)) <= ball) /* as op_sss_tree_sum tests it */
                 ss->near_recv[i] = 1;
         });
@@ -1097,7 +1212,7 @@ static void weigh_task(void *user, int task, int thread)
             continue; /* not used */
         float r2 = k->ball * k->ball;
         op_v3 got = v3s(0.0f);
-        GRID_FOR_EACH(&ss->interp, q->p, k->ball, j, {
+        GRID_FOR_EACH(&ss->ballg, q->p, k->ball, j, {
             op_v3 d = v3_sub(ss->pts[j].p, q->p);
             float v[3];
             if (v3_dot(d, d) > r2 || v3_dot(ss->pts[j].n, q->n) <= 0.0f)
@@ -1317,14 +1432,26 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
          * its frame's axes */
         ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        st = grid_build(&ss->gather, ss->pts, ss->n, scene->bmin, ss->radius, err);
+        st = grid_build(&ss->gather, ss->pts, ss->n, NULL, scene->bmin, ss->radius, err);
     } else {
-        st = tree_prepare(ss, err);
+        st = tree_prepare(ss, scene->bmin, err);
     }
     if (st == OP_OK)
-        st = grid_build(&ss->interp, ss->pts, ss->n, scene->bmin, ss->h, err);
+        st = grid_build(&ss->interp, ss->pts, ss->n, NULL, scene->bmin, ss->h, err);
     if (st == OP_OK && !(ss->recv = calloc((size_t)ss->n, 1)))
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    ss->hr = ss->h;
+    if (st == OP_OK && ss->hier && !opt->everywhere) {
+        /* exitance at the image's resolution: receivers a twelfth of the smallest pixel
+         * footprint on the shape apart where that is at least 2 point spacings */
+        float foot = FLT_MAX;
+        for (int r = 0; r < gh; r++)
+            for (int k = 0; k < cam->rows[r].n; k++)
+                if (cam->rows[r].h[k].sss == sh->sss)
+                    foot = fminf(foot, pix * cam->rows[r].h[k].span);
+        if (foot < FLT_MAX && foot / 12.0f >= 2.0f * ss->spacing)
+            st = thin_receivers(ss, scene->bmin, foot / 12.0f, err);
+    }
     if (st)
         return st;
     if (opt->everywhere) {
@@ -1336,7 +1463,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
             for (int k = 0; k < cam->rows[r].n; k++) {
                 const cam_hit *hh = &cam->rows[r].h[k];
                 if (hh->sss == sh->sss)
-                    mark_near(ss, hh->p, ss->h + pix * hh->span);
+                    mark_near(ss, hh->p, ss->hr + pix * hh->span);
             }
     }
     op_sss_saved *sv = NULL;
@@ -1480,6 +1607,9 @@ void op_sss_cache_free(op_sss_cache *c)
         free(ss->pts);
         op_sss_tree_free(&ss->tree);
         free(ss->near_recv);
+        free(ss->rep);
+        grid_free(&ss->look);
+        grid_free(&ss->ballg);
         op_sss_dipole_kernel_free(&ss->dk);
         free(ss->bmark);
         free(ss->recv);
@@ -1523,7 +1653,7 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
     op_v3 m = v3s(0.0f);
     int ok = 1;
     *wsum = 0.0f;
-    GRID_FOR_EACH(&ss->interp, p, h, i, {
+    GRID_FOR_EACH(ss->rep ? &ss->look : &ss->interp, p, h, i, {
         const sss_point *q = &ss->pts[i];
         op_v3 d = v3_sub(q->p, p);
         float w = 1.0f - v3_dot(d, d) / h2;
@@ -1533,6 +1663,8 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
             float r = sqrtf(1.0f - w);
             w = (1.0f - r) / (r + 1e-4f);
             w *= w;
+        } else if (ss->rep) { /* thinned receivers: the nearest count most (a narrower blur) */
+            w *= w * w * w;
         }
         if (!ss->recv[i])
             ok = 0;
@@ -1554,7 +1686,7 @@ int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
      * and not its neighbours'), all within h where none is that close (a stretched map) */
     if (ss->centred && lookup_within(ss, p, n, 0.75f * ss->h, out, &wsum) && wsum > 0.0f)
         return 1;
-    if (lookup_within(ss, p, n, ss->h, out, &wsum))
+    if (lookup_within(ss, p, n, ss->hr, out, &wsum))
         return 1;
     *out = v3s(0.0f);
     return 0;

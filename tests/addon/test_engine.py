@@ -88,6 +88,7 @@ FAKE = textwrap.dedent('''\
     # it reads the film size from the exported XML and streams a known gradient in 4 tiles.
     import re, struct, sys
     args = sys.argv[1:]
+    open(sys.argv[0] + ".args", "w").write("\\n".join(args))
     xml = open(args[-1]).read()
     if "FAIL" in open(args[-1]).read() or "--fail" in args:
         sys.stderr.write("scene.xml:12: <shape>: something is wrong\\n")
@@ -154,6 +155,22 @@ class TestEngine(unittest.TestCase):
                 self.assertAlmostEqual(px[0], x / w, places=5)
                 self.assertAlmostEqual(px[1], y / h, places=5)
                 self.assertAlmostEqual(px[2], 0.25, places=5)
+
+    def test_point_cap_follows_renderer(self):
+        """The Irradiance Point Cap's default (0) leaves the renderer's own default: F12 passes
+        no --limit sss-max-points; a cap set by the artist is passed."""
+        fake = self.fake()
+        self.assertEqual(self.sc.opaline.max_sss_points, 0)
+        self.render("default.exr")
+        with open(fake + ".args") as f:
+            args = f.read().split("\n")
+        self.assertFalse([a for a in args if "sss-max-points" in a], args)
+        self.sc.opaline.max_sss_points = 777
+        self.render("set.exr")
+        with open(fake + ".args") as f:
+            args = f.read().split("\n")
+        self.assertIn("sss-max-points=777", args)
+        self.assertEqual(args[args.index("sss-max-points=777") - 1], "--limit")
 
     def test_failure_is_readable(self):
         self.fake()

@@ -234,6 +234,21 @@ class TestRenderSettings(Base):
         for p in ("samples", "max_bounces", "irr_samples", "max_sss_points", "threads"):
             self.assertIn(p, rec.log["props"])
 
+    def test_point_cap_default(self):
+        """The Irradiance Point Cap's default (0) writes no maxPoints: the renderer's own
+        default (--limit sss-max-points) applies."""
+        self.presets()
+        S.add_camera((0, 0, 5))
+        self.assertEqual(self.sc.opaline.max_sss_points, 0)
+        mat = bpy.data.materials.new("sss")
+        mat.opaline.enabled = True
+        mat.opaline.preset = "SVD_S10_Chessboard4x4"
+        self.plane(mat)
+        sub = self.export().find("shape").find("subsurface")
+        names = [c.get("name") for c in sub]
+        self.assertIn("irrSamples", names)
+        self.assertNotIn("maxPoints", names)
+
 
 class TestNoUV(Base):
     def test_warned_and_fixed(self):

@@ -158,10 +158,16 @@ void op_test_write_gaussian_raw(const char *path, const double albedo[3], int va
 
 op_sss_cache *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds)
 {
+    return op_test_sss_prepass_with(path, 0, 2, scene, seconds);
+}
+
+op_sss_cache *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
+                                       op_scene **scene, double *seconds)
+{
     op_error err = {0};
     op_status st = op_scene_load(path, NULL, 0, scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
+    op_sss_build_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL, &op_path_transport};
     op_sss_cache *cache = NULL;
     st = op_sss_cache_build(*scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);

@@ -195,8 +195,8 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None
 
     find_preset(name) -> presets.Preset or None; renderer_knows(folder) -> whether
     opaline-render finds presets of that folder by name (else the .opm path is written);
-    prepass: (irrSamples, maxPoints) of the scene's render settings, or None for the
-    renderer's defaults; material_ref(opm_path) -> the value that names a material file in the
+    prepass: (irrSamples, maxPoints; 0: none written) of the scene's render settings, or None
+    for the renderer's defaults; material_ref(opm_path) -> the value that names a material file in the
     XML (default: the absolute path; collecting exports give a path relative to the XML).
     intIOR is written for the dipole only: measured Rd contains the boundary, and the renderer
     reads no IOR for it."""
@@ -238,7 +238,8 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None
         e.float("intIOR", s.ior)
     if prepass is not None:
         e.integer("irrSamples", prepass[0])
-        e.integer("maxPoints", prepass[1])
+        if prepass[1] > 0:  # 0: the renderer's default (--limit sss-max-points)
+            e.integer("maxPoints", prepass[1])
     return e
 
 

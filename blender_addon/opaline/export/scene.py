@@ -130,8 +130,8 @@ def render_samples(scene):
 
 
 def prepass_settings(scene):
-    """(irrSamples, maxPoints) of the subsurface pre-pass from the scene's render settings, or
-    None (the renderer's defaults) when the scene has none."""
+    """(irrSamples, maxPoints; 0: the renderer's default) of the subsurface pre-pass from the
+    scene's render settings, or None (the renderer's defaults) when the scene has none."""
     o = getattr(scene, "opaline", None)
     if o is None:
         return None
