@@ -215,7 +215,6 @@ uint32_t op_dataset_crc(const op_dataset *d)
     return crc;
 }
 
-static const char *const rd_tags[3] = {"RD.R", "RD.G", "RD.B"};
 static const char *const se_tags[3] = {"SE.R", "SE.G", "SE.B"};
 
 struct op_dataset_writer {
@@ -224,6 +223,7 @@ struct op_dataset_writer {
     int with_se;
     uint64_t rows;     /* rows written so far */
     uint32_t crc[3];   /* of each channel's Rd so far */
+    char rd_tag[3][8]; /* OP_RAW_SECTION + channel, the raw method's own tags */
 };
 
 op_status op_dataset_writer_open(const char *path, const op_dataset *d, int with_se,
@@ -246,8 +246,10 @@ op_status op_dataset_writer_open(const char *path, const op_dataset *d, int with
     dw->with_se = with_se;
     op_status st = op_material_writer_open(path, info, &dw->w, err);
     uint64_t bytes = op_dataset_rows(d) * (uint64_t)d->kernel * (uint64_t)d->kernel * 4;
+    for (int c = 0; c < 3; c++)
+        op_channel_tag(dw->rd_tag[c], sizeof dw->rd_tag[c], OP_RAW_SECTION, info, c);
     for (int c = 0; c < 3 && st == OP_OK; c++)
-        st = op_material_writer_reserve(dw->w, rd_tags[c], bytes, err);
+        st = op_material_writer_reserve(dw->w, dw->rd_tag[c], bytes, err);
     for (int c = 0; c < 3 && st == OP_OK && with_se; c++)
         st = op_material_writer_reserve(dw->w, se_tags[c], bytes, err);
     if (st != OP_OK) {
@@ -267,7 +269,7 @@ op_status op_dataset_writer_add(op_dataset_writer *dw, const op_dataset *b, op_e
     op_status st = OP_OK;
     for (int c = 0; c < 3 && st == OP_OK; c++) {
         dw->crc[c] = op_crc32(dw->crc[c], b->rd[c], n);
-        st = op_material_writer_fill(dw->w, rd_tags[c], b->rd[c], n, err);
+        st = op_material_writer_fill(dw->w, dw->rd_tag[c], b->rd[c], n, err);
     }
     for (int c = 0; c < 3 && st == OP_OK && dw->with_se; c++)
         st = op_material_writer_fill(dw->w, se_tags[c], b->se[c], n, err);
