@@ -426,6 +426,8 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
+}
+
 typedef struct morton_key {
     uint64_t key;
     int index;
