@@ -36,7 +36,6 @@ typedef struct op_sss_desc {
     int irr_samples;       /* paths per irradiance point */
     double density;        /* irradiance points per material pixel area */
     int max_points;
-    int max_points_set;    /* maxPoints given in the scene (it then caps measured materials too) */
     int points;            /* the irradiance points to lay (op_sss_plan) */
     op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
     int is_dipole;         /* 1: the classical dipole below instead of a material (material NULL) */

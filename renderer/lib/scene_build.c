@@ -367,7 +367,6 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
                             "maxPoints in 1..5e7, density in (0, 64]", node->file, node->line);
     d->irr_samples = (int)irr;
     d->max_points = (int)maxp;
-    d->max_points_set = op_node_has(node, "maxPoints");
     if (dipole) {
         GET_OR_FAIL(build_dipole(node, d, err));
         *index = s->nsss++;

@@ -324,10 +324,10 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        int capped = d->is_dipole || (d->max_points_set && want > d->max_points);
+        int capped = d->is_dipole || want > d->max_points;
         if (!capped) {
-            /* a measured material is not coarsened by the default cap (sss-max-points): only
-             * by a maxPoints the scene sets; the total applies (below) */
+            /* a measured material within its cap: one point per material pixel (at its
+             * centre where the map shows the material at its physical size) */
             const op_material_info *info = op_material_get_info(d->material);
             double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
             double step = centred_step(&sh->mesh, info->width, info->height, sx, sy, a_pix,
