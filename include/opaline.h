@@ -155,8 +155,9 @@ int op_parallel_threads(int nthreads);
 
 /* For loops that are element-wise (no reduction): the function is also compiled for AVX2 and
  * AVX-512, the variant chosen at load time. Every variant gives the same bits, as C11 mode
- * contracts no a * b + c into a fused multiply-add (-ffp-contract=off). */
-#if defined(__x86_64__) && defined(__has_attribute)
+ * contracts no a * b + c into a fused multiply-add (-ffp-contract=off). GCC only: clang (the
+ * fuzzing build) emits no symbol other files can link for a cloned external function. */
+#if defined(__x86_64__) && defined(__has_attribute) && !defined(__clang__)
 #if __has_attribute(target_clones)
 #define OP_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
