@@ -86,6 +86,11 @@ SETTINGS = [
 ]
 
 
+# Relative RMSE of single-precision storage and its log/exp round trip (float32 epsilon 6e-8,
+# times a few): errors below it are rounding, equal for the "never hurt" comparison.
+ROUNDING_FLOOR = 1e-6
+
+
 def bound(case, method, label):
     """The documented bound on the relative RMSE of a case that succeeds."""
     if case == "constant":
@@ -152,10 +157,12 @@ def main():
                 r = json.load(open(rep))
                 e = r["relative_rmse"]
                 ok = e is not None and math.isfinite(e) and e <= b
-                # more terms or a higher degree never hurt (within 1 %)
+                # more terms or a higher degree never hurt (within 1 %, or both at the float
+                # rounding floor, where the order of two errors is noise: constant data at T=1
+                # and T=4 gave 1.26e-07 and 1.45e-07 with Debian 13's OpenBLAS)
                 key = (method, label.split()[0] if method == "tucker" else "")
-                if method in ("svd", "tucker") and key in previous and e > previous[key] * 1.01 \
-                        and "=1e" not in label:
+                if method in ("svd", "tucker") and key in previous \
+                        and e > max(previous[key] * 1.01, ROUNDING_FLOOR) and "=1e" not in label:
                     ok = False
                 if method in ("svd", "tucker") and "=1e" not in label:
                     previous[key] = min(previous.get(key, e), e)

@@ -9,5 +9,11 @@ BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
 T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/factor_stress.XXXXXX")
 trap 'rm -rf "$T"' EXIT
+# The table's header, any failing rows and the summary: a failure names its case in the log.
+rc=0
 python3 "${OPALINE_SOURCE_DIR:-$(dirname "$0")/../..}/bench/stress_factor.py" --bin "$BIN" \
-  --out "$T" | tail -n 3
+  --out "$T" >"$T/table.txt" || rc=$?
+head -n 2 "$T/table.txt"
+grep -F '| FAIL |' "$T/table.txt" || true
+tail -n 1 "$T/table.txt"
+exit "$rc"
