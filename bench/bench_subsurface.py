@@ -6,7 +6,9 @@ light and a dim constant sky, RES x RES, with the measured chessboards Chess4x4 
   - `raw` (the dataset itself) is the reference;
   - `svd` (log transform A = 100, B = 1) and `tucker` (the paper's P: 7 for Chess4x4, 4 for
     Chess8x8) for every T in TERMS, factored here with `opaline-factor factor`;
-each rendered at SPP samples per pixel, REPEAT times. Reported per material: the factorization
+each rendered at SPP samples per pixel, REPEAT times, with the `sobol` sampler (opaline's
+Owen-scrambled Sobol numbers, what the Blender add-on writes; --sampler independent for plain
+random numbers, as before 2026-11-25). Reported per material: the factorization
 time (cached), the subsurface pre-pass and the camera pass (the renderer's own `subsurface
 pre-pass: X s` and `camera pass: X s` lines), the process wall time, the render process's peak
 resident memory (GNU time; the renderer does not report memory), RMSE, relative RMSE (RMSE / mean
@@ -67,6 +69,7 @@ def args():
     p.add_argument("--conv-t", type=int, default=GOAL_T)
     p.add_argument("--no-converge", action="store_true")
     p.add_argument("--mesh", required=True)
+    p.add_argument("--sampler", default="sobol", choices=["sobol", "independent"])
     a = p.parse_args()
     a.presets = a.presets or os.path.join(a.build, "presets")
     a.out = a.out or os.path.join(a.build, "bench-subsurface")
@@ -133,7 +136,7 @@ def render(label, method, material, spp, repeat):
     """Renders `repeat` times; returns the image path and the median figures."""
     xml = os.path.join(A.out, "scenes", "%s_s%d.xml" % (label, spp))
     with open(xml, "w") as f:
-        f.write(scene_xml(method, material, spp, A.res, A.mesh))
+        f.write(scene_xml(method, material, spp, A.res, A.mesh, sampler=A.sampler))
     img = os.path.join(A.out, "images", "%s_s%d.pfm" % (label, spp))
     runs = []
     for _ in range(repeat):
@@ -203,8 +206,8 @@ def main():
     FACTOR = os.path.join(A.build, "bin", "opaline-factor")
     for d in ("datasets", "materials", "scenes", "images"):
         os.makedirs(os.path.join(A.out, d), exist_ok=True)
-    log("opaline-render subsurface benchmark: %s %dx%d, %d spp, %d threads, median of %d run(s)"
-        % (os.path.basename(A.mesh), A.res, A.res, A.spp, A.threads, A.repeat))
+    log("opaline-render subsurface benchmark: %s %dx%d, %d spp (%s), %d threads, median of %d "
+        "run(s)" % (os.path.basename(A.mesh), A.res, A.res, A.spp, A.sampler, A.threads, A.repeat))
     log("output: %s" % A.out)
     head = "%-24s %8s %9s %9s %9s %9s %10s %8s %8s" % (
         "material", "factor_s", "prepass_s", "render_s", "total_s", "peak_MiB", "RMSE",
@@ -285,6 +288,7 @@ def main():
     with open(os.path.join(A.out, "results.json"), "w") as f:
         json.dump({"settings": {"mesh": A.mesh, "res": A.res, "spp": A.spp,
                                 "threads": A.threads, "repeat": A.repeat, "terms": A.terms,
+                                "sampler": A.sampler,
                                 "boards": A.boards, "machine": platform.machine(),
                                 "cpus": os.cpu_count()},
                    "results": rows, "convergence": conv, "verdict": verdict}, f, indent=1,

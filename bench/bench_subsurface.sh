@@ -12,7 +12,8 @@
 #   Environment: OUT (output folder, default BUILD_DIR/bench-subsurface; materials factored
 #   there are reused by later runs), RES (image side, default 512), REPEAT (runs per render,
 #   median; default 1), TERMS (default "1 2 5 10 20 40"), BOARDS (default "chess4x4 chess8x8"),
-#   CONVERGE=0 (skip the time-to-1 % runs), OPALINE_SHARED_DIR (where meshes/spot.obj is).
+#   CONVERGE=0 (skip the time-to-1 % runs), OPALINE_SHARED_DIR (where meshes/spot.obj is),
+#   SAMPLER (sobol, the default, or independent).
 set -euo pipefail
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$(cd "${1:-$SRC/build}" && pwd)
@@ -33,5 +34,5 @@ conv=()
 exec python3 "$SRC/bench/bench_subsurface.py" --build "$BUILD" --threads "$THREADS" --spp "$SPP" \
     --presets "$PRESETS" --out "${OUT:-$BUILD/bench-subsurface}" --res "${RES:-512}" \
     --repeat "${REPEAT:-1}" --terms "${TERMS:-1 2 5 10 20 40}" \
-    --boards "${BOARDS:-chess4x4 chess8x8}" --mesh "$(cd "$(dirname "$SPOT")" && pwd)/spot.obj" \
+    --boards "${BOARDS:-chess4x4 chess8x8}" --sampler "${SAMPLER:-sobol}" --mesh "$(cd "$(dirname "$SPOT")" && pwd)/spot.obj" \
     "${conv[@]}"

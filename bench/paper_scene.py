@@ -32,10 +32,11 @@ def find_mesh(root):
     return None
 
 
-def scene_xml(method, material, spp, res, mesh=None, scale=SCALE):
+def scene_xml(method, material, spp, res, mesh=None, scale=SCALE, sampler="independent"):
     """The scene: `material` (absolute .opm path) of subsurface type `method` on `mesh` (an .obj
     path; None: a sphere of radius 0.8 standing where Spot stands, with Mitsuba's uv), res x res
-    pixels at spp samples per pixel."""
+    pixels at spp samples per pixel from `sampler` (a Mitsuba sampler type: independent, or
+    sobol for opaline's low-discrepancy numbers, which bench_subsurface uses)."""
     sub = """    <subsurface type="%s">
       <string name="material" value="%s"/>
       <float name="scale" value="%g"/>
@@ -56,7 +57,7 @@ def scene_xml(method, material, spp, res, mesh=None, scale=SCALE):
   <sensor type="perspective">
     <float name="fov" value="35"/>
     <transform name="toWorld"><lookat origin="2.6, 1.2, 2.4" target="0, 0.05, 0.1" up="0, 1, 0"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="%d"/></sampler>
+    <sampler type="%s"><integer name="sampleCount" value="%d"/></sampler>
     <film type="hdrfilm"><integer name="width" value="%d"/><integer name="height" value="%d"/></film>
   </sensor>
   <emitter type="spot">
@@ -71,7 +72,7 @@ def scene_xml(method, material, spp, res, mesh=None, scale=SCALE):
     <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
   </shape>
 </scene>
-""" % (spp, res, res, shape)
+""" % (sampler, spp, res, res, shape)
 
 
 def parse_time_v(text):
