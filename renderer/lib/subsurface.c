@@ -1651,60 +1651,28 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
  * (the material pixel's exitance at its centre), smooth between. */
 static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *out, float *wsum)
 {
-    const sss_grid *g = ss->rep ? &ss->look : &ss->interp;
     float h2 = h * h;
     op_v3 m = v3s(0.0f);
     int ok = 1;
     *wsum = 0.0f;
-    /* GRID_FOR_EACH's cells in its order, less those whose box lies farther than h from p
-     * (every point in them would get a weight <= 0): the same points, the same sum */
-    int32_t lo[3], hi[3];
-    cell_of(g, v3_sub(p, v3s(h)), lo);
-    cell_of(g, v3_add(p, v3s(h)), hi);
-    const float q[3] = {p.x - g->origin.x, p.y - g->origin.y, p.z - g->origin.z};
-    /* per axis: squared distance from p to the slab of cell lo + k, k < 3, less a margin far
-     * above cell_of's rounding (so a cell is never dropped that holds a point within h) */
-    float gap[3][3];
-    for (int a = 0; a < 3; a++)
-        for (int k = 0; k < 3; k++) {
-            float c0 = (float)(lo[a] + k) * g->cell, c1 = c0 + g->cell;
-            float d = q[a] < c0 ? c0 - q[a] : (q[a] > c1 ? q[a] - c1 : 0.0f);
-            d = fmaxf(d - 1e-5f * (fabsf(q[a]) + g->cell), 0.0f);
-            gap[a][k] = hi[a] - lo[a] < 3 ? d * d : 0.0f; /* wider boxes (h > cell): no pruning */
+    GRID_FOR_EACH(ss->rep ? &ss->look : &ss->interp, p, h, i, {
+        const sss_point *q = &ss->pts[i];
+        op_v3 d = v3_sub(q->p, p);
+        float w = 1.0f - v3_dot(d, d) / h2;
+        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
+            continue;
+        if (ss->centred) {
+            float r = sqrtf(1.0f - w);
+            w = (1.0f - r) / (r + 1e-4f);
+            w *= w;
+        } else if (ss->rep) { /* thinned receivers: the nearest count most (a narrower blur) */
+            w *= w * w * w;
         }
-    for (int32_t cz = lo[2]; cz <= hi[2]; cz++) {
-        float gz = gap[2][cz - lo[2] < 3 ? cz - lo[2] : 2];
-        for (int32_t cy = lo[1]; cy <= hi[1]; cy++) {
-            float gyz = gz + gap[1][cy - lo[1] < 3 ? cy - lo[1] : 2];
-            for (int32_t cx = lo[0]; cx <= hi[0]; cx++) {
-                if (gyz + gap[0][cx - lo[0] < 3 ? cx - lo[0] : 2] > h2)
-                    continue;
-                uint32_t b = cell_hash(cx, cy, cz, g->mask);
-                for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
-                    int i = (int)g->items[k];
-                    const int32_t *c = g->coord + 3 * i;
-                    if (c[0] != cx || c[1] != cy || c[2] != cz)
-                        continue;
-                    const sss_point *pt = &ss->pts[i];
-                    op_v3 d = v3_sub(pt->p, p);
-                    float w = 1.0f - v3_dot(d, d) / h2;
-                    if (w <= 0.0f || v3_dot(pt->n, n) <= 0.0f)
-                        continue;
-                    if (ss->centred) {
-                        float r = sqrtf(1.0f - w);
-                        w = (1.0f - r) / (r + 1e-4f);
-                        w *= w;
-                    } else if (ss->rep) { /* thinned receivers: the nearest count most */
-                        w *= w * w * w;
-                    }
-                    if (!ss->recv[i])
-                        ok = 0;
-                    *wsum += w;
-                    m = v3_add(m, v3_scale(pt->m, w));
-                }
-            }
-        }
-    }
+        if (!ss->recv[i])
+            ok = 0;
+        *wsum += w;
+        m = v3_add(m, v3_scale(q->m, w));
+    });
     *out = *wsum > 0.0f ? v3_scale(m, 1.0f / *wsum) : v3s(0.0f);
     return ok;
 }
