@@ -23,10 +23,11 @@ see bench_cycles_noise.py). The sample count that reaches noise = 1 % of the ref
 interpolated in log(spp)-log(noise) between the two counts that bracket it (extrapolated from
 the last two when none reaches it: below 16 x SPP the target is often not bracketed), and its
 time read from a straight-line fit of wall time against spp over the runs (fixed loading and
-pre-pass, linear camera pass). The subsurface pre-pass is deterministic and does not depend
+pre-pass, linear camera pass), its CPU time (user + system of the render process, steadier on
+a shared machine) from the same fit of CPU time. The subsurface pre-pass is deterministic and does not depend
 on the camera's sample count, so this is the camera pass's noise; the pre-pass's own error
 (irradiance noise, interpolation) is a bias shared with the reference and shows in the RMSE
-against raw instead. The times are whole-process wall times (loading, pre-pass, camera pass,
+against raw instead. The times are whole-process times (loading, pre-pass, camera pass,
 writing).
 
 The scene text and the image comparison live in bench/paper_scene.py (shared with
@@ -148,13 +149,14 @@ def render(label, method, material, spp, repeat):
             sys.stderr.write(line + "\n")
         wall, rss = parse_time_v(r["stderr"])
         runs.append({"prepass_s": r["prepass_s"], "render_s": r["render_s"], "total_s": wall,
+                     "cpu_s": r["cpu_s"],
                      "peak_MiB": rss})
     med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
     med["runs"] = runs
     return img, med
 
 
-def crossing(runs, target):
+def crossing(runs, target, key="total_s"):
     """(samples, seconds) at which the noise reaches target. The sample count is interpolated in
     log(spp)-log(noise) between the runs that bracket it (sorted by spp, noise falling), else
     extrapolated from the last two; the time is the least-squares line through (spp, wall time)
@@ -165,7 +167,7 @@ def crossing(runs, target):
     i = next((k for k in range(1, len(pts)) if pts[k][1] <= lt), len(pts) - 1)
     (x0, y0), (x1, y1) = pts[i - 1], pts[i]
     n = runs[i]["spp"] if y1 == y0 else math.exp(x0 + (lt - y0) * (x1 - x0) / (y1 - y0))
-    xs, ys = [r["spp"] for r in runs], [r["total_s"] for r in runs]
+    xs, ys = [r["spp"] for r in runs], [r[key] for r in runs]
     mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
     sxx = sum((x - mx) ** 2 for x in xs)
     slope = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx if sxx > 0 else 0.0
@@ -186,16 +188,18 @@ def converge(board, label, method, material):
         f.update(board=board, label=label, spp=spp, rmse_vs_reference=e,
                  noise=e / math.sqrt(1.0 - spp / ref_spp))
         runs.append(f)
-        log("  %-22s %5d spp %8.2f s  noise %.3g%% of the mean" %
-            (label, spp, f["total_s"], 100 * f["noise"] / mean))
+        log("  %-22s %5d spp %8.2f s (%.2f CPU s)  noise %.3g%% of the mean" %
+            (label, spp, f["total_s"], f["cpu_s"], 100 * f["noise"] / mean))
         if f["noise"] <= target and len(runs) >= 2:
             break
         spp *= 2
     n, secs, per_spp = crossing(runs, target)
+    _, cpu, cpu_per_spp = crossing(runs, target, "cpu_s")
     return {"board": board, "label": label, "method": method, "reference_spp": ref_spp,
             "reference_total_s": ref_f["total_s"], "mean": mean, "target_rmse": target,
             "target_reached": runs[-1]["noise"] <= target, "spp_to_1pct": n,
             "seconds_per_spp": per_spp, "seconds_to_1pct": secs,
+            "cpu_seconds_per_spp": cpu_per_spp, "cpu_seconds_to_1pct": cpu,
             "runs": [{k: v for k, v in r.items() if k != "runs"} for r in runs]}
 
 
@@ -250,10 +254,11 @@ def main():
             for lab, method, m in (("RAW_" + name, "raw", ds), (label, "svd", mat)):
                 c = converge(name, lab, method, m)
                 conv.append(c)
-                log("  %-22s 1 %% at %.0f spp, %.2f s (%s; %.3f s per spp)" % (
-                    lab, c["spp_to_1pct"], c["seconds_to_1pct"],
-                    "bracketed" if c["target_reached"] else "extrapolated",
-                    c["seconds_per_spp"]))
+                log("  %-22s 1 %% at %.0f spp, %.2f s, %.2f CPU s (%s; %.3f s, %.3f CPU s "
+                    "per spp)" % (lab, c["spp_to_1pct"], c["seconds_to_1pct"],
+                                  c["cpu_seconds_to_1pct"],
+                                  "bracketed" if c["target_reached"] else "extrapolated",
+                                  c["seconds_per_spp"], c["cpu_seconds_per_spp"]))
 
     keys = ["board", "method", "T", "P", "spp", "res", "label", "factor_s", "prepass_s",
             "render_s", "total_s", "peak_MiB", "material_MiB", "rmse", "rel_rmse", "psnr_db"]
@@ -261,7 +266,7 @@ def main():
         w = csv.DictWriter(f, keys)
         w.writeheader()
         w.writerows(rows)
-    ckeys = ["board", "label", "spp", "prepass_s", "render_s", "total_s", "peak_MiB",
+    ckeys = ["board", "label", "spp", "prepass_s", "render_s", "total_s", "cpu_s", "peak_MiB",
              "rmse_vs_reference", "noise"]
     with open(os.path.join(A.out, "convergence.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, ckeys, extrasaction="ignore")
@@ -273,13 +278,15 @@ def main():
     main_name = BOARDS[A.boards[0]][0]
     psnr = next((r["psnr_db"] for r in rows if r["board"] == main_name and
                  r["method"] == "svd" and r["T"] == GOAL_T), None)
-    secs = next((c["seconds_to_1pct"] for c in conv if c["board"] == main_name and
-                 c["label"].startswith("SVD_S%d_" % GOAL_T)), None)
+    cv = next((c for c in conv if c["board"] == main_name and
+               c["label"].startswith("SVD_S%d_" % GOAL_T)), None)
+    secs = cv["seconds_to_1pct"] if cv else None
     if psnr is not None and secs is not None:
         ok_t, ok_p = secs <= GOAL_SECONDS, psnr >= GOAL_PSNR
-        verdict = ("verdict: %s svd T=%d at %dx%d: converged (1 %%) in %.1f s (goal <= %g s: %s), "
-                   "PSNR against raw %.2f dB (goal >= %g dB: %s)%s" % (
-                       main_name, GOAL_T, A.res, A.res, secs, GOAL_SECONDS,
+        verdict = ("verdict: %s svd T=%d at %dx%d: converged (1 %%) in %.1f s, %.1f CPU s (goal "
+                   "<= %g s: %s), PSNR against raw %.2f dB (goal >= %g dB: %s)%s" % (
+                       main_name, GOAL_T, A.res, A.res, secs, cv["cpu_seconds_to_1pct"],
+                       GOAL_SECONDS,
                        "ok" if ok_t else "MISSED", psnr, GOAL_PSNR, "ok" if ok_p else "MISSED",
                        "" if A.res == 512 else " [the goal is stated for 512x512]"))
     else:
