@@ -54,6 +54,9 @@ typedef struct sss_shape {
     sss_grid ballg;     /* hier: the grid of the points, of the profile's ball as cell */
     int n;
     sss_point *pts;
+    int nfull;    /* the points of the whole layout (n unless windowed) */
+    int *gid;     /* windowed (n points of a measured layout of nfull, those near the view):
+                     per point its index in the whole layout (ascending); NULL: the identity */
     sss_grid gather, interp;
     struct gather_pt *gpts; /* centred: the points in the gather grid's bucket order */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
@@ -81,6 +84,13 @@ struct op_sss_cache {
     int n;
     double seconds; /* the build's wall time */
 };
+
+/* Point i's index in the shape's whole layout (what the irradiance's random stream, the
+ * scatter's chunks and the pre-pass cache go by). */
+static int point_index(const sss_shape *ss, int i)
+{
+    return ss->gid ? ss->gid[i] : i;
+}
 
 static uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask)
 {
@@ -324,29 +334,37 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        int capped = d->is_dipole || want > d->max_points;
+        int capped = d->is_dipole;
+        d->windowed = 0;
         if (!capped) {
-            /* a measured material within its cap: one point per material pixel (at its
-             * centre where the map shows the material at its physical size) */
+            /* a measured material: one point per material pixel (at its centre where the map
+             * shows the material at its physical size, then with no cap: a shape needing more
+             * than maxPoints lays only the points near the view, make_points) */
             const op_material_info *info = op_material_get_info(d->material);
             double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
             double step = centred_step(&sh->mesh, info->width, info->height, sx, sy, a_pix,
                                        d->density);
             if (step > 0.0)
                 want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy, step);
+            else
+                capped = want > d->max_points;
             if (want > INT32_MAX)
                 return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
                                     "points (one per material pixel at density %g) are more "
                                     "than a shape can hold (%d)", sh->label, want, d->density,
                                     INT32_MAX);
-            d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
-        } else if (want > d->max_points)
+            if (!capped) {
+                d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
+                d->windowed = step > 0.0 && d->points > d->max_points;
+            }
+        }
+        if (capped && want > d->max_points)
             op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
                    "material pixel; capped at %d (coarser than the material: raise maxPoints or "
                    "lower scale)", sh->label, want, d->max_points);
         if (capped)
             d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
-        total += d->points;
+        total += d->windowed ? d->max_points : d->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
                                 "need %.0f irradiance points so far, over the limit of %lld "
@@ -386,19 +404,126 @@ static void box_frame(sss_point *q, int ua, int va)
     q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
 }
 
+/* One translucent hit of a camera segment: the shape, the point, and the length one radian of
+ * ray angle spans there (path length / |cos|). */
+typedef struct cam_hit {
+    op_v3 p;
+    float span;
+    int sss;
+} cam_hit;
+
+typedef struct cam_row {
+    cam_hit *h;
+    int n, cap;
+} cam_row;
+
+typedef struct cam_job {
+    const op_scene *scene;
+    const op_sss_transport *transport;
+    uint64_t seed;
+    int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
+    cam_row *rows;
+    atomic_int nomem;
+} cam_job;
+
+/* A set of grid cells, by exact coordinates (open addressing): a windowed shape's window. */
+typedef struct cell_set {
+    sss_grid cells; /* only cell and origin */
+    uint32_t size, count; /* size a power of 2, or 0 */
+    int32_t *tab;   /* 3 per slot; INT32_MIN in x: empty */
+} cell_set;
+
+static uint32_t cell_slot(const cell_set *cs, const int32_t c[3])
+{
+    uint32_t b = cell_hash(c[0], c[1], c[2], cs->size - 1);
+    while (cs->tab[3 * (size_t)b] != INT32_MIN &&
+           (cs->tab[3 * (size_t)b] != c[0] || cs->tab[3 * (size_t)b + 1] != c[1] ||
+            cs->tab[3 * (size_t)b + 2] != c[2]))
+        b = (b + 1) & (cs->size - 1);
+    return b;
+}
+
+static int cell_set_has(const cell_set *cs, const int32_t c[3])
+{
+    return cs->size && cs->tab[3 * (size_t)cell_slot(cs, c)] != INT32_MIN;
+}
+
+/* Adds cell c; 0 when out of memory. */
+static int cell_set_add(cell_set *cs, const int32_t c[3])
+{
+    if (2 * (cs->count + 1) > cs->size) {
+        uint32_t size = cs->size ? 2 * cs->size : 1024;
+        cell_set old = *cs;
+        if (size > (1u << 30) || !(cs->tab = malloc(3 * (size_t)size * sizeof *cs->tab))) {
+            cs->tab = old.tab;
+            return 0;
+        }
+        cs->size = size;
+        for (uint32_t b = 0; b < size; b++)
+            cs->tab[3 * (size_t)b] = INT32_MIN;
+        for (uint32_t b = 0; b < old.size; b++)
+            if (old.tab[3 * (size_t)b] != INT32_MIN)
+                memcpy(cs->tab + 3 * (size_t)cell_slot(cs, old.tab + 3 * (size_t)b),
+                       old.tab + 3 * (size_t)b, 3 * sizeof *cs->tab);
+        free(old.tab);
+    }
+    uint32_t b = cell_slot(cs, c);
+    if (cs->tab[3 * (size_t)b] == INT32_MIN) {
+        memcpy(cs->tab + 3 * (size_t)b, c, 3 * sizeof *c);
+        cs->count++;
+    }
+    return 1;
+}
+
+/* Whether a cell of the box [lo, hi] is in the set. */
+static int cell_set_box(const cell_set *cs, op_v3 lo, op_v3 hi)
+{
+    int32_t a[3], b[3], c[3];
+    cell_of(&cs->cells, lo, a);
+    cell_of(&cs->cells, hi, b);
+    for (c[2] = a[2]; c[2] <= b[2]; c[2]++)
+        for (c[1] = a[1]; c[1] <= b[1]; c[1]++)
+            for (c[0] = a[0]; c[0] <= b[0]; c[0]++)
+                if (cell_set_has(cs, c))
+                    return 1;
+    return 0;
+}
+
 typedef struct lay_job {
     const op_trimesh *m;
     sss_shape *ss;
-    int t, ua, va, k;
+    int t, ua, va;
+    long long k;   /* the samples visited so far: the next one's index in the whole layout */
     float area;    /* what one sample of triangle t stands for */
+    const cell_set *win; /* windowed: lay only the samples in these cells, at most cap */
+    op_v3 a, b, c;       /* windowed: triangle t */
+    int laid, cap, over;
 } lay_job;
 
 static void lay_site(void *user, const op_sss_site *s)
 {
     lay_job *j = user;
-    if (j->k++ >= j->ss->n)
-        return; /* counted only */
-    sss_point *q = &j->ss->pts[j->k - 1];
+    sss_point *q;
+    if (j->win) {
+        long long k = j->k++;
+        float b1 = (float)s->b1, b2 = (float)s->b2;
+        op_v3 p = v3_add(v3_add(v3_scale(j->a, 1.0f - b1 - b2), v3_scale(j->b, b1)),
+                         v3_scale(j->c, b2));
+        int32_t c[3];
+        cell_of(&j->win->cells, p, c);
+        if (j->over || !cell_set_has(j->win, c))
+            return;
+        if (j->laid == j->cap) {
+            j->over = 1;
+            return;
+        }
+        j->ss->gid[j->laid] = (int)k;
+        q = &j->ss->pts[j->laid++];
+    } else {
+        if (j->k++ >= j->ss->n)
+            return; /* counted only */
+        q = &j->ss->pts[j->k - 1];
+    }
     point_geometry(j->m, j->t, (float)(1.0 - s->b1 - s->b2), (float)s->b1, (float)s->b2, q);
     if (j->ua >= 0 || !triangle_uv_frame(j->m, j->t, q->n, &q->tu, &q->tv)) {
         int ua = j->ua, va = j->va;
@@ -415,9 +540,10 @@ static void lay_site(void *user, const op_sss_site *s)
 
 /* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h), at most ss->n
  * of them; returns how many samples there are (the layout is complete when that is ss->n). */
-static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
+static long long lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
+                             double step)
 {
-    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
+    lay_job j = {.m = m, .ss = ss};
     for (j.t = 0; j.t < m->ntris && j.k <= ss->n; j.t++) {
         double xy[3][2];
         triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
@@ -426,6 +552,92 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
+}
+
+/* The window of a windowed shape: cells of a quarter of the reach below that cover every point
+ * within reach of a camera hit on it, the reach being what a receiver there may need: the
+ * lookup's radius h and the hit's footprint (the receivers), a source's reach from a receiver
+ * and a neighbour's from a source (the normalization), each at most sqrt(3) x the gather
+ * radius, and a spacing. */
+static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
+                              cell_set *win, op_error *err)
+{
+    float reach = 0.0f;
+    for (int r = 0; r < gh; r++)
+        for (int k = 0; k < cam->rows[r].n; k++)
+            if (cam->rows[r].h[k].sss == sss)
+                reach = fmaxf(reach, pix * cam->rows[r].h[k].span);
+    reach += ss->h + 2.0f * sqrtf(3.0f) * ss->radius + ss->spacing;
+    cell_set hits;
+    memset(&hits, 0, sizeof hits);
+    memset(win, 0, sizeof *win);
+    hits.cells.cell = win->cells.cell = reach / 4.0f;
+    hits.cells.origin = win->cells.origin = v3s(0.0f);
+    int ok = 1;
+    for (int r = 0; r < gh && ok; r++)
+        for (int k = 0; k < cam->rows[r].n && ok; k++)
+            if (cam->rows[r].h[k].sss == sss) {
+                int32_t c[3];
+                cell_of(&hits.cells, cam->rows[r].h[k].p, c);
+                ok = cell_set_add(&hits, c);
+            }
+    /* a point within reach of a hit in cell c lies in a cell within 4 of c along each axis */
+    for (uint32_t b = 0; b < hits.size && ok; b++) {
+        const int32_t *h = hits.tab + 3 * (size_t)b;
+        if (h[0] == INT32_MIN)
+            continue;
+        int32_t c[3];
+        for (c[2] = h[2] - 4; c[2] <= h[2] + 4 && ok; c[2]++)
+            for (c[1] = h[1] - 4; c[1] <= h[1] + 4 && ok; c[1]++)
+                for (c[0] = h[0] - 4; c[0] <= h[0] + 4 && ok; c[0]++)
+                    ok = cell_set_add(win, c);
+    }
+    free(hits.tab);
+    return ok ? OP_OK : op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface window");
+}
+
+/* Lays the centred samples of a windowed shape that lie in win (every one has its index in the
+ * whole layout in gid), at most ss->desc->max_points of them; returns 0 when there are more
+ * (nothing usable is laid) and -1 when out of memory. */
+static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step,
+                      const cell_set *win)
+{
+    int cap = ss->desc->max_points;
+    ss->pts = calloc((size_t)cap, sizeof *ss->pts);
+    ss->gid = malloc((size_t)cap * sizeof *ss->gid);
+    if (!ss->pts || !ss->gid)
+        return -1;
+    lay_job j = {.m = m, .ss = ss, .win = win, .cap = cap};
+    for (j.t = 0; j.t < m->ntris && !j.over; j.t++) {
+        double xy[3][2];
+        triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
+        op_trimesh_tri(m, j.t, &j.a, &j.b, &j.c);
+        op_v3 lo = v3(fminf(j.a.x, fminf(j.b.x, j.c.x)), fminf(j.a.y, fminf(j.b.y, j.c.y)),
+                      fminf(j.a.z, fminf(j.b.z, j.c.z)));
+        op_v3 hi = v3(fmaxf(j.a.x, fmaxf(j.b.x, j.c.x)), fmaxf(j.a.y, fmaxf(j.b.y, j.c.y)),
+                      fmaxf(j.a.z, fmaxf(j.b.z, j.c.z)));
+        op_v3 e = v3_sub(hi, lo);
+        double cells = 1.0;
+        for (int a = 0; a < 3; a++)
+            cells *= floor(v3_get(e, a) / win->cells.cell) + 2.0;
+        if (cells <= 4096.0 && !cell_set_box(win, lo, hi)) {
+            j.k += op_sss_measured_raster(xy, step, NULL, NULL); /* counted only */
+            continue;
+        }
+        double samples = mapped_area(xy) / (step * step);
+        j.area = samples > 0.0 ? (float)(world_area(m, j.t) / samples) : 0.0f;
+        op_sss_measured_raster(xy, step, lay_site, &j);
+    }
+    if (j.over || j.laid == 0)
+        return 0;
+    ss->n = j.laid;
+    sss_point *p = realloc(ss->pts, (size_t)j.laid * sizeof *p);
+    int *g = realloc(ss->gid, (size_t)j.laid * sizeof *g);
+    if (p)
+        ss->pts = p;
+    if (g)
+        ss->gid = g;
+    return 1;
 }
 
 typedef struct morton_key {
@@ -486,8 +698,11 @@ static op_status spatial_order(sss_shape *ss, op_v3 lo, op_v3 hi, op_error *err)
     return OP_OK;
 }
 
+/* Lays shape sh's points. A windowed shape (op_sss_desc.windowed) lays those of its centred
+ * layout in the window of the camera's hits (cam: gh rows; NULL: the whole shape is in view)
+ * when they are at most maxPoints, and is coarsened to maxPoints points otherwise. */
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
-                             op_error *err)
+                             const cam_job *cam, int gh, float pix, op_error *err)
 {
     const op_trimesh *m = &sh->mesh;
     double sx, sy; /* one tile of the material in scene units */
@@ -512,13 +727,46 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     }
     ss->a_pix = ss->px * ss->py;
     int n = ss->desc->points; /* op_sss_plan */
-    ss->n = n;
+    ss->n = ss->nfull = n;
     ss->a_i = m->area / (float)n;
     ss->spacing = sqrtf(ss->a_i);
+    if (ss->desc->windowed) {
+        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
+                                   ss->desc->density);
+        int laid = 0;
+        if (cam) {
+            /* the radii prepare_shape sets for a centred shape */
+            ss->h = 2.0f * ss->spacing;
+            ss->radius = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
+            cell_set win;
+            op_status st = window_build(ss, sh->sss, cam, gh, pix, &win, err);
+            laid = st ? -1 : lay_window(m, ss, sx, sy, step, &win);
+            free(win.tab);
+            if (st)
+                return st;
+        }
+        if (laid < 0)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points",
+                                ss->desc->max_points);
+        if (laid) {
+            ss->centred = 1;
+            return OP_OK;
+        }
+        op_log(OP_LOG_WARN, "%s: subsurface: the view needs more than maxPoints = %d "
+               "irradiance points at one per material pixel (the shape has %d); the shape is "
+               "coarsened to %d (raise maxPoints or lower scale)", sh->label,
+               ss->desc->max_points, n, ss->desc->max_points);
+        free(ss->pts);
+        free(ss->gid);
+        ss->gid = NULL;
+        n = ss->n = ss->nfull = ss->desc->max_points;
+        ss->a_i = m->area / (float)n;
+        ss->spacing = sqrtf(ss->a_i);
+    }
     ss->pts = calloc((size_t)n, sizeof *ss->pts);
     if (!ss->pts)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
-    if (!ss->desc->is_dipole) {
+    if (!ss->desc->is_dipole && !ss->desc->windowed) {
         double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
                                    ss->desc->density);
         if (step > 0.0 && lay_centred(m, ss, sx, sy, step) == n) {
@@ -592,7 +840,8 @@ static void irradiance_task(void *user, int task, int thread)
         op_v3 sum = v3s(0.0f);
         for (int s = 0; s < spp; s++) {
             op_rng rng = op_rng_seed(job->seed ^ 0x5355425355524641ull,
-                                     ((uint64_t)job->task_shape[task] << 40) | (uint64_t)k,
+                                     ((uint64_t)job->task_shape[task] << 40) |
+                                         (uint64_t)point_index(ss, k),
                                      (uint64_t)s);
             op_v3 e = job->transport->irradiance(job->scene, job->task_shape[task], q->p, q->ng,
                                                  q->n, &rng);
@@ -602,6 +851,31 @@ static void irradiance_task(void *user, int task, int thread)
         q->e = v3_scale(sum, 1.0f / (float)spp);
     }
     op_progress_advance(job->prog, (uint64_t)(last - first));
+}
+
+/* The points [*first, *last) of scatter chunk `chunk`: those whose index in the whole layout
+ * lies in [chunk size, (chunk + 1) size), so that a receiver's sum runs in the same order
+ * whichever points are laid or are sources. */
+static void chunk_range(const sss_shape *ss, int chunk, int size, int *first, int *last)
+{
+    long long lo = (long long)chunk * size, hi = lo + size;
+    if (hi > ss->nfull)
+        hi = ss->nfull;
+    int b[2];
+    for (int e = 0; e < 2; e++) {
+        long long want = e ? hi : lo;
+        int l = 0, h = ss->n; /* the first point whose index is at least want */
+        while (l < h) {
+            int mid = l + (h - l) / 2;
+            if (point_index(ss, mid) < want)
+                l = mid + 1;
+            else
+                h = mid;
+        }
+        b[e] = l;
+    }
+    *first = b[0];
+    *last = b[1];
 }
 
 /* The kernel value at the receiver r of the source s (its rows rr, rg, rb), interpolated
@@ -650,9 +924,8 @@ static void centred_task(void *user, int task, int thread)
     sss_shape *ss = &job->cache->shapes[job->scatter_shape];
     const op_material *mat = ss->desc->material;
     const sss_grid *g = &ss->gather;
-    int first = task * job->chunk, last = first + job->chunk;
-    if (last > ss->n)
-        last = ss->n;
+    int first, last;
+    chunk_range(ss, task, job->chunk, &first, &last);
     float *acc = ss->acc + (size_t)task * 3 * (size_t)ss->nrecv;
     int K = ss->kernel, half = K / 2;
     float *rows = job->rows[thread];
@@ -766,9 +1039,8 @@ static void scatter_task(void *user, int task, int thread)
     sss_shape *ss = &job->cache->shapes[job->scatter_shape];
     const op_material *mat = ss->desc->material;
     int chunk = task;
-    int first = chunk * job->chunk, last = first + job->chunk;
-    if (last > ss->n)
-        last = ss->n;
+    int first, last;
+    chunk_range(ss, chunk, job->chunk, &first, &last);
     float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->nrecv;
     int K = ss->kernel;
     float *rows = job->rows[thread];
@@ -838,28 +1110,6 @@ static void scatter_task(void *user, int task, int thread)
     free(val);
     op_progress_advance(job->prog, (uint64_t)(i - first));
 }
-
-/* One translucent hit of a camera segment: the shape, the point, and the length one radian of
- * ray angle spans there (path length / |cos|). */
-typedef struct cam_hit {
-    op_v3 p;
-    float span;
-    int sss;
-} cam_hit;
-
-typedef struct cam_row {
-    cam_hit *h;
-    int n, cap;
-} cam_row;
-
-typedef struct cam_job {
-    const op_scene *scene;
-    const op_sss_transport *transport;
-    uint64_t seed;
-    int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
-    cam_row *rows;
-    atomic_int nomem;
-} cam_job;
 
 enum { CAM_MAX_BOUNCES = 8 };
 
@@ -978,9 +1228,10 @@ static op_status select_receivers(sss_shape *ss, const op_sss_saved *sv, op_erro
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
     ss->nrecv = ss->nsrc = 0;
     for (int j = 0; j < ss->n; j++) {
-        int known = ss->recv[j] && sv && (sv->has[j] & OP_SSS_HAS_M);
+        size_t g = (size_t)point_index(ss, j);
+        int known = ss->recv[j] && sv && (sv->has[g] & OP_SSS_HAS_M);
         if (known) {
-            ss->pts[j].m = v3(sv->m[3 * j], sv->m[3 * j + 1], sv->m[3 * j + 2]);
+            ss->pts[j].m = v3(sv->m[3 * g], sv->m[3 * g + 1], sv->m[3 * g + 2]);
             ss->reused_recv++;
         }
         ss->rmap[j] = ss->recv[j] && !known ? ss->nrecv++ : -1;
@@ -992,8 +1243,9 @@ static op_status select_receivers(sss_shape *ss, const op_sss_saved *sv, op_erro
  * src to be computed (in ascending order when called in ascending i). */
 static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
 {
-    if (sv && (sv->has[i] & OP_SSS_HAS_E)) {
-        ss->pts[i].e = v3(sv->e[3 * i], sv->e[3 * i + 1], sv->e[3 * i + 2]);
+    size_t g = (size_t)point_index(ss, i);
+    if (sv && (sv->has[g] & OP_SSS_HAS_E)) {
+        ss->pts[i].e = v3(sv->e[3 * g], sv->e[3 * g + 1], sv->e[3 * g + 2]);
         ss->reused_src++;
     } else {
         ss->src[ss->nsrc++] = i;
@@ -1288,14 +1540,15 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
             if (!(job->rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
                 st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         }
-        /* the chunks are fixed ranges of all the points, whatever the camera needs, so a
-         * receiver's sum runs in the same order as in the full computation */
-        ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
-        int most = (int)fmin(MAX_CHUNKS, fmax(1.0, MAX_ACC_BYTES / (12.0 * ss->n)));
+        /* the chunks are fixed ranges of the whole layout, whatever the camera needs, so a
+         * receiver's sum runs in the same order as in the full computation (chunk_range) */
+        int nf = ss->nfull;
+        ss->nchunks = (nf + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+        int most = (int)fmin(MAX_CHUNKS, fmax(1.0, MAX_ACC_BYTES / (12.0 * nf)));
         if (ss->nchunks > most)
             ss->nchunks = most;
-        job->chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
-        ss->nchunks = (ss->n + job->chunk - 1) / job->chunk;
+        job->chunk = (nf + ss->nchunks - 1) / ss->nchunks;
+        ss->nchunks = (nf + job->chunk - 1) / job->chunk;
         if (st == OP_OK &&
             !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->nrecv, sizeof(float))))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
@@ -1330,11 +1583,11 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
     return st;
 }
 
-/* Makes the store's entry for subsurface index sss ready for a shape of n points: allocated
- * (empty) when it has none. Entries of the same key always have the shape's point count; one
+/* Makes the store's entry for subsurface index sss ready for a layout of n points: allocated
+ * (empty) when it has none or holds the other layout of a windowed shape (d). Entries of the same key always have the shape's point count; one
  * that does not is refused (a damaged file that kept its checksum, or a key collision). */
-static op_status saved_prepare(op_sss_store *store, int sss, int n, const char *label,
-                               op_error *err)
+static op_status saved_prepare(op_sss_store *store, int sss, int n, const op_sss_desc *d,
+                               const char *label, op_error *err)
 {
     if (sss >= store->nshapes)
         return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d translucent "
@@ -1342,6 +1595,13 @@ static op_status saved_prepare(op_sss_store *store, int sss, int n, const char *
     op_sss_saved *sv = &store->shapes[sss];
     if (sv->n == n)
         return OP_OK;
+    if (d->windowed && (sv->n == d->points || sv->n == d->max_points)) {
+        /* the other of a windowed shape's two layouts (another view): recomputed */
+        free(sv->has);
+        free(sv->e);
+        free(sv->m);
+        sv->n = 0;
+    }
     if (sv->n != 0)
         return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d irradiance "
                             "points for this shape, the scene lays %d", label, sv->n, n);
@@ -1371,19 +1631,21 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
         op_sss_saved *sv = &store->shapes[s];
         for (int k = 0; k < ss->nsrc; k++) {
             int i = ss->src[k];
-            float *e = sv->e + 3 * (size_t)i;
+            size_t g = (size_t)point_index(ss, i);
+            float *e = sv->e + 3 * g;
             e[0] = ss->pts[i].e.x;
             e[1] = ss->pts[i].e.y;
             e[2] = ss->pts[i].e.z;
-            sv->has[i] |= OP_SSS_HAS_E;
+            sv->has[g] |= OP_SSS_HAS_E;
         }
         for (int j = 0; j < ss->n; j++)
             if (ss->rmap[j] >= 0) {
-                float *m = sv->m + 3 * (size_t)j;
+                size_t g = (size_t)point_index(ss, j);
+                float *m = sv->m + 3 * g;
                 m[0] = ss->pts[j].m.x;
                 m[1] = ss->pts[j].m.y;
                 m[2] = ss->pts[j].m.z;
-                sv->has[j] |= OP_SSS_HAS_M;
+                sv->has[g] |= OP_SSS_HAS_M;
             }
         store->reused_e += ss->reused_src;
         store->reused_m += ss->reused_recv;
@@ -1424,7 +1686,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
                                const op_sss_build_options *opt, const cam_job *cam, int gh,
                                float pix, op_error *err)
 {
-    op_status st = make_points(scene, sh, ss, err);
+    op_status st = make_points(scene, sh, ss, opt->everywhere ? NULL : cam, gh, pix, err);
     if (st)
         return st;
     int half = ss->kernel / 2;
@@ -1470,7 +1732,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     }
     op_sss_saved *sv = NULL;
     if (opt->store) {
-        st = saved_prepare(opt->store, sh->sss, ss->n, sh->label, err);
+        st = saved_prepare(opt->store, sh->sss, ss->nfull, ss->desc, sh->label, err);
         if (st)
             return st;
         sv = &opt->store->shapes[sh->sss];
@@ -1478,9 +1740,9 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     st = ss->hier ? select_tree(ss, sv, opt, err) : select_points(ss, sv, err);
     if (st)
         return st;
-    op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
-           "of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
-           sh->label, ss->n, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
+    op_log(OP_LOG_INFO, "%s: %d irradiance points laid of %d (%.3g per material pixel), %d x %d "
+           "pixels of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
+           sh->label, ss->n, ss->nfull, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
            ss->nrecv + ss->reused_recv, ss->nsrc + ss->reused_src);
     if (opt->store)
         op_log(OP_LOG_DEBUG, "%s: from the pre-pass cache: irradiance at %d, exitance at %d; "
@@ -1607,6 +1869,7 @@ void op_sss_cache_free(op_sss_cache *c)
     for (int i = 0; i < c->n; i++) {
         sss_shape *ss = &c->shapes[i];
         free(ss->pts);
+        free(ss->gid);
         op_sss_tree_free(&ss->tree);
         free(ss->near_recv);
         free(ss->rep);
