@@ -35,7 +35,7 @@ typedef struct sss_grid {
  * a cell's points are contiguous. */
 typedef struct gather_pt {
     float x, y, z, nx, ny, nz;
-    float a;        /* its area over the pixel's */
+    float a;        /* centred: its area over the pixel's */
     int32_t rj;     /* its index among the computed receivers, or -1 */
     int32_t c[3];   /* its gather cell */
 } gather_pt;
@@ -58,7 +58,7 @@ typedef struct sss_shape {
     int *gid;     /* windowed (n points of a measured layout of nfull, those near the view):
                      per point its index in the whole layout (ascending); NULL: the identity */
     sss_grid gather, interp;
-    struct gather_pt *gpts; /* centred: the points in the gather grid's bucket order */
+    struct gather_pt *gpts; /* the scatter's: the points in the gather grid's bucket order */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */
@@ -69,7 +69,6 @@ typedef struct sss_shape {
     unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
                                  profile's ball (its normalization is needed) */
     int reached;           /* some camera segment reaches the shape: points are laid */
-    unsigned char *bmark;  /* per gather bucket: holds a receiver */
     unsigned char *recv;   /* per point: the view needs its exitance (a receiver) */
     int32_t *rmap;         /* per point: its index among the receivers whose exitance is
                               computed (those the store lacks), or -1 */
@@ -853,6 +852,22 @@ static void irradiance_task(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)(last - first));
 }
 
+/* The gather cells [lo, hi] the scatter visits for source s: the box of half + 1 kernel pixels
+ * along its tangents and the reach (ss->radius) along its normal (the surface may curve away),
+ * per world axis at most the reach. Every receiver of s lies in it. */
+static void gather_box(const sss_shape *ss, const sss_point *s, int32_t lo[3], int32_t hi[3])
+{
+    float e[3];
+    for (int a = 0; a < 3; a++)
+        e[a] = fminf(((float)(ss->kernel / 2) + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
+                                                        fabsf(v3_get(s->tv, a)) * ss->py) +
+                         fabsf(v3_get(s->n, a)) * ss->radius,
+                     ss->radius);
+    op_v3 ext = v3(e[0], e[1], e[2]);
+    cell_of(&ss->gather, v3_sub(s->p, ext), lo);
+    cell_of(&ss->gather, v3_add(s->p, ext), hi);
+}
+
 /* The points [*first, *last) of scatter chunk `chunk`: those whose index in the whole layout
  * lies in [chunk size, (chunk + 1) size), so that a receiver's sum runs in the same order
  * whichever points are laid or are sources. */
@@ -880,15 +895,16 @@ static void chunk_range(const sss_shape *ss, int chunk, int size, int *first, in
 
 /* The kernel value at the receiver r of the source s (its rows rr, rg, rb), interpolated
  * bilinearly between the four kernel offsets around the offset s -> r in material pixels, in s's
- * frame. Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
-static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r, const float *rr,
-                     const float *rg, const float *rb, float v[3])
+ * frame (gu, gv: its tangents over the pixel size). Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
+static int kernel_at(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
+                     const gather_pt *r, const float *rr, const float *rg, const float *rb,
+                     float v[3])
 {
-    if (v3_dot(s->n, r->n) <= 0.0f)
+    if (s->n.x * r->nx + s->n.y * r->ny + s->n.z * r->nz <= 0.0f)
         return 0;
     int K = ss->kernel, half = K / 2;
-    op_v3 d = v3_sub(r->p, s->p);
-    float dx = v3_dot(d, s->tu) / ss->px, dy = v3_dot(d, s->tv) / ss->py;
+    op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+    float dx = v3_dot(d, gu), dy = v3_dot(d, gv);
     float flx = floorf(dx), fly = floorf(dy);
     int ox = (int)flx, oy = (int)fly;
     if (ox < -half - 1 || ox > half || oy < -half - 1 || oy > half)
@@ -955,18 +971,7 @@ static void centred_task(void *user, int task, int thread)
         const float BIAS = 1024.0f;
         float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
         int32_t clo[3], chi[3];
-        /* the receivers lie within half + 1 pixels along tu and tv, and within the reach
-         * (ss->radius) along the normal (the surface may curve away): per world axis the
-         * smaller of that box's extent and the reach */
-        float e[3];
-        for (int a = 0; a < 3; a++)
-            e[a] = fminf(((float)half + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
-                                                fabsf(v3_get(s->tv, a)) * ss->py) +
-                             fabsf(v3_get(s->n, a)) * ss->radius,
-                         ss->radius);
-        op_v3 ext = v3(e[0], e[1], e[2]);
-        cell_of(g, v3_sub(s->p, ext), clo);
-        cell_of(g, v3_add(s->p, ext), chi);
+        gather_box(ss, s, clo, chi);
         nrec = 0;
         for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
             for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
@@ -1069,30 +1074,43 @@ static void scatter_task(void *user, int task, int thread)
         }
         float v[3];
         nrec = 0;
-        GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
-            if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
-                continue;
-            got[0] += v[0];
-            got[1] += v[1];
-            got[2] += v[2];
-            if (ss->rmap[j] < 0)
-                continue; /* counts for the normalization only */
-            if (nrec == cap) {
-                int nc = cap ? 2 * cap : 1024;
-                int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
-                float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
-                if (r2)
-                    rec = r2;
-                if (!v2) { /* out of memory: this source's light is lost, reported below */
-                    atomic_store(&job->nomem, 1);
-                    break;
+        const sss_grid *gr = &ss->gather;
+        int32_t clo[3], chi[3];
+        gather_box(ss, s, clo, chi);
+        op_v3 gu = v3_scale(s->tu, 1.0f / ss->px), gv = v3_scale(s->tv, 1.0f / ss->py);
+        for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
+            for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
+                for (int32_t cx = clo[0]; cx <= chi[0]; cx++) {
+                    uint32_t b = cell_hash(cx, cy, cz, gr->mask);
+                    for (uint32_t k = gr->start[b]; k < gr->start[b + 1]; k++) {
+                        const gather_pt *r = &ss->gpts[k];
+                        if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                            continue;
+                        if (!kernel_at(ss, s, gu, gv, r, rr, rg, rb, v))
+                            continue;
+                        got[0] += v[0];
+                        got[1] += v[1];
+                        got[2] += v[2];
+                        if (r->rj < 0)
+                            continue; /* counts for the normalization only */
+                        if (nrec == cap) {
+                            int nc = cap ? 2 * cap : 1024;
+                            int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
+                            float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
+                            if (r2)
+                                rec = r2;
+                            if (!v2) { /* out of memory: this source's light is lost, reported below */
+                                atomic_store(&job->nomem, 1);
+                                goto scatter;
+                            }
+                            val = v2;
+                            cap = nc;
+                        }
+                        rec[nrec] = r->rj;
+                        memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
+                    }
                 }
-                val = v2;
-                cap = nc;
-            }
-            rec[nrec] = ss->rmap[j];
-            memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
-        });
+    scatter:;
         float g[3];
         for (int c = 0; c < 3; c++) {
             double q = got[c] > 0.0 ? total[c] * expect / got[c] : 1.0;
@@ -1252,34 +1270,34 @@ static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
     }
 }
 
-/* The scatter's selection (select_receivers, then): the gather buckets that hold a computed
- * receiver, and the sources: the points whose gather box, the one scatter_task visits, holds
- * such a bucket. */
+/* The scatter's selection (select_receivers, then): the sources, the points whose gather box
+ * (gather_box, the cells the scatter visits) holds a computed receiver. */
 static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
 {
     const sss_grid *g = &ss->gather;
     op_status st = select_receivers(ss, sv, err);
     if (st)
         return st;
-    if (!(ss->bmark = calloc((size_t)g->mask + 1, 1)))
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
-    for (int j = 0; j < ss->n; j++) {
-        const int32_t *cg = g->coord + 3 * j;
+    cell_set marked; /* the gather cells that hold a computed receiver */
+    memset(&marked, 0, sizeof marked);
+    int ok = 1;
+    for (int j = 0; j < ss->n && ok; j++)
         if (ss->rmap[j] >= 0)
-            ss->bmark[cell_hash(cg[0], cg[1], cg[2], g->mask)] = 1;
-    }
-    for (int i = 0; i < ss->n; i++) {
-        int32_t lo[3], hi[3], need = 0;
-        cell_of(g, v3_sub(ss->pts[i].p, v3s(ss->radius)), lo);
-        cell_of(g, v3_add(ss->pts[i].p, v3s(ss->radius)), hi);
-        for (int32_t z = lo[2]; z <= hi[2] && !need; z++)
-            for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
-                for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
-                    need = ss->bmark[cell_hash(x, y, z, g->mask)];
+            ok = cell_set_add(&marked, g->coord + 3 * j);
+    for (int i = 0; i < ss->n && ok; i++) {
+        int32_t lo[3], hi[3], c[3], need = 0;
+        gather_box(ss, &ss->pts[i], lo, hi);
+        for (c[2] = lo[2]; c[2] <= hi[2] && !need; c[2]++)
+            for (c[1] = lo[1]; c[1] <= hi[1] && !need; c[1]++)
+                for (c[0] = lo[0]; c[0] <= hi[0] && !need; c[0]++)
+                    need = cell_set_has(&marked, c);
         if (need)
             add_source(ss, sv, i);
     }
-    if (ss->centred) {
+    free(marked.tab);
+    if (!ok)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    {
         if (!(ss->gpts = malloc((size_t)ss->n * sizeof *ss->gpts)))
             return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
         for (int k = 0; k < ss->n; k++) {
@@ -1696,7 +1714,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
          * its frame's axes */
         ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        st = grid_build(&ss->gather, ss->pts, ss->n, NULL, scene->bmin, ss->radius, err);
+        st = grid_build(&ss->gather, ss->pts, ss->n, NULL, scene->bmin, 0.5f * ss->radius, err);
     } else {
         st = tree_prepare(ss, scene->bmin, err);
     }
@@ -1876,7 +1894,6 @@ void op_sss_cache_free(op_sss_cache *c)
         grid_free(&ss->look);
         grid_free(&ss->ballg);
         op_sss_dipole_kernel_free(&ss->dk);
-        free(ss->bmark);
         free(ss->recv);
         free(ss->rmap);
         free(ss->src);
