@@ -751,10 +751,9 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
             ss->centred = 1;
             return OP_OK;
         }
-        op_log(OP_LOG_WARN, "%s: subsurface: the view needs more than maxPoints = %d "
-               "irradiance points at one per material pixel (the shape has %d); the shape is "
-               "coarsened to %d (raise maxPoints or lower scale)", sh->label,
-               ss->desc->max_points, n, ss->desc->max_points);
+        op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance points "
+               "(one per material pixel) than maxPoints; capped at %d (coarser than the "
+               "material: raise maxPoints or lower scale)", sh->label, n, ss->desc->max_points);
         free(ss->pts);
         free(ss->gid);
         ss->gid = NULL;
@@ -852,20 +851,52 @@ static void irradiance_task(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)(last - first));
 }
 
-/* The gather cells [lo, hi] the scatter visits for source s: the box of half + 1 kernel pixels
- * along its tangents and the reach (ss->radius) along its normal (the surface may curve away),
- * per world axis at most the reach. Every receiver of s lies in it. */
-static void gather_box(const sss_shape *ss, const sss_point *s, int32_t lo[3], int32_t hi[3])
+/* The gather grid's cells are half the gather radius r across. The scatter's receivers of a
+ * source s are the points of the cells of side r (aligned with the grid's) that overlap the box
+ * of half-extents E around s (centred: per world axis the smaller of r and the extent of the box
+ * of half + 1 kernel pixels along s's tangents plus r along its normal; else r) that lie in the
+ * kernel's window (kernel_at, centred_task): the set of the scatter before its cells were
+ * halved. gather_cells lists the grid cells of those side-r cells that may meet the window (a
+ * cell whose extent along s's tangents misses [-(half + 1), half + 1] pixels has no receiver),
+ * at most GATHER_CELLS; they are visited in this order. */
+enum { GATHER_CELLS = 512 }; /* 8 per axis: E <= r spans 3 side-r cells (4 with rounding) */
+
+static int gather_cells(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
+                        int32_t cells[GATHER_CELLS][3])
 {
-    float e[3];
-    for (int a = 0; a < 3; a++)
-        e[a] = fminf(((float)(ss->kernel / 2) + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
-                                                        fabsf(v3_get(s->tv, a)) * ss->py) +
-                         fabsf(v3_get(s->n, a)) * ss->radius,
-                     ss->radius);
-    op_v3 ext = v3(e[0], e[1], e[2]);
-    cell_of(&ss->gather, v3_sub(s->p, ext), lo);
-    cell_of(&ss->gather, v3_add(s->p, ext), hi);
+    const sss_grid *g = &ss->gather;
+    float r = ss->radius, w = (float)(ss->kernel / 2) + 1.0f + 0.01f;
+    int32_t lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        float e = ss->radius;
+        if (ss->centred)
+            e = fminf(((float)(ss->kernel / 2) + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
+                                                         fabsf(v3_get(s->tv, a)) * ss->py) +
+                          fabsf(v3_get(s->n, a)) * ss->radius,
+                      ss->radius);
+        float o = v3_get(g->origin, a), x = v3_get(s->p, a);
+        lo[a] = 2 * (int32_t)floorf((x - e - o) / r);
+        hi[a] = 2 * (int32_t)floorf((x + e - o) / r) + 1;
+    }
+    /* a cell's extent along gu and gv: its centre's offset -/+ half its side times the
+     * L1 norm */
+    float su = 0.5f * g->cell * (fabsf(gu.x) + fabsf(gu.y) + fabsf(gu.z));
+    float sv = 0.5f * g->cell * (fabsf(gv.x) + fabsf(gv.y) + fabsf(gv.z));
+    int n = 0;
+    for (int32_t cz = lo[2]; cz <= hi[2]; cz++)
+        for (int32_t cy = lo[1]; cy <= hi[1]; cy++)
+            for (int32_t cx = lo[0]; cx <= hi[0]; cx++) {
+                op_v3 m = v3(g->origin.x + ((float)cx + 0.5f) * g->cell - s->p.x,
+                             g->origin.y + ((float)cy + 0.5f) * g->cell - s->p.y,
+                             g->origin.z + ((float)cz + 0.5f) * g->cell - s->p.z);
+                float u = v3_dot(m, gu), v = v3_dot(m, gv);
+                if (u - su > w || u + su < -w || v - sv > w || v + sv < -w || n == GATHER_CELLS)
+                    continue;
+                cells[n][0] = cx;
+                cells[n][1] = cy;
+                cells[n++][2] = cz;
+            }
+    return n;
 }
 
 /* The points [*first, *last) of scatter chunk `chunk`: those whose index in the whole layout
@@ -895,7 +926,8 @@ static void chunk_range(const sss_shape *ss, int chunk, int size, int *first, in
 
 /* The kernel value at the receiver r of the source s (its rows rr, rg, rb), interpolated
  * bilinearly between the four kernel offsets around the offset s -> r in material pixels, in s's
- * frame (gu, gv: its tangents over the pixel size). Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
+ * frame (gu, gv: its tangents over the pixel size). Returns 0 when r is not a receiver of s
+ * (other side, or outside the kernel). */
 static int kernel_at(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
                      const gather_pt *r, const float *rr, const float *rg, const float *rb,
                      float v[3])
@@ -970,46 +1002,45 @@ static void centred_task(void *user, int task, int thread)
          * pixel index is (int)(v + BIAS) - BIAS for |v| < BIAS, without floorf's cost */
         const float BIAS = 1024.0f;
         float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
-        int32_t clo[3], chi[3];
-        gather_box(ss, s, clo, chi);
+        int32_t cells[GATHER_CELLS][3];
+        int ncells = gather_cells(ss, s, s->gu, s->gv, cells);
         nrec = 0;
-        for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
-            for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
-                for (int32_t cx = clo[0]; cx <= chi[0]; cx++) {
-                    uint32_t b = cell_hash(cx, cy, cz, g->mask);
-                    for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
-                        const gather_pt *r = &ss->gpts[k];
-                        if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
-                            continue;
-                        if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
-                            continue;
-                        op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
-                        float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
-                        if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
-                            continue;
-                        int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
-                        if (ox < -half || ox > half || oy < -half || oy > half)
-                            continue;
-                        int col = (oy + half) * K + (ox + half);
-                        got[0] += rr[col] * r->a;
-                        got[1] += rg[col] * r->a;
-                        got[2] += rb[col] * r->a;
-                        if (r->rj < 0)
-                            continue; /* counts for the normalization only */
-                        if (nrec == cap) {
-                            int nc = cap ? 2 * cap : 2048;
-                            int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
-                            if (!r2) { /* this source's light is lost, reported by the pass */
-                                atomic_store(&job->nomem, 1);
-                                goto next;
-                            }
-                            rec = r2;
-                            cap = nc;
-                        }
-                        rec[2 * nrec] = r->rj;
-                        rec[2 * nrec++ + 1] = col;
+        for (int ci = 0; ci < ncells; ci++) {
+            int32_t cx = cells[ci][0], cy = cells[ci][1], cz = cells[ci][2];
+            uint32_t b = cell_hash(cx, cy, cz, g->mask);
+            for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
+                const gather_pt *r = &ss->gpts[k];
+                if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                    continue;
+                if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
+                    continue;
+                op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+                float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
+                if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
+                    continue;
+                int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
+                if (ox < -half || ox > half || oy < -half || oy > half)
+                    continue;
+                int col = (oy + half) * K + (ox + half);
+                got[0] += rr[col] * r->a;
+                got[1] += rg[col] * r->a;
+                got[2] += rb[col] * r->a;
+                if (r->rj < 0)
+                    continue; /* counts for the normalization only */
+                if (nrec == cap) {
+                    int nc = cap ? 2 * cap : 2048;
+                    int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
+                    if (!r2) { /* this source's light is lost, reported by the pass */
+                        atomic_store(&job->nomem, 1);
+                        goto next;
                     }
+                    rec = r2;
+                    cap = nc;
                 }
+                rec[2 * nrec] = r->rj;
+                rec[2 * nrec++ + 1] = col;
+            }
+        }
         float gn[3];
         for (int c = 0; c < 3; c++) {
             double q = got[c] > 0.0f ? total[c] / got[c] : 1.0;
@@ -1075,41 +1106,40 @@ static void scatter_task(void *user, int task, int thread)
         float v[3];
         nrec = 0;
         const sss_grid *gr = &ss->gather;
-        int32_t clo[3], chi[3];
-        gather_box(ss, s, clo, chi);
         op_v3 gu = v3_scale(s->tu, 1.0f / ss->px), gv = v3_scale(s->tv, 1.0f / ss->py);
-        for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
-            for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
-                for (int32_t cx = clo[0]; cx <= chi[0]; cx++) {
-                    uint32_t b = cell_hash(cx, cy, cz, gr->mask);
-                    for (uint32_t k = gr->start[b]; k < gr->start[b + 1]; k++) {
-                        const gather_pt *r = &ss->gpts[k];
-                        if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
-                            continue;
-                        if (!kernel_at(ss, s, gu, gv, r, rr, rg, rb, v))
-                            continue;
-                        got[0] += v[0];
-                        got[1] += v[1];
-                        got[2] += v[2];
-                        if (r->rj < 0)
-                            continue; /* counts for the normalization only */
-                        if (nrec == cap) {
-                            int nc = cap ? 2 * cap : 1024;
-                            int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
-                            float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
-                            if (r2)
-                                rec = r2;
-                            if (!v2) { /* out of memory: this source's light is lost, reported below */
-                                atomic_store(&job->nomem, 1);
-                                goto scatter;
-                            }
-                            val = v2;
-                            cap = nc;
-                        }
-                        rec[nrec] = r->rj;
-                        memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
+        int32_t cells[GATHER_CELLS][3];
+        int ncells = gather_cells(ss, s, gu, gv, cells);
+        for (int ci = 0; ci < ncells; ci++) {
+            int32_t cx = cells[ci][0], cy = cells[ci][1], cz = cells[ci][2];
+            uint32_t b = cell_hash(cx, cy, cz, gr->mask);
+            for (uint32_t k = gr->start[b]; k < gr->start[b + 1]; k++) {
+                const gather_pt *r = &ss->gpts[k];
+                if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                    continue;
+                if (!kernel_at(ss, s, gu, gv, r, rr, rg, rb, v))
+                    continue;
+                got[0] += v[0];
+                got[1] += v[1];
+                got[2] += v[2];
+                if (r->rj < 0)
+                    continue; /* counts for the normalization only */
+                if (nrec == cap) {
+                    int nc = cap ? 2 * cap : 1024;
+                    int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
+                    float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
+                    if (r2)
+                        rec = r2;
+                    if (!v2) { /* out of memory: this source's light is lost, reported below */
+                        atomic_store(&job->nomem, 1);
+                        goto scatter;
                     }
+                    val = v2;
+                    cap = nc;
                 }
+                rec[nrec] = r->rj;
+                memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
+            }
+        }
     scatter:;
         float g[3];
         for (int c = 0; c < 3; c++) {
@@ -1270,8 +1300,8 @@ static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
     }
 }
 
-/* The scatter's selection (select_receivers, then): the sources, the points whose gather box
- * (gather_box, the cells the scatter visits) holds a computed receiver. */
+/* The scatter's selection (select_receivers, then): the sources, the points whose gather cells
+ * (gather_cells, those the scatter visits) hold a computed receiver. */
 static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
 {
     const sss_grid *g = &ss->gather;
@@ -1285,12 +1315,13 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
         if (ss->rmap[j] >= 0)
             ok = cell_set_add(&marked, g->coord + 3 * j);
     for (int i = 0; i < ss->n && ok; i++) {
-        int32_t lo[3], hi[3], c[3], need = 0;
-        gather_box(ss, &ss->pts[i], lo, hi);
-        for (c[2] = lo[2]; c[2] <= hi[2] && !need; c[2]++)
-            for (c[1] = lo[1]; c[1] <= hi[1] && !need; c[1]++)
-                for (c[0] = lo[0]; c[0] <= hi[0] && !need; c[0]++)
-                    need = cell_set_has(&marked, c);
+        const sss_point *q = &ss->pts[i];
+        op_v3 gu = ss->centred ? q->gu : v3_scale(q->tu, 1.0f / ss->px);
+        op_v3 gv = ss->centred ? q->gv : v3_scale(q->tv, 1.0f / ss->py);
+        int32_t cells[GATHER_CELLS][3];
+        int ncells = gather_cells(ss, q, gu, gv, cells), need = 0;
+        for (int ci = 0; ci < ncells && !need; ci++)
+            need = cell_set_has(&marked, cells[ci]);
         if (need)
             add_source(ss, sv, i);
     }
@@ -1602,8 +1633,9 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
 }
 
 /* Makes the store's entry for subsurface index sss ready for a layout of n points: allocated
- * (empty) when it has none or holds the other layout of a windowed shape (d). Entries of the same key always have the shape's point count; one
- * that does not is refused (a damaged file that kept its checksum, or a key collision). */
+ * (empty) when it has none or holds the other layout of a windowed shape (d). Entries of the
+ * same key always have the layout's point count; one that does not is refused (a damaged file
+ * that kept its checksum, or a key collision). */
 static op_status saved_prepare(op_sss_store *store, int sss, int n, const op_sss_desc *d,
                                const char *label, op_error *err)
 {
