@@ -235,14 +235,38 @@ static void rendered(const char *mat, int spot, double density, int threads, flo
     op_scene_free(scene);
 }
 
-static void check_material(int K)
+/* Writes the heterogeneous material of kernel K to mat (a temporary path) and opens it. */
+static op_material *make_material(int K, char mat[1024])
 {
-    char mat[1024];
-    snprintf(mat, sizeof mat, "%s", op_test_tmp_path("hetero.opm"));
+    snprintf(mat, 1024, "%s", op_test_tmp_path("hetero.opm"));
     write_material(mat, K);
     op_error err = {0};
     op_material *m = NULL;
     OP_ASSERT_OK(op_material_open(mat, &m, &err), err);
+    return m;
+}
+
+/* The points a camera-marked (or everywhere) pre-pass of the BIG patch at height 2.5 lays, and
+ * into out (unless NULL) the central tile's exitance. */
+static long long big_patch(const char *mat, int spot, int threads, int max_points, int everywhere,
+                           float *out)
+{
+    op_scene *scene = NULL;
+    op_sss_cache *c = prepass_patch(mat, BIG, spot, 1.0, threads, max_points, everywhere, 2.5,
+                                    &scene);
+    op_sss_stats st;
+    op_sss_cache_stats(c, &st);
+    if (out)
+        lookup_tile(c, BIG, out);
+    op_sss_cache_free(c);
+    op_scene_free(scene);
+    return st.points;
+}
+
+static void check_material(int K)
+{
+    char mat[1024];
+    op_material *m = make_material(K, mat);
     for (int spot = 0; spot < 2; spot++) {
         static double ref[3 * W * W];
         brute_force(m, K, TILES, spot, ref);
@@ -292,41 +316,20 @@ static void test_large_shape(void **state)
     (void)state;
     enum { K = 9, CAP = 16000, FULL = BIG * BIG * W * W };
     char mat[1024];
-    snprintf(mat, sizeof mat, "%s", op_test_tmp_path("hetero.opm"));
-    write_material(mat, K);
-    op_error err = {0};
-    op_material *m = NULL;
-    OP_ASSERT_OK(op_material_open(mat, &m, &err), err);
+    op_material *m = make_material(K, mat);
     for (int spot = 0; spot < 2; spot++) {
         static double ref[3 * W * W];
         static float got[3 * W * W], whole[3 * W * W];
         brute_force(m, K, BIG, spot, ref);
-        op_scene *scene = NULL;
-        op_sss_cache *c = prepass_patch(mat, BIG, spot, 1.0, 2, CAP, 0, 2.5, &scene);
-        op_sss_stats st;
-        op_sss_cache_stats(c, &st);
+        long long laid = big_patch(mat, spot, 2, CAP, 0, got);
         printf("large shape, %s light: %lld points laid of %d (maxPoints %d)\n",
-               spot ? "spot" : "uniform", st.points, FULL, CAP);
-        assert_true(st.points > 0 && st.points < CAP);
-        lookup_tile(c, BIG, got);
-        op_sss_cache_free(c);
-        op_scene_free(scene);
+               spot ? "spot" : "uniform", laid, FULL, CAP);
+        assert_true(laid > 0 && laid < CAP);
         compare(got, ref, spot ? "large shape, spot" : "large shape, uniform");
-        c = prepass_patch(mat, BIG, spot, 1.0, 1, 2 * FULL, 0, 2.5, &scene);
-        op_sss_cache_stats(c, &st);
-        assert_int_equal(st.points, FULL);
-        lookup_tile(c, BIG, whole);
-        op_sss_cache_free(c);
-        op_scene_free(scene);
+        assert_int_equal(big_patch(mat, spot, 1, 2 * FULL, 0, whole), FULL);
         assert_memory_equal(got, whole, sizeof got);
     }
-    op_scene *scene = NULL;
-    op_sss_cache *c = prepass_patch(mat, BIG, 0, 1.0, 2, CAP, 1, 2.5, &scene);
-    op_sss_stats st;
-    op_sss_cache_stats(c, &st);
-    assert_int_equal(st.points, CAP);
-    op_sss_cache_free(c);
-    op_scene_free(scene);
+    assert_int_equal(big_patch(mat, 0, 2, CAP, 1, NULL), CAP);
     op_material_close(m);
 }
 
