@@ -936,11 +936,15 @@ static int kernel_at(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv
         return 0;
     int K = ss->kernel, half = K / 2;
     op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
-    float dx = v3_dot(d, gu), dy = v3_dot(d, gv);
+    /* the offsets floor(dx), floor(dy) in [-half - 1, half] */
+    float lim = (float)half + 1.0f, dx = v3_dot(d, gu);
+    if (!(dx >= -lim && dx < lim))
+        return 0;
+    float dy = v3_dot(d, gv);
+    if (!(dy >= -lim && dy < lim))
+        return 0;
     float flx = floorf(dx), fly = floorf(dy);
     int ox = (int)flx, oy = (int)fly;
-    if (ox < -half - 1 || ox > half || oy < -half - 1 || oy > half)
-        return 0;
     float tx = dx - flx, ty = dy - fly;
     float wx[2] = {1.0f - tx, tx}, wy[2] = {1.0f - ty, ty};
     v[0] = v[1] = v[2] = 0.0f;
