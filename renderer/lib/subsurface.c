@@ -969,7 +969,9 @@ static int kernel_at(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv
 /* The centred layout's scatter of one chunk of sources (scatter_task's contract): the pair
  * value is the kernel at the whole-pixel offset from the source's pixel to the receiver's
  * (sss_measured.h), each receiver weighted by its area in the normalization, each source's
- * energy E_i A_i g_i / A_pixel. */
+ * energy E_i A_i g_i / A_pixel. Receivers lie within sqrt(3) gather radii of their source (in
+ * the kernel's window they are within one radius in its tangent plane; the bound holds the
+ * pairs a curved surface may add, and is what a windowed shape's window assumes). */
 static void centred_task(void *user, int task, int thread)
 {
     build_job *job = user;
@@ -981,6 +983,7 @@ static void centred_task(void *user, int task, int thread)
     float *acc = ss->acc + (size_t)task * 3 * (size_t)ss->nrecv;
     int K = ss->kernel, half = K / 2;
     float *rows = job->rows[thread];
+    float reach2 = 3.0f * ss->radius * ss->radius; /* a pair lies within sqrt(3) radii */
     int cap = 0, nrec = 0;
     int32_t *rec = NULL; /* pairs: receiver index, kernel column */
     int i;
@@ -1019,6 +1022,8 @@ static void centred_task(void *user, int task, int thread)
                 if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
                     continue;
                 op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+                if (v3_dot(d, d) > reach2)
+                    continue; /* beyond a windowed shape's reach (window_build) */
                 float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
                 if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
                     continue;
