@@ -6,6 +6,7 @@
 #include "sss_tree.h"
 
 #include <float.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -293,7 +294,7 @@ static long long centred_count(const op_trimesh *m, int W, int H, double sx, dou
         double xy[3][2];
         int ua, va;
         triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
-        n += op_sss_measured_raster(xy, step, NULL, NULL);
+        n += op_sss_measured_count(xy, step);
     }
     return n;
 }
@@ -430,6 +431,7 @@ typedef struct cell_set {
     sss_grid cells; /* only cell and origin */
     uint32_t size, count; /* size a power of 2, or 0 */
     int32_t *tab;   /* 3 per slot; INT32_MIN in x: empty */
+    op_v3 lo, hi;   /* window_build: the bounds of its cells */
 } cell_set;
 
 static uint32_t cell_slot(const cell_set *cs, const int32_t c[3])
@@ -504,7 +506,7 @@ static void lay_site(void *user, const op_sss_site *s)
     lay_job *j = user;
     sss_point *q;
     if (j->win) {
-        long long k = j->k++;
+        long long k = j->k + s->index;
         float b1 = (float)s->b1, b2 = (float)s->b2;
         op_v3 p = v3_add(v3_add(v3_scale(j->a, 1.0f - b1 - b2), v3_scale(j->b, b1)),
                          v3_scale(j->c, b2));
@@ -592,7 +594,47 @@ static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, 
                     ok = cell_set_add(win, c);
     }
     free(hits.tab);
+    int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+    for (uint32_t b = 0; b < win->size; b++) {
+        const int32_t *c = win->tab + 3 * (size_t)b;
+        for (int a = 0; a < 3 && c[0] != INT32_MIN; a++) {
+            lo[a] = c[a] < lo[a] ? c[a] : lo[a];
+            hi[a] = c[a] > hi[a] ? c[a] : hi[a];
+        }
+    }
+    float w = win->cells.cell;
+    win->lo = v3((float)lo[0] * w, (float)lo[1] * w, (float)lo[2] * w);
+    win->hi = v3((float)(hi[0] + 1) * w, (float)(hi[1] + 1) * w, (float)(hi[2] + 1) * w);
     return ok ? OP_OK : op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface window");
+}
+
+/* The samples of triangle j->t (material coordinates xy) that may lie in the window's bounds:
+ * the bounds' corners projected onto the triangle's plane and mapped to its material
+ * coordinates (an affine map, so their hull holds every point of the plane in the bounds). */
+static void window_clip(const lay_job *j, double xy[3][2], double step, long long clip[4])
+{
+    op_v3 e1 = v3_sub(j->b, j->a), e2 = v3_sub(j->c, j->a);
+    double g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2);
+    double det = g11 * g22 - g12 * g12;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int k = 0; k < 8; k++) {
+        op_v3 q = v3(k & 1 ? j->win->hi.x : j->win->lo.x, k & 2 ? j->win->hi.y : j->win->lo.y,
+                     k & 4 ? j->win->hi.z : j->win->lo.z);
+        op_v3 d = v3_sub(q, j->a);
+        double r1 = v3_dot(d, e1), r2 = v3_dot(d, e2);
+        double s = (g22 * r1 - g12 * r2) / det, t = (g11 * r2 - g12 * r1) / det;
+        for (int a = 0; a < 2; a++) {
+            double x = xy[0][a] + s * (xy[1][a] - xy[0][a]) + t * (xy[2][a] - xy[0][a]);
+            lo[a] = fmin(lo[a], x);
+            hi[a] = fmax(hi[a], x);
+        }
+    }
+    for (int a = 0; a < 2; a++) {
+        double l = lo[a] / step - 0.5, h = hi[a] / step - 0.5;
+        int finite = det > 0.0 && fabs(l) < 0x1p50 && fabs(h) < 0x1p50;
+        clip[2 * a] = finite ? (long long)floor(l) - 1 : LLONG_MIN;
+        clip[2 * a + 1] = finite ? (long long)ceil(h) + 1 : LLONG_MAX;
+    }
 }
 
 /* Lays the centred samples of a windowed shape that lie in win (every one has its index in the
@@ -619,13 +661,17 @@ static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
         double cells = 1.0;
         for (int a = 0; a < 3; a++)
             cells *= floor(v3_get(e, a) / win->cells.cell) + 2.0;
+        long long here = op_sss_measured_count(xy, step);
         if (cells <= 4096.0 && !cell_set_box(win, lo, hi)) {
-            j.k += op_sss_measured_raster(xy, step, NULL, NULL); /* counted only */
+            j.k += here; /* counted only */
             continue;
         }
         double samples = mapped_area(xy) / (step * step);
         j.area = samples > 0.0 ? (float)(world_area(m, j.t) / samples) : 0.0f;
-        op_sss_measured_raster(xy, step, lay_site, &j);
+        long long clip[4];
+        window_clip(&j, xy, step, clip);
+        op_sss_measured_raster_clip(xy, step, clip, lay_site, &j);
+        j.k += here;
     }
     if (j.over || j.laid == 0)
         return 0;

@@ -10,6 +10,7 @@
  * are every point (no camera marking), 2 threads; 1 thread gives the same bits. A patch of
  * 11 x 11 tiles with a maxPoints below its pixels, seen close up, must still get one point per
  * material pixel where the view needs them and the same exitance (test_large_shape). */
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,6 +19,7 @@
 #include "integrator.h"
 #include "opaline_render.h"
 #include "render_scene.h"
+#include "sss_measured.h"
 #include "test_support.h"
 
 enum { W = 16, TILES = 3, BIG = 11 };
@@ -333,6 +335,83 @@ static void test_large_shape(void **state)
     op_material_close(m);
 }
 
+/* The rasterizer's sites of one triangle, recorded (raster_test's visit). */
+typedef struct sites {
+    long long n, index[4096];
+    double x[4096], y[4096];
+} sites;
+
+static void record(void *user, const op_sss_site *st)
+{
+    sites *s = user;
+    assert_true(s->n < 4096);
+    s->index[s->n] = st->index;
+    s->x[s->n] = st->x;
+    s->y[s->n++] = st->y;
+}
+
+/* A 12 x 10 pixel rectangle cut into jittered triangles (some vertices exactly on sample
+ * centres, so edges through samples): every sample of the rectangle is laid exactly once
+ * (op_sss_measured_count summed over the triangles), each triangle's raster visits as many sites
+ * as its count, indexed 0, 1, ... in order, and clipped rasters over a partition of the sample
+ * plane give the same sites with the same indices. */
+static void test_raster(void **state)
+{
+    (void)state;
+    enum { X = 12, Y = 10, Q = 4 };
+    static const double steps[2] = {1.0, 0.5};
+    for (int si = 0; si < 2; si++) {
+        double step = steps[si], v[Q + 1][Q + 1][2];
+        for (int j = 0; j <= Q; j++)
+            for (int i = 0; i <= Q; i++) {
+                int inner = i > 0 && i < Q && j > 0 && j < Q;
+                /* jitter; every third inner vertex exactly on a sample centre */
+                double jx = inner ? ((i * 7 + j * 3) % 5 - 2) * 0.37 : 0.0;
+                double jy = inner ? ((i * 2 + j * 5) % 7 - 3) * 0.29 : 0.0;
+                v[j][i][0] = X * (double)i / Q + jx;
+                v[j][i][1] = Y * (double)j / Q + jy;
+                if (inner && (i + j) % 3 == 0) {
+                    v[j][i][0] = (floor(v[j][i][0] / step) + 0.5) * step;
+                    v[j][i][1] = (floor(v[j][i][1] / step) + 0.5) * step;
+                }
+            }
+        long long total = 0;
+        for (int j = 0; j < Q; j++)
+            for (int i = 0; i < Q; i++)
+                for (int h = 0; h < 2; h++) {
+                    double xy[3][2];
+                    const double *c[3] = {v[j][i], h ? v[j + 1][i + 1] : v[j][i + 1],
+                                          h ? v[j + 1][i] : v[j + 1][i + 1]};
+                    for (int k = 0; k < 3; k++)
+                        memcpy(xy[k], c[k], sizeof xy[k]);
+                    long long n = op_sss_measured_count(xy, step);
+                    static sites all, part;
+                    all.n = part.n = 0;
+                    assert_int_equal(op_sss_measured_raster(xy, step, record, &all), n);
+                    assert_int_equal(all.n, n);
+                    for (long long k = 0; k < n; k++)
+                        assert_int_equal(all.index[k], k);
+                    long long cut = (long long)(X / (2 * step)), cy = (long long)(Y / (3 * step));
+                    const long long clips[4][4] = {{LLONG_MIN, cut, LLONG_MIN, cy},
+                                                   {cut + 1, LLONG_MAX, LLONG_MIN, cy},
+                                                   {LLONG_MIN, cut, cy + 1, LLONG_MAX},
+                                                   {cut + 1, LLONG_MAX, cy + 1, LLONG_MAX}};
+                    long long visited = 0;
+                    for (int q = 0; q < 4; q++)
+                        visited += op_sss_measured_raster_clip(xy, step, clips[q], record, &part);
+                    assert_int_equal(visited, n);
+                    for (long long k = 0; k < part.n; k++) { /* each site as the full raster has it */
+                        long long at = part.index[k];
+                        assert_true(at >= 0 && at < n);
+                        assert_true(part.x[k] == all.x[at] && part.y[k] == all.y[at]);
+                    }
+                    total += n;
+                }
+        printf("raster, step %g: %lld samples in %d x %d pixels\n", step, total, X, Y);
+        assert_int_equal(total, (long long)(X * Y / (step * step)));
+    }
+}
+
 int main(void)
 {
     op_log_set_level(OP_LOG_WARN);
@@ -341,6 +420,7 @@ int main(void)
         cmocka_unit_test(test_brute_force_k7),
         cmocka_unit_test(test_brute_force_k9),
         cmocka_unit_test(test_large_shape),
+        cmocka_unit_test(test_raster),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
