@@ -77,6 +77,7 @@ typedef struct sss_shape {
                               lacks), ascending */
     int nsrc, nrecv;       /* how many are computed */
     int reused_src, reused_recv; /* the sources and receivers of this view taken from the store */
+    int unsaved;           /* a windowed shape too large for the store's entry: computed only */
 } sss_shape;
 
 struct op_sss_cache {
@@ -866,7 +867,7 @@ typedef struct build_job {
 /* The scatter's accumulators (one per chunk of sources) take at most about MAX_ACC_BYTES
  * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
  * summation order does not depend on which points are receivers). */
-enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
+enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16, UNSAVED_FACTOR = 16 };
 #define MAX_ACC_BYTES (256.0 * 1024 * 1024)
 
 static void irradiance_task(void *user, int task, int thread)
@@ -1731,7 +1732,7 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
 {
     for (int s = 0; s < c->n; s++) {
         const sss_shape *ss = &c->shapes[s];
-        if (!ss->pts)
+        if (!ss->pts || ss->unsaved)
             continue;
         op_sss_saved *sv = &store->shapes[s];
         for (int k = 0; k < ss->nsrc; k++) {
@@ -1836,7 +1837,14 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
             }
     }
     op_sss_saved *sv = NULL;
-    if (opt->store) {
+    /* the store holds 25 bytes per point of the whole layout: a windowed shape of more than
+     * UNSAVED_FACTOR x maxPoints is computed without it */
+    ss->unsaved = opt->store && ss->gid &&
+                  (long long)ss->nfull > UNSAVED_FACTOR * (long long)ss->desc->max_points;
+    if (ss->unsaved)
+        op_log(OP_LOG_INFO, "%s: not kept in the pre-pass cache (%d irradiance points in its "
+               "whole layout, over %d x maxPoints)", sh->label, ss->nfull, UNSAVED_FACTOR);
+    if (opt->store && !ss->unsaved) {
         st = saved_prepare(opt->store, sh->sss, ss->nfull, ss->desc, sh->label, err);
         if (st)
             return st;
