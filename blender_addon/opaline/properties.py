@@ -114,12 +114,14 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
                                          "pre-pass)")
     max_sss_points: IntProperty(name="Irradiance Point Cap", default=0, min=0,
                                 max=50000000, soft_max=5000000,
-                                description="Subsurface pre-pass: most irradiance points per "
-                                            "translucent object (0: the renderer's own default, "
-                                            "--limit sss-max-points; else written as maxPoints "
-                                            "and passed by F12). Above it the points are "
-                                            "coarser than the material and the render warns: "
-                                            "raise it (more memory and pre-pass time)")
+                                description="Subsurface pre-pass: most irradiance points laid "
+                                            "per translucent object (0: the renderer's own "
+                                            "default, --limit sss-max-points; else written as "
+                                            "maxPoints and passed by F12). A measured material "
+                                            "at its physical size lays only the points near the "
+                                            "view. Above it the points are coarser than the "
+                                            "material and the render warns: raise it (more "
+                                            "memory and pre-pass time)")
     threads: IntProperty(name="Threads", default=0, min=0,
                          description="Worker threads for opaline-render (0: all cores)")
     keep_temp: BoolProperty(name="Keep exported files", default=False,

@@ -17,9 +17,11 @@
 
 /* The file format's version, raised whenever the layout or what the pre-pass computes for the
  * same key changes: a file of another version is recomputed and replaced. */
-#define OP_SSS_CACHE_VERSION 5u /* 2: E behind a surface <bsdf> is what crosses it; 3: the dipole's
+#define OP_SSS_CACHE_VERSION 6u /* 2: E behind a surface <bsdf> is what crosses it; 3: the dipole's
                                   hierarchical sum and finer points; 4: measured materials' points
-                                  at their pixel centres; 5: the dipole's points in Morton order */
+                                  at their pixel centres; 5: the dipole's points in Morton order;
+                                  6: measured materials' windowed layouts (no maxPoints coarsening
+                                  where the view needs fewer) and the scatter's finer cells */
 
 enum { OP_SSS_KEY_BYTES = 16 };
 

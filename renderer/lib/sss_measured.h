@@ -19,10 +19,12 @@
  * for d >= 1 (the centres of an s x s subdivision of every pixel), else round(1/sqrt(d)). */
 double op_sss_measured_step(double density);
 
-/* One sample inside a triangle: barycentrics (of vertices 1 and 2) and its material
- * coordinates x, y = (k + 0.5) step (unwrapped). */
+/* One sample inside a triangle: barycentrics (of vertices 1 and 2), its material coordinates
+ * x, y = (k + 0.5) step (unwrapped), and its index among the triangle's samples in the
+ * rasterizer's order. */
 typedef struct op_sss_site {
     double b1, b2, x, y;
+    long long index;
 } op_sss_site;
 
 /* Calls visit(user, site) for every sample point (kx + 1/2, ky + 1/2) step (kx, ky integers)
@@ -30,5 +32,15 @@ typedef struct op_sss_site {
  * order; returns how many. A degenerate triangle has none. xy is not changed. */
 long long op_sss_measured_raster(double xy[3][2], double step,
                                  void (*visit)(void *user, const op_sss_site *s), void *user);
+
+/* As op_sss_measured_raster, for the samples (kx, ky) with clip[0] <= kx <= clip[1] and
+ * clip[2] <= ky <= clip[3] only (the same sites, indices included, in the same order); returns
+ * how many it visits. */
+long long op_sss_measured_raster_clip(double xy[3][2], double step, const long long clip[4],
+                                      void (*visit)(void *user, const op_sss_site *s),
+                                      void *user);
+
+/* How many samples op_sss_measured_raster visits, in time proportional to the triangle's rows. */
+long long op_sss_measured_count(double xy[3][2], double step);
 
 #endif

@@ -6,6 +6,7 @@
 #include "sss_tree.h"
 
 #include <float.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,7 +36,7 @@ typedef struct sss_grid {
  * a cell's points are contiguous. */
 typedef struct gather_pt {
     float x, y, z, nx, ny, nz;
-    float a;        /* its area over the pixel's */
+    float a;        /* centred: its area over the pixel's */
     int32_t rj;     /* its index among the computed receivers, or -1 */
     int32_t c[3];   /* its gather cell */
 } gather_pt;
@@ -54,8 +55,11 @@ typedef struct sss_shape {
     sss_grid ballg;     /* hier: the grid of the points, of the profile's ball as cell */
     int n;
     sss_point *pts;
+    int nfull;    /* the points of the whole layout (n unless windowed) */
+    int *gid;     /* windowed (n points of a measured layout of nfull, those near the view):
+                     per point its index in the whole layout (ascending); NULL: the identity */
     sss_grid gather, interp;
-    struct gather_pt *gpts; /* centred: the points in the gather grid's bucket order */
+    struct gather_pt *gpts; /* the scatter's: the points in the gather grid's bucket order */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */
@@ -66,7 +70,6 @@ typedef struct sss_shape {
     unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
                                  profile's ball (its normalization is needed) */
     int reached;           /* some camera segment reaches the shape: points are laid */
-    unsigned char *bmark;  /* per gather bucket: holds a receiver */
     unsigned char *recv;   /* per point: the view needs its exitance (a receiver) */
     int32_t *rmap;         /* per point: its index among the receivers whose exitance is
                               computed (those the store lacks), or -1 */
@@ -74,6 +77,7 @@ typedef struct sss_shape {
                               lacks), ascending */
     int nsrc, nrecv;       /* how many are computed */
     int reused_src, reused_recv; /* the sources and receivers of this view taken from the store */
+    int unsaved;           /* a windowed shape too large for the store's entry: computed only */
 } sss_shape;
 
 struct op_sss_cache {
@@ -81,6 +85,13 @@ struct op_sss_cache {
     int n;
     double seconds; /* the build's wall time */
 };
+
+/* Point i's index in the shape's whole layout (what the irradiance's random stream, the
+ * scatter's chunks and the pre-pass cache go by). */
+static int point_index(const sss_shape *ss, int i)
+{
+    return ss->gid ? ss->gid[i] : i;
+}
 
 static uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask)
 {
@@ -284,7 +295,7 @@ static long long centred_count(const op_trimesh *m, int W, int H, double sx, dou
         double xy[3][2];
         int ua, va;
         triangle_pixels(m, t, W, H, sx, sy, xy, &ua, &va);
-        n += op_sss_measured_raster(xy, step, NULL, NULL);
+        n += op_sss_measured_count(xy, step);
     }
     return n;
 }
@@ -324,29 +335,37 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        int capped = d->is_dipole || want > d->max_points;
+        int capped = d->is_dipole;
+        d->windowed = 0;
         if (!capped) {
-            /* a measured material within its cap: one point per material pixel (at its
-             * centre where the map shows the material at its physical size) */
+            /* a measured material: one point per material pixel (at its centre where the map
+             * shows the material at its physical size, then with no cap: a shape needing more
+             * than maxPoints lays only the points near the view, make_points) */
             const op_material_info *info = op_material_get_info(d->material);
             double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
             double step = centred_step(&sh->mesh, info->width, info->height, sx, sy, a_pix,
                                        d->density);
             if (step > 0.0)
                 want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy, step);
+            else
+                capped = want > d->max_points;
             if (want > INT32_MAX)
                 return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
                                     "points (one per material pixel at density %g) are more "
                                     "than a shape can hold (%d)", sh->label, want, d->density,
                                     INT32_MAX);
-            d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
-        } else if (want > d->max_points)
+            if (!capped) {
+                d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
+                d->windowed = step > 0.0 && d->points > d->max_points;
+            }
+        }
+        if (capped && want > d->max_points)
             op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
                    "material pixel; capped at %d (coarser than the material: raise maxPoints or "
                    "lower scale)", sh->label, want, d->max_points);
         if (capped)
             d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
-        total += d->points;
+        total += d->windowed ? d->max_points : d->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
                                 "need %.0f irradiance points so far, over the limit of %lld "
@@ -386,19 +405,127 @@ static void box_frame(sss_point *q, int ua, int va)
     q->tv = v3_norm(v3_sub(q->tv, v3_scale(q->tu, v3_dot(q->tu, q->tv))));
 }
 
+/* One translucent hit of a camera segment: the shape, the point, and the length one radian of
+ * ray angle spans there (path length / |cos|). */
+typedef struct cam_hit {
+    op_v3 p;
+    float span;
+    int sss;
+} cam_hit;
+
+typedef struct cam_row {
+    cam_hit *h;
+    int n, cap;
+} cam_row;
+
+typedef struct cam_job {
+    const op_scene *scene;
+    const op_sss_transport *transport;
+    uint64_t seed;
+    int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
+    cam_row *rows;
+    atomic_int nomem;
+} cam_job;
+
+/* A set of grid cells, by exact coordinates (open addressing): a windowed shape's window. */
+typedef struct cell_set {
+    sss_grid cells; /* only cell and origin */
+    uint32_t size, count; /* size a power of 2, or 0 */
+    int32_t *tab;   /* 3 per slot; INT32_MIN in x: empty */
+    op_v3 lo, hi;   /* window_build: the bounds of its cells */
+} cell_set;
+
+static uint32_t cell_slot(const cell_set *cs, const int32_t c[3])
+{
+    uint32_t b = cell_hash(c[0], c[1], c[2], cs->size - 1);
+    while (cs->tab[3 * (size_t)b] != INT32_MIN &&
+           (cs->tab[3 * (size_t)b] != c[0] || cs->tab[3 * (size_t)b + 1] != c[1] ||
+            cs->tab[3 * (size_t)b + 2] != c[2]))
+        b = (b + 1) & (cs->size - 1);
+    return b;
+}
+
+static int cell_set_has(const cell_set *cs, const int32_t c[3])
+{
+    return cs->size && cs->tab[3 * (size_t)cell_slot(cs, c)] != INT32_MIN;
+}
+
+/* Adds cell c; 0 when out of memory. */
+static int cell_set_add(cell_set *cs, const int32_t c[3])
+{
+    if (2 * (cs->count + 1) > cs->size) {
+        uint32_t size = cs->size ? 2 * cs->size : 1024;
+        cell_set old = *cs;
+        if (size > (1u << 30) || !(cs->tab = malloc(3 * (size_t)size * sizeof *cs->tab))) {
+            cs->tab = old.tab;
+            return 0;
+        }
+        cs->size = size;
+        for (uint32_t b = 0; b < size; b++)
+            cs->tab[3 * (size_t)b] = INT32_MIN;
+        for (uint32_t b = 0; b < old.size; b++)
+            if (old.tab[3 * (size_t)b] != INT32_MIN)
+                memcpy(cs->tab + 3 * (size_t)cell_slot(cs, old.tab + 3 * (size_t)b),
+                       old.tab + 3 * (size_t)b, 3 * sizeof *cs->tab);
+        free(old.tab);
+    }
+    uint32_t b = cell_slot(cs, c);
+    if (cs->tab[3 * (size_t)b] == INT32_MIN) {
+        memcpy(cs->tab + 3 * (size_t)b, c, 3 * sizeof *c);
+        cs->count++;
+    }
+    return 1;
+}
+
+/* Whether a cell of the box [lo, hi] is in the set. */
+static int cell_set_box(const cell_set *cs, op_v3 lo, op_v3 hi)
+{
+    int32_t a[3], b[3], c[3];
+    cell_of(&cs->cells, lo, a);
+    cell_of(&cs->cells, hi, b);
+    for (c[2] = a[2]; c[2] <= b[2]; c[2]++)
+        for (c[1] = a[1]; c[1] <= b[1]; c[1]++)
+            for (c[0] = a[0]; c[0] <= b[0]; c[0]++)
+                if (cell_set_has(cs, c))
+                    return 1;
+    return 0;
+}
+
 typedef struct lay_job {
     const op_trimesh *m;
     sss_shape *ss;
-    int t, ua, va, k;
+    int t, ua, va;
+    long long k;   /* the samples visited so far: the next one's index in the whole layout */
     float area;    /* what one sample of triangle t stands for */
+    const cell_set *win; /* windowed: lay only the samples in these cells, at most cap */
+    op_v3 a, b, c;       /* windowed: triangle t */
+    int laid, cap, over;
 } lay_job;
 
 static void lay_site(void *user, const op_sss_site *s)
 {
     lay_job *j = user;
-    if (j->k++ >= j->ss->n)
-        return; /* counted only */
-    sss_point *q = &j->ss->pts[j->k - 1];
+    sss_point *q;
+    if (j->win) {
+        long long k = j->k + s->index;
+        float b1 = (float)s->b1, b2 = (float)s->b2;
+        op_v3 p = v3_add(v3_add(v3_scale(j->a, 1.0f - b1 - b2), v3_scale(j->b, b1)),
+                         v3_scale(j->c, b2));
+        int32_t c[3];
+        cell_of(&j->win->cells, p, c);
+        if (j->over || !cell_set_has(j->win, c))
+            return;
+        if (j->laid == j->cap) {
+            j->over = 1;
+            return;
+        }
+        j->ss->gid[j->laid] = (int)k;
+        q = &j->ss->pts[j->laid++];
+    } else {
+        if (j->k++ >= j->ss->n)
+            return; /* counted only */
+        q = &j->ss->pts[j->k - 1];
+    }
     point_geometry(j->m, j->t, (float)(1.0 - s->b1 - s->b2), (float)s->b1, (float)s->b2, q);
     if (j->ua >= 0 || !triangle_uv_frame(j->m, j->t, q->n, &q->tu, &q->tv)) {
         int ua = j->ua, va = j->va;
@@ -415,9 +542,10 @@ static void lay_site(void *user, const op_sss_site *s)
 
 /* Lays a measured material's points at its pixel (sub-)centres (sss_measured.h), at most ss->n
  * of them; returns how many samples there are (the layout is complete when that is ss->n). */
-static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step)
+static long long lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
+                             double step)
 {
-    lay_job j = {m, ss, 0, 0, 0, 0, 0.0f};
+    lay_job j = {.m = m, .ss = ss};
     for (j.t = 0; j.t < m->ntris && j.k <= ss->n; j.t++) {
         double xy[3][2];
         triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
@@ -426,6 +554,136 @@ static int lay_centred(const op_trimesh *m, sss_shape *ss, double sx, double sy,
         op_sss_measured_raster(xy, step, lay_site, &j);
     }
     return j.k;
+}
+
+/* The window of a windowed shape: cells of a quarter of the reach below that cover every point
+ * within reach of a camera hit on it, the reach being what a receiver there may need: the
+ * lookup's radius h and the hit's footprint (the receivers), a source's reach from a receiver
+ * and a neighbour's from a source (the normalization), each at most sqrt(3) x the gather
+ * radius, and a spacing. */
+static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
+                              cell_set *win, op_error *err)
+{
+    float reach = 0.0f;
+    for (int r = 0; r < gh; r++)
+        for (int k = 0; k < cam->rows[r].n; k++)
+            if (cam->rows[r].h[k].sss == sss)
+                reach = fmaxf(reach, pix * cam->rows[r].h[k].span);
+    reach += ss->h + 2.0f * sqrtf(3.0f) * ss->radius + ss->spacing;
+    cell_set hits;
+    memset(&hits, 0, sizeof hits);
+    memset(win, 0, sizeof *win);
+    hits.cells.cell = win->cells.cell = reach / 4.0f;
+    hits.cells.origin = win->cells.origin = v3s(0.0f);
+    int ok = 1;
+    for (int r = 0; r < gh && ok; r++)
+        for (int k = 0; k < cam->rows[r].n && ok; k++)
+            if (cam->rows[r].h[k].sss == sss) {
+                int32_t c[3];
+                cell_of(&hits.cells, cam->rows[r].h[k].p, c);
+                ok = cell_set_add(&hits, c);
+            }
+    /* a point within reach of a hit in cell c lies in a cell within 4 of c along each axis */
+    for (uint32_t b = 0; b < hits.size && ok; b++) {
+        const int32_t *h = hits.tab + 3 * (size_t)b;
+        if (h[0] == INT32_MIN)
+            continue;
+        int32_t c[3];
+        for (c[2] = h[2] - 4; c[2] <= h[2] + 4 && ok; c[2]++)
+            for (c[1] = h[1] - 4; c[1] <= h[1] + 4 && ok; c[1]++)
+                for (c[0] = h[0] - 4; c[0] <= h[0] + 4 && ok; c[0]++)
+                    ok = cell_set_add(win, c);
+    }
+    free(hits.tab);
+    int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+    for (uint32_t b = 0; b < win->size; b++) {
+        const int32_t *c = win->tab + 3 * (size_t)b;
+        for (int a = 0; a < 3 && c[0] != INT32_MIN; a++) {
+            lo[a] = c[a] < lo[a] ? c[a] : lo[a];
+            hi[a] = c[a] > hi[a] ? c[a] : hi[a];
+        }
+    }
+    float w = win->cells.cell;
+    win->lo = v3((float)lo[0] * w, (float)lo[1] * w, (float)lo[2] * w);
+    win->hi = v3((float)(hi[0] + 1) * w, (float)(hi[1] + 1) * w, (float)(hi[2] + 1) * w);
+    return ok ? OP_OK : op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface window");
+}
+
+/* The samples of triangle j->t (material coordinates xy) that may lie in the window's bounds:
+ * the bounds' corners projected onto the triangle's plane and mapped to its material
+ * coordinates (an affine map, so their hull holds every point of the plane in the bounds). */
+static void window_clip(const lay_job *j, double xy[3][2], double step, long long clip[4])
+{
+    op_v3 e1 = v3_sub(j->b, j->a), e2 = v3_sub(j->c, j->a);
+    double g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2);
+    double det = g11 * g22 - g12 * g12;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int k = 0; k < 8; k++) {
+        op_v3 q = v3(k & 1 ? j->win->hi.x : j->win->lo.x, k & 2 ? j->win->hi.y : j->win->lo.y,
+                     k & 4 ? j->win->hi.z : j->win->lo.z);
+        op_v3 d = v3_sub(q, j->a);
+        double r1 = v3_dot(d, e1), r2 = v3_dot(d, e2);
+        double s = (g22 * r1 - g12 * r2) / det, t = (g11 * r2 - g12 * r1) / det;
+        for (int a = 0; a < 2; a++) {
+            double x = xy[0][a] + s * (xy[1][a] - xy[0][a]) + t * (xy[2][a] - xy[0][a]);
+            lo[a] = fmin(lo[a], x);
+            hi[a] = fmax(hi[a], x);
+        }
+    }
+    for (int a = 0; a < 2; a++) {
+        double l = lo[a] / step - 0.5, h = hi[a] / step - 0.5;
+        int finite = det > 0.0 && fabs(l) < 0x1p50 && fabs(h) < 0x1p50;
+        clip[2 * a] = finite ? (long long)floor(l) - 1 : LLONG_MIN;
+        clip[2 * a + 1] = finite ? (long long)ceil(h) + 1 : LLONG_MAX;
+    }
+}
+
+/* Lays the centred samples of a windowed shape that lie in win (every one has its index in the
+ * whole layout in gid), at most ss->desc->max_points of them; returns 0 when there are more
+ * (nothing usable is laid) and -1 when out of memory. */
+static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, double step,
+                      const cell_set *win)
+{
+    int cap = ss->desc->max_points;
+    ss->pts = calloc((size_t)cap, sizeof *ss->pts);
+    ss->gid = malloc((size_t)cap * sizeof *ss->gid);
+    if (!ss->pts || !ss->gid)
+        return -1;
+    lay_job j = {.m = m, .ss = ss, .win = win, .cap = cap};
+    for (j.t = 0; j.t < m->ntris && !j.over; j.t++) {
+        double xy[3][2];
+        triangle_pixels(m, j.t, ss->width, ss->height, sx, sy, xy, &j.ua, &j.va);
+        op_trimesh_tri(m, j.t, &j.a, &j.b, &j.c);
+        op_v3 lo = v3(fminf(j.a.x, fminf(j.b.x, j.c.x)), fminf(j.a.y, fminf(j.b.y, j.c.y)),
+                      fminf(j.a.z, fminf(j.b.z, j.c.z)));
+        op_v3 hi = v3(fmaxf(j.a.x, fmaxf(j.b.x, j.c.x)), fmaxf(j.a.y, fmaxf(j.b.y, j.c.y)),
+                      fmaxf(j.a.z, fmaxf(j.b.z, j.c.z)));
+        op_v3 e = v3_sub(hi, lo);
+        double cells = 1.0;
+        for (int a = 0; a < 3; a++)
+            cells *= floor(v3_get(e, a) / win->cells.cell) + 2.0;
+        long long here = op_sss_measured_count(xy, step);
+        if (cells <= 4096.0 && !cell_set_box(win, lo, hi)) {
+            j.k += here; /* counted only */
+            continue;
+        }
+        double samples = mapped_area(xy) / (step * step);
+        j.area = samples > 0.0 ? (float)(world_area(m, j.t) / samples) : 0.0f;
+        long long clip[4];
+        window_clip(&j, xy, step, clip);
+        op_sss_measured_raster_clip(xy, step, clip, lay_site, &j);
+        j.k += here;
+    }
+    if (j.over || j.laid == 0)
+        return 0;
+    ss->n = j.laid;
+    sss_point *p = realloc(ss->pts, (size_t)j.laid * sizeof *p);
+    int *g = realloc(ss->gid, (size_t)j.laid * sizeof *g);
+    if (p)
+        ss->pts = p;
+    if (g)
+        ss->gid = g;
+    return 1;
 }
 
 typedef struct morton_key {
@@ -486,8 +744,11 @@ static op_status spatial_order(sss_shape *ss, op_v3 lo, op_v3 hi, op_error *err)
     return OP_OK;
 }
 
+/* Lays shape sh's points. A windowed shape (op_sss_desc.windowed) lays those of its centred
+ * layout in the window of the camera's hits (cam: gh rows; NULL: the whole shape is in view)
+ * when they are at most maxPoints, and is coarsened to maxPoints points otherwise. */
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
-                             op_error *err)
+                             const cam_job *cam, int gh, float pix, op_error *err)
 {
     const op_trimesh *m = &sh->mesh;
     double sx, sy; /* one tile of the material in scene units */
@@ -512,13 +773,45 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     }
     ss->a_pix = ss->px * ss->py;
     int n = ss->desc->points; /* op_sss_plan */
-    ss->n = n;
+    ss->n = ss->nfull = n;
     ss->a_i = m->area / (float)n;
     ss->spacing = sqrtf(ss->a_i);
+    if (ss->desc->windowed) {
+        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
+                                   ss->desc->density);
+        int laid = 0;
+        if (cam) {
+            /* the radii prepare_shape sets for a centred shape */
+            ss->h = 2.0f * ss->spacing;
+            ss->radius = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
+            cell_set win;
+            op_status st = window_build(ss, sh->sss, cam, gh, pix, &win, err);
+            laid = st ? -1 : lay_window(m, ss, sx, sy, step, &win);
+            free(win.tab);
+            if (st)
+                return st;
+        }
+        if (laid < 0)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points",
+                                ss->desc->max_points);
+        if (laid) {
+            ss->centred = 1;
+            return OP_OK;
+        }
+        op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance points "
+               "(one per material pixel) than maxPoints; capped at %d (coarser than the "
+               "material: raise maxPoints or lower scale)", sh->label, n, ss->desc->max_points);
+        free(ss->pts);
+        free(ss->gid);
+        ss->gid = NULL;
+        n = ss->n = ss->nfull = ss->desc->max_points;
+        ss->a_i = m->area / (float)n;
+        ss->spacing = sqrtf(ss->a_i);
+    }
     ss->pts = calloc((size_t)n, sizeof *ss->pts);
     if (!ss->pts)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
-    if (!ss->desc->is_dipole) {
+    if (!ss->desc->is_dipole && !ss->desc->windowed) {
         double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
                                    ss->desc->density);
         if (step > 0.0 && lay_centred(m, ss, sx, sy, step) == n) {
@@ -574,7 +867,7 @@ typedef struct build_job {
 /* The scatter's accumulators (one per chunk of sources) take at most about MAX_ACC_BYTES
  * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
  * summation order does not depend on which points are receivers). */
-enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16 };
+enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16, UNSAVED_FACTOR = 16 };
 #define MAX_ACC_BYTES (256.0 * 1024 * 1024)
 
 static void irradiance_task(void *user, int task, int thread)
@@ -592,7 +885,8 @@ static void irradiance_task(void *user, int task, int thread)
         op_v3 sum = v3s(0.0f);
         for (int s = 0; s < spp; s++) {
             op_rng rng = op_rng_seed(job->seed ^ 0x5355425355524641ull,
-                                     ((uint64_t)job->task_shape[task] << 40) | (uint64_t)k,
+                                     ((uint64_t)job->task_shape[task] << 40) |
+                                         (uint64_t)point_index(ss, k),
                                      (uint64_t)s);
             op_v3 e = job->transport->irradiance(job->scene, job->task_shape[task], q->p, q->ng,
                                                  q->n, &rng);
@@ -604,21 +898,100 @@ static void irradiance_task(void *user, int task, int thread)
     op_progress_advance(job->prog, (uint64_t)(last - first));
 }
 
+/* The gather grid's cells are half the gather radius r across. The scatter's receivers of a
+ * source s are the points of the cells of side r (aligned with the grid's) that overlap the box
+ * of half-extents E around s (centred: per world axis the smaller of r and the extent of the box
+ * of half + 1 kernel pixels along s's tangents plus r along its normal; else r) that lie in the
+ * kernel's window (kernel_at, centred_task): the set of the scatter before its cells were
+ * halved. gather_cells lists the grid cells of those side-r cells that may meet the window (a
+ * cell whose extent along s's tangents misses [-(half + 1), half + 1] pixels has no receiver),
+ * at most GATHER_CELLS; they are visited in this order. */
+enum { GATHER_CELLS = 512 }; /* 8 per axis: E <= r spans 3 side-r cells (4 with rounding) */
+
+static int gather_cells(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
+                        int32_t cells[GATHER_CELLS][3])
+{
+    const sss_grid *g = &ss->gather;
+    float r = ss->radius, w = (float)(ss->kernel / 2) + 1.0f + 0.01f;
+    int32_t lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        float e = ss->radius;
+        if (ss->centred)
+            e = fminf(((float)(ss->kernel / 2) + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
+                                                         fabsf(v3_get(s->tv, a)) * ss->py) +
+                          fabsf(v3_get(s->n, a)) * ss->radius,
+                      ss->radius);
+        float o = v3_get(g->origin, a), x = v3_get(s->p, a);
+        lo[a] = 2 * (int32_t)floorf((x - e - o) / r);
+        hi[a] = 2 * (int32_t)floorf((x + e - o) / r) + 1;
+    }
+    /* a cell's extent along gu and gv: its centre's offset -/+ half its side times the
+     * L1 norm */
+    float su = 0.5f * g->cell * (fabsf(gu.x) + fabsf(gu.y) + fabsf(gu.z));
+    float sv = 0.5f * g->cell * (fabsf(gv.x) + fabsf(gv.y) + fabsf(gv.z));
+    int n = 0;
+    for (int32_t cz = lo[2]; cz <= hi[2]; cz++)
+        for (int32_t cy = lo[1]; cy <= hi[1]; cy++)
+            for (int32_t cx = lo[0]; cx <= hi[0]; cx++) {
+                op_v3 m = v3(g->origin.x + ((float)cx + 0.5f) * g->cell - s->p.x,
+                             g->origin.y + ((float)cy + 0.5f) * g->cell - s->p.y,
+                             g->origin.z + ((float)cz + 0.5f) * g->cell - s->p.z);
+                float u = v3_dot(m, gu), v = v3_dot(m, gv);
+                if (u - su > w || u + su < -w || v - sv > w || v + sv < -w || n == GATHER_CELLS)
+                    continue;
+                cells[n][0] = cx;
+                cells[n][1] = cy;
+                cells[n++][2] = cz;
+            }
+    return n;
+}
+
+/* The points [*first, *last) of scatter chunk `chunk`: those whose index in the whole layout
+ * lies in [chunk size, (chunk + 1) size), so that a receiver's sum runs in the same order
+ * whichever points are laid or are sources. */
+static void chunk_range(const sss_shape *ss, int chunk, int size, int *first, int *last)
+{
+    long long lo = (long long)chunk * size, hi = lo + size;
+    if (hi > ss->nfull)
+        hi = ss->nfull;
+    int b[2];
+    for (int e = 0; e < 2; e++) {
+        long long want = e ? hi : lo;
+        int l = 0, h = ss->n; /* the first point whose index is at least want */
+        while (l < h) {
+            int mid = l + (h - l) / 2;
+            if (point_index(ss, mid) < want)
+                l = mid + 1;
+            else
+                h = mid;
+        }
+        b[e] = l;
+    }
+    *first = b[0];
+    *last = b[1];
+}
+
 /* The kernel value at the receiver r of the source s (its rows rr, rg, rb), interpolated
  * bilinearly between the four kernel offsets around the offset s -> r in material pixels, in s's
- * frame. Returns 0 when r is not a receiver of s (other side, or outside the kernel). */
-static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r, const float *rr,
-                     const float *rg, const float *rb, float v[3])
+ * frame (gu, gv: its tangents over the pixel size). Returns 0 when r is not a receiver of s
+ * (other side, or outside the kernel). */
+static int kernel_at(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
+                     const gather_pt *r, const float *rr, const float *rg, const float *rb,
+                     float v[3])
 {
-    if (v3_dot(s->n, r->n) <= 0.0f)
+    if (s->n.x * r->nx + s->n.y * r->ny + s->n.z * r->nz <= 0.0f)
         return 0;
     int K = ss->kernel, half = K / 2;
-    op_v3 d = v3_sub(r->p, s->p);
-    float dx = v3_dot(d, s->tu) / ss->px, dy = v3_dot(d, s->tv) / ss->py;
+    op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+    /* the offsets floor(dx), floor(dy) in [-half - 1, half] */
+    float lim = (float)half + 1.0f, dx = v3_dot(d, gu);
+    if (!(dx >= -lim && dx < lim))
+        return 0;
+    float dy = v3_dot(d, gv);
+    if (!(dy >= -lim && dy < lim))
+        return 0;
     float flx = floorf(dx), fly = floorf(dy);
     int ox = (int)flx, oy = (int)fly;
-    if (ox < -half - 1 || ox > half || oy < -half - 1 || oy > half)
-        return 0;
     float tx = dx - flx, ty = dy - fly;
     float wx[2] = {1.0f - tx, tx}, wy[2] = {1.0f - ty, ty};
     v[0] = v[1] = v[2] = 0.0f;
@@ -643,19 +1016,21 @@ static int kernel_at(const sss_shape *ss, const sss_point *s, const sss_point *r
 /* The centred layout's scatter of one chunk of sources (scatter_task's contract): the pair
  * value is the kernel at the whole-pixel offset from the source's pixel to the receiver's
  * (sss_measured.h), each receiver weighted by its area in the normalization, each source's
- * energy E_i A_i g_i / A_pixel. */
+ * energy E_i A_i g_i / A_pixel. Receivers lie within sqrt(3) gather radii of their source (in
+ * the kernel's window they are within one radius in its tangent plane; the bound holds the
+ * pairs a curved surface may add, and is what a windowed shape's window assumes). */
 static void centred_task(void *user, int task, int thread)
 {
     build_job *job = user;
     sss_shape *ss = &job->cache->shapes[job->scatter_shape];
     const op_material *mat = ss->desc->material;
     const sss_grid *g = &ss->gather;
-    int first = task * job->chunk, last = first + job->chunk;
-    if (last > ss->n)
-        last = ss->n;
+    int first, last;
+    chunk_range(ss, task, job->chunk, &first, &last);
     float *acc = ss->acc + (size_t)task * 3 * (size_t)ss->nrecv;
     int K = ss->kernel, half = K / 2;
     float *rows = job->rows[thread];
+    float reach2 = 3.0f * ss->radius * ss->radius; /* a pair lies within sqrt(3) radii */
     int cap = 0, nrec = 0;
     int32_t *rec = NULL; /* pairs: receiver index, kernel column */
     int i;
@@ -681,57 +1056,47 @@ static void centred_task(void *user, int task, int thread)
          * pixel index is (int)(v + BIAS) - BIAS for |v| < BIAS, without floorf's cost */
         const float BIAS = 1024.0f;
         float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
-        int32_t clo[3], chi[3];
-        /* the receivers lie within half + 1 pixels along tu and tv, and within the reach
-         * (ss->radius) along the normal (the surface may curve away): per world axis the
-         * smaller of that box's extent and the reach */
-        float e[3];
-        for (int a = 0; a < 3; a++)
-            e[a] = fminf(((float)half + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
-                                                fabsf(v3_get(s->tv, a)) * ss->py) +
-                             fabsf(v3_get(s->n, a)) * ss->radius,
-                         ss->radius);
-        op_v3 ext = v3(e[0], e[1], e[2]);
-        cell_of(g, v3_sub(s->p, ext), clo);
-        cell_of(g, v3_add(s->p, ext), chi);
+        int32_t cells[GATHER_CELLS][3];
+        int ncells = gather_cells(ss, s, s->gu, s->gv, cells);
         nrec = 0;
-        for (int32_t cz = clo[2]; cz <= chi[2]; cz++)
-            for (int32_t cy = clo[1]; cy <= chi[1]; cy++)
-                for (int32_t cx = clo[0]; cx <= chi[0]; cx++) {
-                    uint32_t b = cell_hash(cx, cy, cz, g->mask);
-                    for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
-                        const gather_pt *r = &ss->gpts[k];
-                        if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
-                            continue;
-                        if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
-                            continue;
-                        op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
-                        float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
-                        if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
-                            continue;
-                        int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
-                        if (ox < -half || ox > half || oy < -half || oy > half)
-                            continue;
-                        int col = (oy + half) * K + (ox + half);
-                        got[0] += rr[col] * r->a;
-                        got[1] += rg[col] * r->a;
-                        got[2] += rb[col] * r->a;
-                        if (r->rj < 0)
-                            continue; /* counts for the normalization only */
-                        if (nrec == cap) {
-                            int nc = cap ? 2 * cap : 2048;
-                            int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
-                            if (!r2) { /* this source's light is lost, reported by the pass */
-                                atomic_store(&job->nomem, 1);
-                                goto next;
-                            }
-                            rec = r2;
-                            cap = nc;
-                        }
-                        rec[2 * nrec] = r->rj;
-                        rec[2 * nrec++ + 1] = col;
+        for (int ci = 0; ci < ncells; ci++) {
+            int32_t cx = cells[ci][0], cy = cells[ci][1], cz = cells[ci][2];
+            uint32_t b = cell_hash(cx, cy, cz, g->mask);
+            for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
+                const gather_pt *r = &ss->gpts[k];
+                if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                    continue;
+                if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
+                    continue;
+                op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
+                if (v3_dot(d, d) > reach2)
+                    continue; /* beyond a windowed shape's reach (window_build) */
+                float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
+                if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
+                    continue;
+                int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
+                if (ox < -half || ox > half || oy < -half || oy > half)
+                    continue;
+                int col = (oy + half) * K + (ox + half);
+                got[0] += rr[col] * r->a;
+                got[1] += rg[col] * r->a;
+                got[2] += rb[col] * r->a;
+                if (r->rj < 0)
+                    continue; /* counts for the normalization only */
+                if (nrec == cap) {
+                    int nc = cap ? 2 * cap : 2048;
+                    int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
+                    if (!r2) { /* this source's light is lost, reported by the pass */
+                        atomic_store(&job->nomem, 1);
+                        goto next;
                     }
+                    rec = r2;
+                    cap = nc;
                 }
+                rec[2 * nrec] = r->rj;
+                rec[2 * nrec++ + 1] = col;
+            }
+        }
         float gn[3];
         for (int c = 0; c < 3; c++) {
             double q = got[c] > 0.0f ? total[c] / got[c] : 1.0;
@@ -766,9 +1131,8 @@ static void scatter_task(void *user, int task, int thread)
     sss_shape *ss = &job->cache->shapes[job->scatter_shape];
     const op_material *mat = ss->desc->material;
     int chunk = task;
-    int first = chunk * job->chunk, last = first + job->chunk;
-    if (last > ss->n)
-        last = ss->n;
+    int first, last;
+    chunk_range(ss, chunk, job->chunk, &first, &last);
     float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->nrecv;
     int K = ss->kernel;
     float *rows = job->rows[thread];
@@ -797,30 +1161,42 @@ static void scatter_task(void *user, int task, int thread)
         }
         float v[3];
         nrec = 0;
-        GRID_FOR_EACH(&ss->gather, s->p, ss->radius, j, {
-            if (!kernel_at(ss, s, &ss->pts[j], rr, rg, rb, v))
-                continue;
-            got[0] += v[0];
-            got[1] += v[1];
-            got[2] += v[2];
-            if (ss->rmap[j] < 0)
-                continue; /* counts for the normalization only */
-            if (nrec == cap) {
-                int nc = cap ? 2 * cap : 1024;
-                int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
-                float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
-                if (r2)
-                    rec = r2;
-                if (!v2) { /* out of memory: this source's light is lost, reported below */
-                    atomic_store(&job->nomem, 1);
-                    break;
+        const sss_grid *gr = &ss->gather;
+        op_v3 gu = v3_scale(s->tu, 1.0f / ss->px), gv = v3_scale(s->tv, 1.0f / ss->py);
+        int32_t cells[GATHER_CELLS][3];
+        int ncells = gather_cells(ss, s, gu, gv, cells);
+        for (int ci = 0; ci < ncells; ci++) {
+            int32_t cx = cells[ci][0], cy = cells[ci][1], cz = cells[ci][2];
+            uint32_t b = cell_hash(cx, cy, cz, gr->mask);
+            for (uint32_t k = gr->start[b]; k < gr->start[b + 1]; k++) {
+                const gather_pt *r = &ss->gpts[k];
+                if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
+                    continue;
+                if (!kernel_at(ss, s, gu, gv, r, rr, rg, rb, v))
+                    continue;
+                got[0] += v[0];
+                got[1] += v[1];
+                got[2] += v[2];
+                if (r->rj < 0)
+                    continue; /* counts for the normalization only */
+                if (nrec == cap) {
+                    int nc = cap ? 2 * cap : 1024;
+                    int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
+                    float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
+                    if (r2)
+                        rec = r2;
+                    if (!v2) { /* out of memory: this source's light is lost, reported below */
+                        atomic_store(&job->nomem, 1);
+                        goto scatter;
+                    }
+                    val = v2;
+                    cap = nc;
                 }
-                val = v2;
-                cap = nc;
+                rec[nrec] = r->rj;
+                memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
             }
-            rec[nrec] = ss->rmap[j];
-            memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
-        });
+        }
+    scatter:;
         float g[3];
         for (int c = 0; c < 3; c++) {
             double q = got[c] > 0.0 ? total[c] * expect / got[c] : 1.0;
@@ -838,28 +1214,6 @@ static void scatter_task(void *user, int task, int thread)
     free(val);
     op_progress_advance(job->prog, (uint64_t)(i - first));
 }
-
-/* One translucent hit of a camera segment: the shape, the point, and the length one radian of
- * ray angle spans there (path length / |cos|). */
-typedef struct cam_hit {
-    op_v3 p;
-    float span;
-    int sss;
-} cam_hit;
-
-typedef struct cam_row {
-    cam_hit *h;
-    int n, cap;
-} cam_row;
-
-typedef struct cam_job {
-    const op_scene *scene;
-    const op_sss_transport *transport;
-    uint64_t seed;
-    int ext, gw;      /* the ray grid: gw columns, film corners widened by ext pixels */
-    cam_row *rows;
-    atomic_int nomem;
-} cam_job;
 
 enum { CAM_MAX_BOUNCES = 8 };
 
@@ -978,9 +1332,10 @@ static op_status select_receivers(sss_shape *ss, const op_sss_saved *sv, op_erro
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
     ss->nrecv = ss->nsrc = 0;
     for (int j = 0; j < ss->n; j++) {
-        int known = ss->recv[j] && sv && (sv->has[j] & OP_SSS_HAS_M);
+        size_t g = (size_t)point_index(ss, j);
+        int known = ss->recv[j] && sv && (sv->has[g] & OP_SSS_HAS_M);
         if (known) {
-            ss->pts[j].m = v3(sv->m[3 * j], sv->m[3 * j + 1], sv->m[3 * j + 2]);
+            ss->pts[j].m = v3(sv->m[3 * g], sv->m[3 * g + 1], sv->m[3 * g + 2]);
             ss->reused_recv++;
         }
         ss->rmap[j] = ss->recv[j] && !known ? ss->nrecv++ : -1;
@@ -992,42 +1347,44 @@ static op_status select_receivers(sss_shape *ss, const op_sss_saved *sv, op_erro
  * src to be computed (in ascending order when called in ascending i). */
 static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
 {
-    if (sv && (sv->has[i] & OP_SSS_HAS_E)) {
-        ss->pts[i].e = v3(sv->e[3 * i], sv->e[3 * i + 1], sv->e[3 * i + 2]);
+    size_t g = (size_t)point_index(ss, i);
+    if (sv && (sv->has[g] & OP_SSS_HAS_E)) {
+        ss->pts[i].e = v3(sv->e[3 * g], sv->e[3 * g + 1], sv->e[3 * g + 2]);
         ss->reused_src++;
     } else {
         ss->src[ss->nsrc++] = i;
     }
 }
 
-/* The scatter's selection (select_receivers, then): the gather buckets that hold a computed
- * receiver, and the sources: the points whose gather box, the one scatter_task visits, holds
- * such a bucket. */
+/* The scatter's selection (select_receivers, then): the sources, the points whose gather cells
+ * (gather_cells, those the scatter visits) hold a computed receiver. */
 static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
 {
     const sss_grid *g = &ss->gather;
     op_status st = select_receivers(ss, sv, err);
     if (st)
         return st;
-    if (!(ss->bmark = calloc((size_t)g->mask + 1, 1)))
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
-    for (int j = 0; j < ss->n; j++) {
-        const int32_t *cg = g->coord + 3 * j;
+    cell_set marked; /* the gather cells that hold a computed receiver */
+    memset(&marked, 0, sizeof marked);
+    int ok = 1;
+    for (int j = 0; j < ss->n && ok; j++)
         if (ss->rmap[j] >= 0)
-            ss->bmark[cell_hash(cg[0], cg[1], cg[2], g->mask)] = 1;
-    }
-    for (int i = 0; i < ss->n; i++) {
-        int32_t lo[3], hi[3], need = 0;
-        cell_of(g, v3_sub(ss->pts[i].p, v3s(ss->radius)), lo);
-        cell_of(g, v3_add(ss->pts[i].p, v3s(ss->radius)), hi);
-        for (int32_t z = lo[2]; z <= hi[2] && !need; z++)
-            for (int32_t y = lo[1]; y <= hi[1] && !need; y++)
-                for (int32_t x = lo[0]; x <= hi[0] && !need; x++)
-                    need = ss->bmark[cell_hash(x, y, z, g->mask)];
+            ok = cell_set_add(&marked, g->coord + 3 * j);
+    for (int i = 0; i < ss->n && ok; i++) {
+        const sss_point *q = &ss->pts[i];
+        op_v3 gu = ss->centred ? q->gu : v3_scale(q->tu, 1.0f / ss->px);
+        op_v3 gv = ss->centred ? q->gv : v3_scale(q->tv, 1.0f / ss->py);
+        int32_t cells[GATHER_CELLS][3];
+        int ncells = gather_cells(ss, q, gu, gv, cells), need = 0;
+        for (int ci = 0; ci < ncells && !need; ci++)
+            need = cell_set_has(&marked, cells[ci]);
         if (need)
             add_source(ss, sv, i);
     }
-    if (ss->centred) {
+    free(marked.tab);
+    if (!ok)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    {
         if (!(ss->gpts = malloc((size_t)ss->n * sizeof *ss->gpts)))
             return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
         for (int k = 0; k < ss->n; k++) {
@@ -1288,14 +1645,15 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
             if (!(job->rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
                 st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
         }
-        /* the chunks are fixed ranges of all the points, whatever the camera needs, so a
-         * receiver's sum runs in the same order as in the full computation */
-        ss->nchunks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
-        int most = (int)fmin(MAX_CHUNKS, fmax(1.0, MAX_ACC_BYTES / (12.0 * ss->n)));
+        /* the chunks are fixed ranges of the whole layout, whatever the camera needs, so a
+         * receiver's sum runs in the same order as in the full computation (chunk_range) */
+        int nf = ss->nfull;
+        ss->nchunks = (nf + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
+        int most = (int)fmin(MAX_CHUNKS, fmax(1.0, MAX_ACC_BYTES / (12.0 * nf)));
         if (ss->nchunks > most)
             ss->nchunks = most;
-        job->chunk = (ss->n + ss->nchunks - 1) / ss->nchunks;
-        ss->nchunks = (ss->n + job->chunk - 1) / job->chunk;
+        job->chunk = (nf + ss->nchunks - 1) / ss->nchunks;
+        ss->nchunks = (nf + job->chunk - 1) / job->chunk;
         if (st == OP_OK &&
             !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->nrecv, sizeof(float))))
             st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
@@ -1330,11 +1688,12 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
     return st;
 }
 
-/* Makes the store's entry for subsurface index sss ready for a shape of n points: allocated
- * (empty) when it has none. Entries of the same key always have the shape's point count; one
- * that does not is refused (a damaged file that kept its checksum, or a key collision). */
-static op_status saved_prepare(op_sss_store *store, int sss, int n, const char *label,
-                               op_error *err)
+/* Makes the store's entry for subsurface index sss ready for a layout of n points: allocated
+ * (empty) when it has none or holds the other layout of a windowed shape (d). Entries of the
+ * same key always have the layout's point count; one that does not is refused (a damaged file
+ * that kept its checksum, or a key collision). */
+static op_status saved_prepare(op_sss_store *store, int sss, int n, const op_sss_desc *d,
+                               const char *label, op_error *err)
 {
     if (sss >= store->nshapes)
         return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d translucent "
@@ -1342,6 +1701,13 @@ static op_status saved_prepare(op_sss_store *store, int sss, int n, const char *
     op_sss_saved *sv = &store->shapes[sss];
     if (sv->n == n)
         return OP_OK;
+    if (d->windowed && (sv->n == d->points || sv->n == d->max_points)) {
+        /* the other of a windowed shape's two layouts (another view): recomputed */
+        free(sv->has);
+        free(sv->e);
+        free(sv->m);
+        sv->n = 0;
+    }
     if (sv->n != 0)
         return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d irradiance "
                             "points for this shape, the scene lays %d", label, sv->n, n);
@@ -1366,24 +1732,26 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
 {
     for (int s = 0; s < c->n; s++) {
         const sss_shape *ss = &c->shapes[s];
-        if (!ss->pts)
+        if (!ss->pts || ss->unsaved)
             continue;
         op_sss_saved *sv = &store->shapes[s];
         for (int k = 0; k < ss->nsrc; k++) {
             int i = ss->src[k];
-            float *e = sv->e + 3 * (size_t)i;
+            size_t g = (size_t)point_index(ss, i);
+            float *e = sv->e + 3 * g;
             e[0] = ss->pts[i].e.x;
             e[1] = ss->pts[i].e.y;
             e[2] = ss->pts[i].e.z;
-            sv->has[i] |= OP_SSS_HAS_E;
+            sv->has[g] |= OP_SSS_HAS_E;
         }
         for (int j = 0; j < ss->n; j++)
             if (ss->rmap[j] >= 0) {
-                float *m = sv->m + 3 * (size_t)j;
+                size_t g = (size_t)point_index(ss, j);
+                float *m = sv->m + 3 * g;
                 m[0] = ss->pts[j].m.x;
                 m[1] = ss->pts[j].m.y;
                 m[2] = ss->pts[j].m.z;
-                sv->has[j] |= OP_SSS_HAS_M;
+                sv->has[g] |= OP_SSS_HAS_M;
             }
         store->reused_e += ss->reused_src;
         store->reused_m += ss->reused_recv;
@@ -1424,7 +1792,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
                                const op_sss_build_options *opt, const cam_job *cam, int gh,
                                float pix, op_error *err)
 {
-    op_status st = make_points(scene, sh, ss, err);
+    op_status st = make_points(scene, sh, ss, opt->everywhere ? NULL : cam, gh, pix, err);
     if (st)
         return st;
     int half = ss->kernel / 2;
@@ -1434,7 +1802,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
          * its frame's axes */
         ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        st = grid_build(&ss->gather, ss->pts, ss->n, NULL, scene->bmin, ss->radius, err);
+        st = grid_build(&ss->gather, ss->pts, ss->n, NULL, scene->bmin, 0.5f * ss->radius, err);
     } else {
         st = tree_prepare(ss, scene->bmin, err);
     }
@@ -1469,8 +1837,15 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
             }
     }
     op_sss_saved *sv = NULL;
-    if (opt->store) {
-        st = saved_prepare(opt->store, sh->sss, ss->n, sh->label, err);
+    /* the store holds 25 bytes per point of the whole layout: a windowed shape of more than
+     * UNSAVED_FACTOR x maxPoints is computed without it */
+    ss->unsaved = opt->store && ss->gid &&
+                  (long long)ss->nfull > UNSAVED_FACTOR * (long long)ss->desc->max_points;
+    if (ss->unsaved)
+        op_log(OP_LOG_INFO, "%s: not kept in the pre-pass cache (%d irradiance points in its "
+               "whole layout, over %d x maxPoints)", sh->label, ss->nfull, UNSAVED_FACTOR);
+    if (opt->store && !ss->unsaved) {
+        st = saved_prepare(opt->store, sh->sss, ss->nfull, ss->desc, sh->label, err);
         if (st)
             return st;
         sv = &opt->store->shapes[sh->sss];
@@ -1478,9 +1853,9 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     st = ss->hier ? select_tree(ss, sv, opt, err) : select_points(ss, sv, err);
     if (st)
         return st;
-    op_log(OP_LOG_INFO, "%s: %d irradiance points (%.3g per material pixel), %d x %d pixels "
-           "of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
-           sh->label, ss->n, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
+    op_log(OP_LOG_INFO, "%s: %d irradiance points laid of %d (%.3g per material pixel), %d x %d "
+           "pixels of %.3g x %.3g scene units; the camera needs exitance at %d, irradiance at %d",
+           sh->label, ss->n, ss->nfull, ss->a_pix / ss->a_i, ss->width, ss->height, ss->px, ss->py,
            ss->nrecv + ss->reused_recv, ss->nsrc + ss->reused_src);
     if (opt->store)
         op_log(OP_LOG_DEBUG, "%s: from the pre-pass cache: irradiance at %d, exitance at %d; "
@@ -1607,13 +1982,13 @@ void op_sss_cache_free(op_sss_cache *c)
     for (int i = 0; i < c->n; i++) {
         sss_shape *ss = &c->shapes[i];
         free(ss->pts);
+        free(ss->gid);
         op_sss_tree_free(&ss->tree);
         free(ss->near_recv);
         free(ss->rep);
         grid_free(&ss->look);
         grid_free(&ss->ballg);
         op_sss_dipole_kernel_free(&ss->dk);
-        free(ss->bmark);
         free(ss->recv);
         free(ss->rmap);
         free(ss->src);
