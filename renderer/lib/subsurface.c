@@ -2063,7 +2063,8 @@ int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
      * and not its neighbours'), all within h where none is that close (a stretched map) */
     if (ss->centred && lookup_within(ss, p, n, 0.75f * ss->h, out, &wsum) && wsum > 0.0f)
         return 1;
-    if (lookup_within(ss, p, n, ss->hr, out, &wsum))
+    /* no point at all near p (outside a windowed shape's laid part): no exitance either */
+    if (lookup_within(ss, p, n, ss->hr, out, &wsum) && wsum > 0.0f)
         return 1;
     *out = v3s(0.0f);
     return 0;

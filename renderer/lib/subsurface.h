@@ -104,7 +104,8 @@ void op_sss_cache_free(op_sss_cache *c);
 
 /* Exitance M at surface point p (shading normal n) of the shape with subsurface index sss,
  * interpolated between the points near p. Returns 0 (and *m black) when some of those points
- * have no computed exitance; then the caller uses the diffuse stand-in. */
+ * have no computed exitance, or when no point is near p (the part of a windowed shape that was
+ * not laid); then the caller uses the diffuse stand-in. */
 int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *m);
 /* op_sss_lookup's M, black where it has none. */
 op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n);

@@ -260,6 +260,12 @@ static long long big_patch(const char *mat, int spot, int threads, int max_point
     op_sss_cache_stats(c, &st);
     if (out)
         lookup_tile(c, BIG, out);
+    if (out && st.points < BIG * BIG * W * W) { /* windowed: a corner far outside the view
+                                                 * has no point near it, so no exitance */
+        op_v3 m, corner = v3(0.1f - 0.5f * BIG, 0.1f - 0.5f * BIG, 0.0f);
+        assert_false(op_sss_lookup(c, 0, corner, v3(0.0f, 0.0f, 1.0f), &m));
+        assert_true(m.x == 0.0f && m.y == 0.0f && m.z == 0.0f);
+    }
     op_sss_cache_free(c);
     op_scene_free(scene);
     return st.points;
