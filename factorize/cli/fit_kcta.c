@@ -26,6 +26,7 @@ static op_status kcta_fit(fit_job *job, op_error *err)
     opt.terms = terms;
     opt.max_iters = a->iters;
     opt.svd = a->svd;
+    opt.threads = a->threads;
     int wide = clusters > 65536 ? 4 : 2;
     op_progress *prog = op_progress_begin(
         "kcta", (uint64_t)ds->info.channels * (uint64_t)(1 + opt.max_iters), NULL, NULL);
@@ -46,9 +47,7 @@ static op_status kcta_fit(fit_job *job, op_error *err)
             free(max);
             break;
         }
-        double norm = 0;
-        for (uint64_t q = 0; q < (uint64_t)rows * (uint64_t)cols; q++)
-            norm += (double)mat[q] * mat[q];
+        double norm = md.norm2;
         op_log(OP_LOG_INFO, "kcta channel %d: %d iteration(s)%s, %d empty cluster(s) split, "
                "relative error %.4g of the preprocessed matrix (%.3f s)", c, md.iterations,
                md.restored ? " (one more raised the error and was undone)" : "", md.splits,

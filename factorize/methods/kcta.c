@@ -259,6 +259,49 @@ typedef struct pass_job {
     int assign; /* pick every row's clusters (the clustering stage), else keep them */
 } pass_job;
 
+/* Lanes of row_residual's sum: a fixed order, so every build variant gives the same bits. */
+#define RES_LANES 16
+
+/* sum_j x_j^2 in double, n values. */
+OP_VECTOR_CLONES
+static double sum_squares(const float *x, int64_t n)
+{
+    double lane[RES_LANES] = {0};
+    int64_t j0 = 0;
+    for (; j0 + RES_LANES <= n; j0 += RES_LANES)
+        for (int k = 0; k < RES_LANES; k++)
+            lane[k] += (double)x[j0 + k] * x[j0 + k];
+    for (int k = 0; j0 + k < n; k++)
+        lane[k] += (double)x[j0 + k] * x[j0 + k];
+    double e = 0;
+    for (int k = 0; k < RES_LANES; k++)
+        e += lane[k];
+    return e;
+}
+
+/* The end of a row's pass: its residual r = a - sum_{s < K} V_s y_s (vs[s]: T x n, the basis
+ * transposed; y: K x T; n values), rc[s] (T x n) += y_s r^T; returns ||r||^2 in double. */
+OP_VECTOR_CLONES
+static double row_residual(const float *restrict a, const float *const *vs, const float *y,
+                           float *const *rc, int K, int T, int n, float *restrict r)
+{
+    for (int s = 0; s < K; s++)
+        for (int t = 0; t < T; t++) {
+            const float *restrict v = vs[s] + (size_t)t * n;
+            const float *restrict src = s == 0 && t == 0 ? a : r;
+            float ys = y[s * T + t];
+            for (int j = 0; j < n; j++)
+                r[j] = src[j] - v[j] * ys;
+        }
+    for (int s = 0; s < K; s++)
+        for (int t = 0; t < T; t++) {
+            float *restrict o = rc[s] + (size_t)t * n, ys = y[s * T + t];
+            for (int j = 0; j < n; j++)
+                o[j] += ys * r[j];
+        }
+    return sum_squares(r, n);
+}
+
 /* One row of a pass: its clusters (the greedy search of section 4.2 when assigning), their
  * optimal coefficients (Theorem 4), its residual r, its squared error, and the sums for the
  * bases' update. p holds the row's projections onto every cluster (assigning) or room for
@@ -360,21 +403,21 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float
         }
     }
     /* The stored (float) coefficients, the residual they leave, and its norm. */
-    memcpy(r, ai, (size_t)n * sizeof *r);
-    for (int s = 0; s < K; s++) {
-        md->idx[i * K + s] = (uint32_t)sel[s];
-        for (int t = 0; t < T; t++)
-            yf[s * T + t] = md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
-        cblas_sgemv(CblasRowMajor, CblasTrans, T, n, -1.0f, w->vt + (size_t)sel[s] * T * n, n,
-                    yf + s * T, 1, 1.0f, r, 1);
-    }
-    w->rowerr[i] = cblas_dsdot(n, r, 1, r, 1);
     /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
      * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
      * sums of r y^T and y y^T. */
+    const float *vs[64];
+    float *rc[64];
     for (int s = 0; s < K; s++) {
-        float *rc = acc + (size_t)sel[s] * w->acc_stride, *gc = rc + (size_t)T * n;
-        cblas_sger(CblasRowMajor, T, n, 1.0f, yf + s * T, 1, r, 1, rc, n);
+        md->idx[i * K + s] = (uint32_t)sel[s];
+        vs[s] = w->vt + (size_t)sel[s] * T * n;
+        rc[s] = acc + (size_t)sel[s] * w->acc_stride;
+        for (int t = 0; t < T; t++)
+            yf[s * T + t] = md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
+    }
+    w->rowerr[i] = row_residual(ai, vs, yf, rc, K, T, n, r);
+    for (int s = 0; s < K; s++) {
+        float *gc = rc[s] + (size_t)T * n;
         for (int t = 0; t < T; t++)
             for (int u = 0; u < T; u++)
                 gc[t * T + u] += yf[s * T + t] * yf[s * T + u];
@@ -409,11 +452,7 @@ static void pass_task(void *user, int task, int thread)
 static op_status pass(work *w, int assign, double *total, op_error *err)
 {
     pass_job j = {w, assign};
-    /* Tasks call gemm themselves: OpenBLAS's own threads would only compete with them. */
-    int blas = openblas_get_num_threads();
-    openblas_set_num_threads(1);
     op_status st = op_parallel_for(w->threads, w->nstripes, pass_task, &j, NULL, err);
-    openblas_set_num_threads(blas);
     if (st != OP_OK)
         return st;
     size_t len = (size_t)w->C * w->acc_stride;
@@ -998,6 +1037,10 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     md->idx = malloc(ni * sizeof *md->idx);
     work w = {0};
     op_status st = OP_OK;
+    /* The passes' tasks call gemm themselves, and the other products are small (the clusters'
+     * SVDs): OpenBLAS's own threads would only compete with the tasks or wait for work. */
+    int blas = openblas_get_num_threads();
+    openblas_set_num_threads(1);
     if (!md->basis || !md->coef || !md->idx) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows", (long long)rows);
         goto done;
@@ -1040,6 +1083,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
             (st = initialize(&w, err)) != OP_OK)
             goto done;
     }
+    md->norm2 = sum_squares(a, rows * cols);
     op_progress_advance(progress, 1);
     int reported = 0; /* iterations whose progress unit was advanced */
     st = iterate(&w, opt->max_iters, opt->tol, progress, &reported, err);
@@ -1057,6 +1101,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         }
 done:
     work_end(&w);
+    openblas_set_num_threads(blas);
     if (st != OP_OK)
         op_kcta_free(md);
     return st;

@@ -71,6 +71,7 @@ typedef struct op_kcta_model {
      * (nhistory = iterations + 1); non-increasing, the last one the model's. */
     double history[OP_KCTA_MAX_HISTORY + 1];
     int nhistory;
+    double norm2;     /* sum_i ||a_i||^2 of the whole matrix, in double */
 } op_kcta_model;
 
 /* Factors the row-major rows x cols matrix a (finite values). Fails with OP_ERR_INPUT for
