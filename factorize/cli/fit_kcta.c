@@ -30,11 +30,21 @@ static op_status kcta_fit(fit_job *job, op_error *err)
     int wide = clusters > 65536 ? 4 : 2;
     op_progress *prog = op_progress_begin(
         "kcta", (uint64_t)ds->info.channels * (uint64_t)(1 + opt.max_iters), NULL, NULL);
+    uint64_t nonfinite = 0, negative = 0;
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_monotonic_seconds();
-        st = op_fit_prepare_channel(a, ds, c, 0, mat, &shift, &max, err);
+        uint64_t nf = 0, neg = 0;
+        st = op_fit_prepare_channel(a, ds, c, 0, mat, &shift, &max, &nf, &neg, err);
+        nonfinite += nf;
+        negative += neg;
+        if (nf && !a->sanitize) {
+            st = op_fit_counted(a, ds, nf, neg, job->rep, err);
+            if (st == OP_OK) /* not found again: cannot happen to a read-only mapping */
+                st = op_error_set(err, OP_ERR_INPUT, "%s: channel %d holds non-finite values",
+                                  a->input, c);
+        }
         if (st != OP_OK)
             break;
         double t1 = op_monotonic_seconds();
@@ -76,6 +86,8 @@ static op_status kcta_fit(fit_job *job, op_error *err)
     }
     op_progress_end(prog);
     free(mat);
+    if (st == OP_OK && !ds->block_rows)
+        st = op_fit_counted(a, ds, nonfinite, negative, job->rep, err);
     return st == OP_OK ? op_write_kcta_params(job->w, a->km, wide, err) : st;
 }
 
@@ -117,6 +129,7 @@ const fit_method op_fit_kcta = {
     .method = OP_METHOD_KCTA,
     .options = FIT_OPT_CLUSTERS | FIT_OPT_ITERS,
     .albedo = 1,
+    .counts_values = 1,
     .terms_help = "rank per cluster ",
     .defaults = kcta_defaults,
     .describe = kcta_describe,
