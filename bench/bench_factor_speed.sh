@@ -6,10 +6,9 @@
 # scikit-learn's randomized_svd of the same three channels (rank 10, n_iter 4 and 7) in the same
 # run (once per repeat, with --only too); the table gives medians. With --before DIR, the same
 # runs with another build (the baseline) interleaved too, for before/after figures on the same
-# machine state. The error
-# figures are the report's, over every value of the dataset on every run (the stored albedo map
-# needs every row evaluated anyway, so a sampled quick estimate would save little): there is no
-# sampled estimate to compare with.
+# machine state. The error figures are the report's, over every value of the dataset on every
+# run (the stored albedo map needs every row evaluated anyway, so a sampled quick estimate would
+# save little): there is no sampled estimate to compare with.
 #
 # usage: bench/bench_factor_speed.sh [--build DIR] [--before DIR] [--repeats N] [--work DIR]
 #                                    [--only svd,tucker,kcta]
