@@ -120,25 +120,22 @@ static op_status subspace_of(const float *x, int64_t m, int cols, int T, const o
     return OP_OK;
 }
 
-/* Solves the symmetric positive semi-definite n x n system g y = b in the least-squares,
- * minimum-norm sense (Moore-Penrose): Cholesky when well conditioned, else an eigen
- * decomposition dropping eigenvalues below 1e-10 of the largest. work: 2 n^2 + 2 n doubles. */
-static void gram_solve(const double *g, int n, const double *b, double *y, double *work)
+/* The Cholesky factor l (n x n, lower) of the symmetric n x n g, or 0 when g is not well
+ * conditioned (a pivot below 1e-8 of the largest diagonal entry). */
+static int gram_factor(const double *g, int n, double *l)
 {
-    double *l = work, *w = work + (size_t)n * n;
     memcpy(l, g, (size_t)n * n * sizeof *l);
     double dmax = 0;
     for (int i = 0; i < n; i++)
         dmax = fmax(dmax, g[(size_t)i * n + i]);
-    int ok = dmax > 0;
-    for (int j = 0; j < n && ok; j++) {
+    if (!(dmax > 0))
+        return 0;
+    for (int j = 0; j < n; j++) {
         double d = l[(size_t)j * n + j];
         for (int k = 0; k < j; k++)
             d -= l[(size_t)j * n + k] * l[(size_t)j * n + k];
-        if (!(d > 1e-8 * dmax)) {
-            ok = 0;
-            break;
-        }
+        if (!(d > 1e-8 * dmax))
+            return 0;
         d = sqrt(d);
         l[(size_t)j * n + j] = d;
         for (int i = j + 1; i < n; i++) {
@@ -148,19 +145,34 @@ static void gram_solve(const double *g, int n, const double *b, double *y, doubl
             l[(size_t)i * n + j] = s / d;
         }
     }
-    if (ok) {
-        for (int i = 0; i < n; i++) {
-            double s = b[i];
-            for (int k = 0; k < i; k++)
-                s -= l[(size_t)i * n + k] * y[k];
-            y[i] = s / l[(size_t)i * n + i];
-        }
-        for (int i = n - 1; i >= 0; i--) {
-            double s = y[i];
-            for (int k = i + 1; k < n; k++)
-                s -= l[(size_t)k * n + i] * y[k];
-            y[i] = s / l[(size_t)i * n + i];
-        }
+    return 1;
+}
+
+/* y = (l l^T)^-1 b, l from gram_factor. */
+static void gram_subst(const double *l, int n, const double *b, double *y)
+{
+    for (int i = 0; i < n; i++) {
+        double s = b[i];
+        for (int k = 0; k < i; k++)
+            s -= l[(size_t)i * n + k] * y[k];
+        y[i] = s / l[(size_t)i * n + i];
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        double s = y[i];
+        for (int k = i + 1; k < n; k++)
+            s -= l[(size_t)k * n + i] * y[k];
+        y[i] = s / l[(size_t)i * n + i];
+    }
+}
+
+/* Solves the symmetric positive semi-definite n x n system g y = b in the least-squares,
+ * minimum-norm sense (Moore-Penrose): Cholesky when well conditioned, else an eigen
+ * decomposition dropping eigenvalues below 1e-10 of the largest. work: 2 n^2 + 2 n doubles. */
+static void gram_solve(const double *g, int n, const double *b, double *y, double *work)
+{
+    double *l = work, *w = work + (size_t)n * n;
+    if (gram_factor(g, n, l)) {
+        gram_subst(l, n, b, y);
         return;
     }
     memcpy(l, g, (size_t)n * n * sizeof *l);
@@ -198,6 +210,8 @@ typedef struct work {
     float *vall;      /* n x CT: every basis side by side, the operand of the clustering gemm */
     float *vt;        /* C x T x n: every basis transposed, for the per-row loops */
     double *gram;     /* CT x CT: V_all^T V_all (only the diagonal blocks when K = 1) */
+    double *chol;     /* K = 1: C x T x T, each cluster's block's gram_factor, */
+    unsigned char *chol_ok; /* C: ... where it succeeded (else its rows use gram_solve) */
     double *rowerr;   /* rows: each row's squared error after the last pass */
     int64_t *mem_row; /* rows * K member lists, grouped by cluster */
     int *mem_slot;
@@ -252,6 +266,15 @@ static void bases_changed(work *w)
                 s += (double)vp[j] * vq[j];
             w->gram[(size_t)p * CT + q] = s;
         }
+    if (w->K > 1)
+        return;
+    double g[4096];
+    for (int c = 0; c < C; c++) {
+        for (int t = 0; t < T; t++)
+            for (int u = 0; u < T; u++)
+                g[t * T + u] = w->gram[(size_t)(c * T + t) * CT + c * T + u];
+        w->chol_ok[c] = (unsigned char)gram_factor(g, T, w->chol + (size_t)c * T * T);
+    }
 }
 
 typedef struct pass_job {
@@ -357,6 +380,12 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float
             continue; /* the clusters are known: one solve for all of them */
         }
         /* Theorem 4: the optimal projection onto all k + 1 selected clusters. */
+        if (K == 1 && w->chol_ok[sel[0]]) { /* gram_solve's result, from the cached factor */
+            for (int t = 0; t < T; t++)
+                b[t] = p[sel[0] * T + t];
+            gram_subst(w->chol + (size_t)sel[0] * T * T, T, b, y);
+            continue;
+        }
         int m = (k + 1) * T;
         for (int s = 0; s <= k; s++)
             for (int t = 0; t < T; t++) {
@@ -467,6 +496,32 @@ static op_status pass(work *w, int assign, double *total, op_error *err)
         e += w->rowerr[i];
     *total = e;
     return OP_OK;
+}
+
+typedef struct norm_job {
+    const work *w;
+    double part[16]; /* per stripe (work_begin makes at most 16) */
+} norm_job;
+
+static void norm_task(void *user, int task, int thread)
+{
+    norm_job *j = user;
+    const work *w = j->w;
+    int64_t r0 = w->rows * task / w->nstripes, r1 = w->rows * (task + 1) / w->nstripes;
+    (void)thread;
+    j->part[task] = sum_squares(w->a + r0 * w->n, (r1 - r0) * w->n);
+}
+
+/* sum_i ||a_i||^2, by stripes added in order (the same for any thread count). */
+static double matrix_norm2(work *w)
+{
+    norm_job j = {.w = w};
+    double e = 0;
+    if (op_parallel_for(w->threads, w->nstripes, norm_task, &j, NULL, NULL) != OP_OK)
+        return NAN; /* only for the log */
+    for (int s = 0; s < w->nstripes; s++)
+        e += j.part[s];
+    return e;
 }
 
 /* Groups the (row, slot) pairs by cluster into the member lists. */
@@ -872,6 +927,8 @@ static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
     w->vall = malloc((size_t)cols * C * T * sizeof *w->vall);
     w->vt = malloc((size_t)cols * C * T * sizeof *w->vt);
     w->gram = malloc((size_t)C * T * C * T * sizeof *w->gram);
+    w->chol = malloc((size_t)C * T * T * sizeof *w->chol);
+    w->chol_ok = malloc((size_t)C);
     w->rowerr = malloc((size_t)rows * sizeof *w->rowerr);
     w->mem_row = malloc(ni * sizeof *w->mem_row);
     w->mem_slot = malloc(ni * sizeof *w->mem_slot);
@@ -879,7 +936,7 @@ static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
     w->acc = malloc((size_t)w->nstripes * C * w->acc_stride * sizeof *w->acc);
     w->sum = malloc((size_t)C * w->acc_stride * sizeof *w->sum);
     w->scratch = malloc((size_t)w->nthreads * w->scratch_stride * sizeof *w->scratch);
-    if (!w->vall || !w->vt || !w->gram || !w->rowerr || !w->mem_row || !w->mem_slot ||
+    if (!w->vall || !w->vt || !w->gram || !w->chol || !w->chol_ok || !w->rowerr || !w->mem_row || !w->mem_slot ||
         !w->mem_start || !w->acc || !w->sum || !w->scratch)
         return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
                             (long long)rows);
@@ -891,6 +948,8 @@ static void work_end(work *w)
     free(w->vall);
     free(w->vt);
     free(w->gram);
+    free(w->chol);
+    free(w->chol_ok);
     free(w->rowerr);
     free(w->mem_row);
     free(w->mem_slot);
@@ -1083,7 +1142,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
             (st = initialize(&w, err)) != OP_OK)
             goto done;
     }
-    md->norm2 = sum_squares(a, rows * cols);
+    md->norm2 = matrix_norm2(&w);
     op_progress_advance(progress, 1);
     int reported = 0; /* iterations whose progress unit was advanced */
     st = iterate(&w, opt->max_iters, opt->tol, progress, &reported, err);
