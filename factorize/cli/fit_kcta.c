@@ -27,6 +27,7 @@ static op_status kcta_fit(fit_job *job, op_error *err)
     opt.max_iters = a->iters;
     opt.svd = a->svd;
     opt.threads = a->threads;
+    opt.svd.threads = a->threads;
     int wide = clusters > 65536 ? 4 : 2;
     op_progress *prog = op_progress_begin(
         "kcta", (uint64_t)ds->info.channels * (uint64_t)(1 + opt.max_iters), NULL, NULL);

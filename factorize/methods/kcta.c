@@ -781,6 +781,31 @@ static int split_empty(work *w, unsigned char *touched)
     return splits;
 }
 
+typedef struct init_job {
+    work *w;
+    const int *label;
+    int64_t maxc;      /* rows of the largest cluster */
+    op_rsvd_options svd; /* single-threaded */
+    float *x;          /* per thread: maxc x n */
+    op_status *st;     /* per cluster */
+    op_error *errs;
+} init_job;
+
+/* Cluster `task`'s basis: the truncated SVD of its rows. */
+static void init_task(void *user, int task, int thread)
+{
+    init_job *j = user;
+    const work *w = j->w;
+    const int n = w->n;
+    float *x = j->x + (size_t)thread * (size_t)j->maxc * n;
+    int64_t m = 0;
+    for (int64_t i = 0; i < w->rows; i++)
+        if (j->label[i] == task)
+            memcpy(x + m++ * n, w->a + i * n, (size_t)n * sizeof *x);
+    j->st[task] = subspace_of(x, m, n, w->T, &j->svd, w->md->basis + (size_t)task * n * w->T,
+                              &j->errs[task]);
+}
+
 /* Section 5.1: k-means (k-means++ seeding from a fixed seed, Lloyd iterations) of the rows in
  * the space of the global leading right singular vectors, then one CTA step: the truncated SVD
  * of each cluster's rows gives its basis. */
@@ -879,19 +904,30 @@ static op_status initialize(work *w, op_error *err)
     int64_t maxc = 1;
     for (int c = 0; c < C; c++)
         maxc = count[c] > maxc ? count[c] : maxc;
-    x = rows_buffer(w, maxc);
-    if (!x) {
+    /* The clusters' SVDs as parallel tasks, each on one thread (op_rsvd's result does not
+     * depend on the thread count), the first failure in cluster order reported. */
+    int nthreads = op_parallel_threads(w->threads);
+    nthreads = nthreads > C ? C : nthreads;
+    init_job j = {.w = w, .label = label, .maxc = maxc, .svd = *w->svd};
+    j.svd.threads = 1;
+    x = malloc((size_t)nthreads * (size_t)maxc * n * sizeof *x);
+    j.x = x;
+    j.st = malloc((size_t)C * sizeof *j.st);
+    j.errs = calloc((size_t)C, sizeof *j.errs);
+    if (!x || !j.st || !j.errs) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
+        free(j.st);
+        free(j.errs);
         goto done;
     }
-    for (int c = 0; c < C && st == OP_OK; c++) {
-        int64_t m = 0;
-        for (int64_t i = 0; i < rows; i++)
-            if (label[i] == c)
-                memcpy(x + m++ * n, w->a + i * n, (size_t)n * sizeof *x);
-        st = subspace_of(x, m, n, T, w->svd, w->md->basis + (size_t)c * n * T, err);
-    }
+    st = op_parallel_for(nthreads, C, init_task, &j, NULL, err);
+    for (int c = 0; c < C && st == OP_OK; c++)
+        if ((st = j.st[c]) != OP_OK && err)
+            *err = j.errs[c];
+    free(j.st);
+    free(j.errs);
 done:
+    free(x);
     free(z);
     free(vg);
     free(cent);
