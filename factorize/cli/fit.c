@@ -65,6 +65,17 @@ void op_fit_log_counts(const factor_args *a, const op_factor_report *rep)
                (unsigned long long)rep->negative_values);
 }
 
+op_status op_fit_channel_nonfinite(const factor_args *a, const dataset *ds, int c,
+                                   uint64_t nonfinite, uint64_t negative, op_factor_report *rep,
+                                   op_error *err)
+{
+    op_status st = op_fit_counted(a, ds, nonfinite, negative, rep, err);
+    if (st == OP_OK) /* not found again: cannot happen to a read-only mapping */
+        st = op_error_set(err, OP_ERR_INPUT, "%s: channel %d holds non-finite values", a->input,
+                          c);
+    return st;
+}
+
 op_status op_fit_counted(const factor_args *a, const dataset *ds, uint64_t nonfinite,
                          uint64_t negative, op_factor_report *rep, op_error *err)
 {

@@ -40,12 +40,8 @@ static op_status kcta_fit(fit_job *job, op_error *err)
         st = op_fit_prepare_channel(a, ds, c, 0, mat, &shift, &max, &nf, &neg, err);
         nonfinite += nf;
         negative += neg;
-        if (nf && !a->sanitize) {
-            st = op_fit_counted(a, ds, nf, neg, job->rep, err);
-            if (st == OP_OK) /* not found again: cannot happen to a read-only mapping */
-                st = op_error_set(err, OP_ERR_INPUT, "%s: channel %d holds non-finite values",
-                                  a->input, c);
-        }
+        if (nf && !a->sanitize)
+            st = op_fit_channel_nonfinite(a, ds, c, nf, neg, job->rep, err);
         if (st != OP_OK)
             break;
         double t1 = op_monotonic_seconds();
