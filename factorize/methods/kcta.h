@@ -30,7 +30,8 @@
  * the previous one, the previous iteration is restored and the iteration stops (section 5.3),
  * so the error never increases.
  * The result is the same for any thread count: the passes split the rows into stripes fixed
- * by the sizes alone and add the stripes' sums in order.
+ * by the sizes alone and add the stripes' sums in order; the initial per-cluster SVDs are
+ * parallel tasks, each single-threaded. OpenBLAS runs single-threaded during the fit.
  * With K_m = 1 this is CTA: hard clustering with a rank-T subspace per cluster. */
 #ifndef OP_FACTOR_KCTA_H
 #define OP_FACTOR_KCTA_H
