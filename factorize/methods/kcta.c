@@ -228,6 +228,9 @@ typedef struct work {
     double *scratch;   /* per thread: the Gram solver's doubles, a row's residual (n floats),
                           SUB_ROWS x CT floats of projections */
     size_t scratch_stride;
+    int32_t *order;      /* K = 1, per thread: C + 1 cluster starts, then a block's rows by
+                            cluster (SUB_ROWS) */
+    size_t order_stride;
     int nthreads;
     int guard;         /* K_m > 1: a clustering pass keeps a row's previous clusters when
                           they capture more of it than the greedy search's (idx is valid) */
@@ -329,14 +332,42 @@ static double row_residual(const float *restrict a, const float *const *vs, cons
  * optimal coefficients (Theorem 4), its residual r, its squared error, and the sums for the
  * bases' update. p holds the row's projections onto every cluster (assigning) or room for
  * them (CT values). */
-static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float *acc)
+/* The end of row i's pass from its stored clusters and coefficients: its residual r (n floats
+ * of room), squared error, and its terms of the update sums in acc. */
+static void row_end(work *w, int64_t i, float *acc, float *r)
+{
+    const int n = w->n, K = w->K, T = w->T;
+    const op_kcta_model *md = w->md;
+    const float *yf = md->coef + (size_t)i * K * T;
+    if (K < 1 || K > 64)
+        return; /* op_kcta_factor refuses these */
+    /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
+     * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
+     * sums of r y^T and y y^T. */
+    const float *vs[64];
+    float *rc[64];
+    for (int s = 0; s < K; s++) {
+        uint32_t c = md->idx[i * K + s];
+        vs[s] = w->vt + (size_t)c * T * n;
+        rc[s] = acc + (size_t)c * w->acc_stride;
+    }
+    w->rowerr[i] = row_residual(w->a + i * n, vs, yf, rc, K, T, n, r);
+    for (int s = 0; s < K; s++) {
+        float *gc = rc[s] + (size_t)T * n;
+        for (int t = 0; t < T; t++)
+            for (int u = 0; u < T; u++)
+                gc[t * T + u] += yf[s * T + t] * yf[s * T + u];
+    }
+}
+
+/* One row of a pass up to its stored clusters and coefficients, then row_end unless defer. */
+static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float *acc, int defer)
 {
     const int n = w->n, C = w->C, K = w->K, T = w->T, CT = w->CT;
     op_kcta_model *md = w->md;
     const float *ai = w->a + i * n;
     double *y = sc, *b = y + 64, *gs = b + 64, *solve = gs + 4096;
     float *r = (float *)(solve + 2 * 4096 + 2 * 64);
-    float yf[64];
     int sel[64];
     if (!assign) {
         for (int s = 0; s < K; s++) {
@@ -431,26 +462,14 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float
             }
         }
     }
-    /* The stored (float) coefficients, the residual they leave, and its norm. */
-    /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
-     * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
-     * sums of r y^T and y y^T. */
-    const float *vs[64];
-    float *rc[64];
+    /* The stored (float) coefficients; then (now, or by the caller) what they leave. */
     for (int s = 0; s < K; s++) {
         md->idx[i * K + s] = (uint32_t)sel[s];
-        vs[s] = w->vt + (size_t)sel[s] * T * n;
-        rc[s] = acc + (size_t)sel[s] * w->acc_stride;
         for (int t = 0; t < T; t++)
-            yf[s * T + t] = md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
+            md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
     }
-    w->rowerr[i] = row_residual(ai, vs, yf, rc, K, T, n, r);
-    for (int s = 0; s < K; s++) {
-        float *gc = rc[s] + (size_t)T * n;
-        for (int t = 0; t < T; t++)
-            for (int u = 0; u < T; u++)
-                gc[t * T + u] += yf[s * T + t] * yf[s * T + u];
-    }
+    if (!defer)
+        row_end(w, i, acc, r);
 }
 
 /* One stripe of rows (a task): blocks of SUB_ROWS rows, each projected onto every cluster by
@@ -463,6 +482,7 @@ static void pass_task(void *user, int task, int thread)
     int64_t r0 = w->rows * task / w->nstripes, r1 = w->rows * (task + 1) / w->nstripes;
     float *acc = w->acc + (size_t)task * w->C * w->acc_stride;
     double *sc = w->scratch + (size_t)thread * w->scratch_stride;
+    float *r = (float *)(sc + 64 + 64 + 4096 + 2 * 4096 + 2 * 64);
     float *proj = (float *)(sc + 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + (n + 1) / 2);
     memset(acc, 0, (size_t)w->C * w->acc_stride * sizeof *acc);
     for (int64_t i0 = r0; i0 < r1; i0 += SUB_ROWS) {
@@ -470,8 +490,23 @@ static void pass_task(void *user, int task, int thread)
         if (j->assign) /* projections onto every cluster: the first term of (13) */
             cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)nb, CT, n, 1.0f,
                         w->a + i0 * n, n, w->vall, CT, 0.0f, proj, CT);
+        /* K_m = 1: the rows' ends grouped by cluster (in row order within one), so that a
+         * cluster's basis and sums stay in cache; each sum gets its terms in the same order. */
+        int group = w->K == 1;
         for (int64_t q = 0; q < nb; q++)
-            pass_row(w, j->assign, i0 + q, j->assign ? proj + q * CT : proj, sc, acc);
+            pass_row(w, j->assign, i0 + q, j->assign ? proj + q * CT : proj, sc, acc, group);
+        if (!group)
+            continue;
+        int32_t *start = w->order + (size_t)thread * w->order_stride, *order = start + w->C + 1;
+        memset(start, 0, (size_t)(w->C + 1) * sizeof *start);
+        for (int64_t q = 0; q < nb; q++)
+            start[w->md->idx[i0 + q] + 1]++;
+        for (int c = 0; c < w->C; c++)
+            start[c + 1] += start[c];
+        for (int64_t q = 0; q < nb; q++)
+            order[start[w->md->idx[i0 + q]]++] = (int32_t)q;
+        for (int64_t q = 0; q < nb; q++)
+            row_end(w, i0 + order[q], acc, r);
     }
 }
 
@@ -964,6 +999,8 @@ static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
     w->vt = malloc((size_t)cols * C * T * sizeof *w->vt);
     w->gram = malloc((size_t)C * T * C * T * sizeof *w->gram);
     w->chol = malloc((size_t)C * T * T * sizeof *w->chol);
+    w->order_stride = (size_t)C + 1 + SUB_ROWS;
+    w->order = malloc((size_t)w->nthreads * w->order_stride * sizeof *w->order);
     w->chol_ok = malloc((size_t)C);
     w->rowerr = malloc((size_t)rows * sizeof *w->rowerr);
     w->mem_row = malloc(ni * sizeof *w->mem_row);
@@ -972,7 +1009,7 @@ static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
     w->acc = malloc((size_t)w->nstripes * C * w->acc_stride * sizeof *w->acc);
     w->sum = malloc((size_t)C * w->acc_stride * sizeof *w->sum);
     w->scratch = malloc((size_t)w->nthreads * w->scratch_stride * sizeof *w->scratch);
-    if (!w->vall || !w->vt || !w->gram || !w->chol || !w->chol_ok || !w->rowerr || !w->mem_row || !w->mem_slot ||
+    if (!w->vall || !w->vt || !w->gram || !w->chol || !w->chol_ok || !w->order || !w->rowerr || !w->mem_row || !w->mem_slot ||
         !w->mem_start || !w->acc || !w->sum || !w->scratch)
         return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
                             (long long)rows);
@@ -985,6 +1022,7 @@ static void work_end(work *w)
     free(w->vt);
     free(w->gram);
     free(w->chol);
+    free(w->order);
     free(w->chol_ok);
     free(w->rowerr);
     free(w->mem_row);
