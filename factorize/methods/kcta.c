@@ -328,12 +328,8 @@ static double row_residual(const float *restrict a, const float *const *vs, cons
     return sum_squares(r, n);
 }
 
-/* One row of a pass: its clusters (the greedy search of section 4.2 when assigning), their
- * optimal coefficients (Theorem 4), its residual r, its squared error, and the sums for the
- * bases' update. p holds the row's projections onto every cluster (assigning) or room for
- * them (CT values). */
 /* The end of row i's pass from its stored clusters and coefficients: its residual r (n floats
- * of room), squared error, and its terms of the update sums in acc. */
+ * of room), its squared error, and its terms of the sums for the bases' update in acc. */
 static void row_end(work *w, int64_t i, float *acc, float *r)
 {
     const int n = w->n, K = w->K, T = w->T;
@@ -360,7 +356,10 @@ static void row_end(work *w, int64_t i, float *acc, float *r)
     }
 }
 
-/* One row of a pass up to its stored clusters and coefficients, then row_end unless defer. */
+/* One row of a pass: its clusters (the greedy search of section 4.2 when assigning) and their
+ * optimal coefficients (Theorem 4), stored in the model; then row_end unless defer (the caller
+ * then calls it). p holds the row's projections onto every cluster (assigning) or room for
+ * them (CT values). */
 static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float *acc, int defer)
 {
     const int n = w->n, C = w->C, K = w->K, T = w->T, CT = w->CT;
