@@ -4,11 +4,11 @@
 # <= 5 s, kcta C=32 K_m=1 T=4 <= 6 s (wall time of the whole command, report included), error
 # figures unchanged or better. Each configuration runs REPEATS times, interleaved with
 # scikit-learn's randomized_svd of the same three channels (rank 10, n_iter 4 and 7) in the same
-# run; the table gives medians. With --before DIR, the same runs with another build (the
-# baseline) interleaved too, for before/after figures on the same machine state. The error
-# figures are the report's, over every value of the dataset on every run (the stored albedo map
-# needs every row evaluated anyway, so a sampled quick estimate would save little): there is no
-# sampled estimate to compare with.
+# run (once per repeat, with --only too); the table gives medians. With --before DIR, the same
+# runs with another build (the baseline) interleaved too, for before/after figures on the same
+# machine state. The error figures are the report's, over every value of the dataset on every
+# run (the stored albedo map needs every row evaluated anyway, so a sampled quick estimate would
+# save little): there is no sampled estimate to compare with.
 #
 # usage: bench/bench_factor_speed.sh [--build DIR] [--before DIR] [--repeats N] [--work DIR]
 #                                    [--only svd,tucker,kcta]
@@ -85,7 +85,7 @@ for k in range(repeats):
         res.setdefault(("after", name), []).append(run(tool, args, f"{name}-after"))
         if before:
             res.setdefault(("before", name), []).append(run(before, args, f"{name}-before"))
-        if name == "svd":
+        if name == configs[0][0]:  # the peer once per repeat, whichever configs run
             res.setdefault("sk4", []).append(sklearn(4))
             res.setdefault("sk7", []).append(sklearn(7))
 med = statistics.median

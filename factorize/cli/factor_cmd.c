@@ -81,9 +81,10 @@ static void usage(FILE *f)
             "  --block-rows N     svd: read the dataset in passes of N rows, never whole in\n"
             "                     memory (default: so when it is larger than half the physical\n"
             "                     memory, in blocks of about 64 MiB; 0: never)\n"
-            "  -t THREADS         threads of the preprocessing, the passes of the SVD over an\n"
-            "                     in-memory matrix and the evaluation (default: all cores; the\n"
-            "                     streamed SVD's products use OpenBLAS's: OPENBLAS_NUM_THREADS)\n"
+            "  -t THREADS         threads of the preprocessing, the passes of the SVD and of\n"
+            "                     K-CTA over an in-memory matrix and the evaluation (default:\n"
+            "                     all cores; the streamed SVD's products use OpenBLAS's:\n"
+            "                     OPENBLAS_NUM_THREADS)\n"
             "  -v / -q            more / less output on stderr\n",
             names, terms);
 }

@@ -4,6 +4,7 @@
 #include "preprocess.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 
 void *op_fit_alloc(uint64_t bytes)
@@ -64,6 +65,17 @@ void op_fit_log_counts(const factor_args *a, const op_factor_report *rep)
                (unsigned long long)rep->negative_values);
 }
 
+op_status op_fit_channel_nonfinite(const factor_args *a, const dataset *ds, int c,
+                                   uint64_t nonfinite, uint64_t negative, op_factor_report *rep,
+                                   op_error *err)
+{
+    op_status st = op_fit_counted(a, ds, nonfinite, negative, rep, err);
+    if (st == OP_OK) /* not found again: cannot happen to a read-only mapping */
+        st = op_error_set(err, OP_ERR_INPUT, "%s: channel %d holds non-finite values", a->input,
+                          c);
+    return st;
+}
+
 op_status op_fit_counted(const factor_args *a, const dataset *ds, uint64_t nonfinite,
                          uint64_t negative, op_factor_report *rep, op_error *err)
 {
@@ -79,14 +91,53 @@ op_status op_fit_counted(const factor_args *a, const dataset *ds, uint64_t nonfi
     return OP_OK;
 }
 
+typedef struct prep_counted {
+    op_prep_source src;
+    float *mat;
+    int64_t rows_per_task;
+} prep_counted;
+
+static void prep_counted_task(void *user, int task, int thread)
+{
+    prep_counted *p = user;
+    int64_t r0 = (int64_t)task * p->rows_per_task;
+    int64_t n = p->src.rows - r0 < p->rows_per_task ? p->src.rows - r0 : p->rows_per_task;
+    (void)thread;
+    /* a non-finite value shows in the counts, which the caller checks */
+    op_prep_fetch(&p->src, r0, n, p->mat + r0 * p->src.cols, NULL);
+}
+
 op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c, int with_log,
-                                 float *mat, uint32_t **shift, float **max, op_error *err)
+                                 float *mat, uint32_t **shift, float **max, uint64_t *nonfinite,
+                                 uint64_t *negative, op_error *err)
 {
     op_status st = op_fit_alloc_peaks(a, ds, shift, max, err);
     if (st != OP_OK)
         return st;
-    st = op_prep_rows(ds->rd[c], ds->rows, ds->cols, *shift, *max, with_log ? a->log_a : 0,
-                      a->log_b, a->threads, mat, err);
+    double log_a = with_log ? a->log_a : 0;
+    if (ds->block_rows) /* the command counted the values */
+        st = op_prep_rows(ds->rd[c], ds->rows, ds->cols, *shift, *max, log_a, a->log_b,
+                          a->threads, mat, err);
+    else {
+        /* Blocks of about 256 KiB, as op_prep_rows's. */
+        int64_t per = (int64_t)(65536 / (ds->cols > 0 ? ds->cols : 1));
+        prep_counted p = {.src = {.src = ds->rd[c], .rows = ds->rows, .cols = ds->cols,
+                                  .shift = *shift, .max = *max, .log_a = log_a,
+                                  .log_b = a->log_b, .sanitize = a->sanitize},
+                          .mat = mat, .rows_per_task = per > 0 ? per : 1};
+        atomic_init(&p.src.nonfinite, 0);
+        atomic_init(&p.src.negative, 0);
+        int64_t tasks = (ds->rows + p.rows_per_task - 1) / p.rows_per_task;
+        while (tasks > 1 << 30) {
+            p.rows_per_task *= 2;
+            tasks = (ds->rows + p.rows_per_task - 1) / p.rows_per_task;
+        }
+        st = op_parallel_for(a->threads, (int)tasks, prep_counted_task, &p, NULL, err);
+        *nonfinite = atomic_load(&p.src.nonfinite);
+        *negative = atomic_load(&p.src.negative);
+        if (st == OP_OK && *nonfinite && !a->sanitize)
+            st = OP_ERR_INPUT;
+    }
     if (st != OP_OK) {
         free(*shift);
         free(*max);

@@ -26,14 +26,22 @@ static op_status kcta_fit(fit_job *job, op_error *err)
     opt.terms = terms;
     opt.max_iters = a->iters;
     opt.svd = a->svd;
+    opt.threads = a->threads;
+    opt.svd.threads = a->threads;
     int wide = clusters > 65536 ? 4 : 2;
     op_progress *prog = op_progress_begin(
         "kcta", (uint64_t)ds->info.channels * (uint64_t)(1 + opt.max_iters), NULL, NULL);
+    uint64_t nonfinite = 0, negative = 0;
     for (int c = 0; c < ds->info.channels && st == OP_OK; c++) {
         uint32_t *shift = NULL;
         float *max = NULL;
         double t0 = op_monotonic_seconds();
-        st = op_fit_prepare_channel(a, ds, c, 0, mat, &shift, &max, err);
+        uint64_t nf = 0, neg = 0;
+        st = op_fit_prepare_channel(a, ds, c, 0, mat, &shift, &max, &nf, &neg, err);
+        nonfinite += nf;
+        negative += neg;
+        if (nf && !a->sanitize)
+            st = op_fit_channel_nonfinite(a, ds, c, nf, neg, job->rep, err);
         if (st != OP_OK)
             break;
         double t1 = op_monotonic_seconds();
@@ -46,9 +54,7 @@ static op_status kcta_fit(fit_job *job, op_error *err)
             free(max);
             break;
         }
-        double norm = 0;
-        for (uint64_t q = 0; q < (uint64_t)rows * (uint64_t)cols; q++)
-            norm += (double)mat[q] * mat[q];
+        double norm = md.norm2;
         op_log(OP_LOG_INFO, "kcta channel %d: %d iteration(s)%s, %d empty cluster(s) split, "
                "relative error %.4g of the preprocessed matrix (%.3f s)", c, md.iterations,
                md.restored ? " (one more raised the error and was undone)" : "", md.splits,
@@ -77,6 +83,8 @@ static op_status kcta_fit(fit_job *job, op_error *err)
     }
     op_progress_end(prog);
     free(mat);
+    if (st == OP_OK && !ds->block_rows)
+        st = op_fit_counted(a, ds, nonfinite, negative, job->rep, err);
     return st == OP_OK ? op_write_kcta_params(job->w, a->km, wide, err) : st;
 }
 
@@ -118,6 +126,7 @@ const fit_method op_fit_kcta = {
     .method = OP_METHOD_KCTA,
     .options = FIT_OPT_CLUSTERS | FIT_OPT_ITERS,
     .albedo = 1,
+    .counts_values = 1,
     .terms_help = "rank per cluster ",
     .defaults = kcta_defaults,
     .describe = kcta_describe,

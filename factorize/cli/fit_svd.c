@@ -183,12 +183,8 @@ static op_status svd_fit(fit_job *job, op_error *err)
                                                &nf, &neg, err);
             nonfinite += nf;
             negative += neg;
-            if (nf && !a->sanitize) {
-                st = op_fit_counted(a, ds, nf, neg, job->rep, err);
-                if (st == OP_OK) /* not found again: cannot happen to a read-only mapping */
-                    st = op_error_set(err, OP_ERR_INPUT, "%s: channel %d holds non-finite values",
-                                      a->input, c);
-            }
+            if (nf && !a->sanitize)
+                st = op_fit_channel_nonfinite(a, ds, c, nf, neg, job->rep, err);
             op_progress_advance(prog, 1);
             op_log(OP_LOG_DEBUG, "channel %d: preprocessing and SVD of %lld x %d to rank %d "
                    "%.3f s", c, (long long)rows, cols, terms, op_monotonic_seconds() - t0);

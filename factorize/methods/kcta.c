@@ -120,25 +120,22 @@ static op_status subspace_of(const float *x, int64_t m, int cols, int T, const o
     return OP_OK;
 }
 
-/* Solves the symmetric positive semi-definite n x n system g y = b in the least-squares,
- * minimum-norm sense (Moore-Penrose): Cholesky when well conditioned, else an eigen
- * decomposition dropping eigenvalues below 1e-10 of the largest. work: 2 n^2 + 2 n doubles. */
-static void gram_solve(const double *g, int n, const double *b, double *y, double *work)
+/* The Cholesky factor l (n x n, lower) of the symmetric n x n g, or 0 when g is not well
+ * conditioned (a pivot below 1e-8 of the largest diagonal entry). */
+static int gram_factor(const double *g, int n, double *l)
 {
-    double *l = work, *w = work + (size_t)n * n;
     memcpy(l, g, (size_t)n * n * sizeof *l);
     double dmax = 0;
     for (int i = 0; i < n; i++)
         dmax = fmax(dmax, g[(size_t)i * n + i]);
-    int ok = dmax > 0;
-    for (int j = 0; j < n && ok; j++) {
+    if (!(dmax > 0))
+        return 0;
+    for (int j = 0; j < n; j++) {
         double d = l[(size_t)j * n + j];
         for (int k = 0; k < j; k++)
             d -= l[(size_t)j * n + k] * l[(size_t)j * n + k];
-        if (!(d > 1e-8 * dmax)) {
-            ok = 0;
-            break;
-        }
+        if (!(d > 1e-8 * dmax))
+            return 0;
         d = sqrt(d);
         l[(size_t)j * n + j] = d;
         for (int i = j + 1; i < n; i++) {
@@ -148,19 +145,34 @@ static void gram_solve(const double *g, int n, const double *b, double *y, doubl
             l[(size_t)i * n + j] = s / d;
         }
     }
-    if (ok) {
-        for (int i = 0; i < n; i++) {
-            double s = b[i];
-            for (int k = 0; k < i; k++)
-                s -= l[(size_t)i * n + k] * y[k];
-            y[i] = s / l[(size_t)i * n + i];
-        }
-        for (int i = n - 1; i >= 0; i--) {
-            double s = y[i];
-            for (int k = i + 1; k < n; k++)
-                s -= l[(size_t)k * n + i] * y[k];
-            y[i] = s / l[(size_t)i * n + i];
-        }
+    return 1;
+}
+
+/* y = (l l^T)^-1 b, l from gram_factor. */
+static void gram_subst(const double *l, int n, const double *b, double *y)
+{
+    for (int i = 0; i < n; i++) {
+        double s = b[i];
+        for (int k = 0; k < i; k++)
+            s -= l[(size_t)i * n + k] * y[k];
+        y[i] = s / l[(size_t)i * n + i];
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        double s = y[i];
+        for (int k = i + 1; k < n; k++)
+            s -= l[(size_t)k * n + i] * y[k];
+        y[i] = s / l[(size_t)i * n + i];
+    }
+}
+
+/* Solves the symmetric positive semi-definite n x n system g y = b in the least-squares,
+ * minimum-norm sense (Moore-Penrose): Cholesky when well conditioned, else an eigen
+ * decomposition dropping eigenvalues below 1e-10 of the largest. work: 2 n^2 + 2 n doubles. */
+static void gram_solve(const double *g, int n, const double *b, double *y, double *work)
+{
+    double *l = work, *w = work + (size_t)n * n;
+    if (gram_factor(g, n, l)) {
+        gram_subst(l, n, b, y);
         return;
     }
     memcpy(l, g, (size_t)n * n * sizeof *l);
@@ -198,6 +210,8 @@ typedef struct work {
     float *vall;      /* n x CT: every basis side by side, the operand of the clustering gemm */
     float *vt;        /* C x T x n: every basis transposed, for the per-row loops */
     double *gram;     /* CT x CT: V_all^T V_all (only the diagonal blocks when K = 1) */
+    double *chol;     /* K = 1: C x T x T, each cluster's block's gram_factor, */
+    unsigned char *chol_ok; /* C: ... where it succeeded (else its rows use gram_solve) */
     double *rowerr;   /* rows: each row's squared error after the last pass */
     int64_t *mem_row; /* rows * K member lists, grouped by cluster */
     int *mem_slot;
@@ -214,6 +228,9 @@ typedef struct work {
     double *scratch;   /* per thread: the Gram solver's doubles, a row's residual (n floats),
                           SUB_ROWS x CT floats of projections */
     size_t scratch_stride;
+    int32_t *order;      /* K = 1, per thread: C + 1 cluster starts, then a block's rows by
+                            cluster (SUB_ROWS) */
+    size_t order_stride;
     int nthreads;
     int guard;         /* K_m > 1: a clustering pass keeps a row's previous clusters when
                           they capture more of it than the greedy search's (idx is valid) */
@@ -252,6 +269,15 @@ static void bases_changed(work *w)
                 s += (double)vp[j] * vq[j];
             w->gram[(size_t)p * CT + q] = s;
         }
+    if (w->K > 1)
+        return;
+    double g[4096];
+    for (int c = 0; c < C; c++) {
+        for (int t = 0; t < T; t++)
+            for (int u = 0; u < T; u++)
+                g[t * T + u] = w->gram[(size_t)(c * T + t) * CT + c * T + u];
+        w->chol_ok[c] = (unsigned char)gram_factor(g, T, w->chol + (size_t)c * T * T);
+    }
 }
 
 typedef struct pass_job {
@@ -259,18 +285,88 @@ typedef struct pass_job {
     int assign; /* pick every row's clusters (the clustering stage), else keep them */
 } pass_job;
 
-/* One row of a pass: its clusters (the greedy search of section 4.2 when assigning), their
- * optimal coefficients (Theorem 4), its residual r, its squared error, and the sums for the
- * bases' update. p holds the row's projections onto every cluster (assigning) or room for
+/* Lanes of row_residual's sum: a fixed order, so every build variant gives the same bits. */
+#define RES_LANES 16
+
+/* sum_j x_j^2 in double, n values. */
+OP_VECTOR_CLONES
+static double sum_squares(const float *x, int64_t n)
+{
+    double lane[RES_LANES] = {0};
+    int64_t j0 = 0;
+    for (; j0 + RES_LANES <= n; j0 += RES_LANES)
+        for (int k = 0; k < RES_LANES; k++)
+            lane[k] += (double)x[j0 + k] * x[j0 + k];
+    for (int k = 0; j0 + k < n; k++)
+        lane[k] += (double)x[j0 + k] * x[j0 + k];
+    double e = 0;
+    for (int k = 0; k < RES_LANES; k++)
+        e += lane[k];
+    return e;
+}
+
+/* The end of a row's pass: its residual r = a - sum_{s < K} V_s y_s (vs[s]: T x n, the basis
+ * transposed; y: K x T; n values), rc[s] (T x n) += y_s r^T; returns ||r||^2 in double. */
+OP_VECTOR_CLONES
+static double row_residual(const float *restrict a, const float *const *vs, const float *y,
+                           float *const *rc, int K, int T, int n, float *restrict r)
+{
+    for (int s = 0; s < K; s++)
+        for (int t = 0; t < T; t++) {
+            const float *restrict v = vs[s] + (size_t)t * n;
+            const float *restrict src = s == 0 && t == 0 ? a : r;
+            float ys = y[s * T + t];
+            for (int j = 0; j < n; j++)
+                r[j] = src[j] - v[j] * ys;
+        }
+    for (int s = 0; s < K; s++)
+        for (int t = 0; t < T; t++) {
+            float *restrict o = rc[s] + (size_t)t * n, ys = y[s * T + t];
+            for (int j = 0; j < n; j++)
+                o[j] += ys * r[j];
+        }
+    return sum_squares(r, n);
+}
+
+/* The end of row i's pass from its stored clusters and coefficients: its residual r (n floats
+ * of room), its squared error, and its terms of the sums for the bases' update in acc. */
+static void row_end(work *w, int64_t i, float *acc, float *r)
+{
+    const int n = w->n, K = w->K, T = w->T;
+    const op_kcta_model *md = w->md;
+    const float *yf = md->coef + (size_t)i * K * T;
+    if (K < 1 || K > 64)
+        return; /* op_kcta_factor refuses these */
+    /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
+     * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
+     * sums of r y^T and y y^T. */
+    const float *vs[64];
+    float *rc[64];
+    for (int s = 0; s < K; s++) {
+        uint32_t c = md->idx[i * K + s];
+        vs[s] = w->vt + (size_t)c * T * n;
+        rc[s] = acc + (size_t)c * w->acc_stride;
+    }
+    w->rowerr[i] = row_residual(w->a + i * n, vs, yf, rc, K, T, n, r);
+    for (int s = 0; s < K; s++) {
+        float *gc = rc[s] + (size_t)T * n;
+        for (int t = 0; t < T; t++)
+            for (int u = 0; u < T; u++)
+                gc[t * T + u] += yf[s * T + t] * yf[s * T + u];
+    }
+}
+
+/* One row of a pass: its clusters (the greedy search of section 4.2 when assigning) and their
+ * optimal coefficients (Theorem 4), stored in the model; then row_end unless defer (the caller
+ * then calls it). p holds the row's projections onto every cluster (assigning) or room for
  * them (CT values). */
-static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float *acc)
+static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float *acc, int defer)
 {
     const int n = w->n, C = w->C, K = w->K, T = w->T, CT = w->CT;
     op_kcta_model *md = w->md;
     const float *ai = w->a + i * n;
     double *y = sc, *b = y + 64, *gs = b + 64, *solve = gs + 4096;
     float *r = (float *)(solve + 2 * 4096 + 2 * 64);
-    float yf[64];
     int sel[64];
     if (!assign) {
         for (int s = 0; s < K; s++) {
@@ -314,6 +410,12 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float
             continue; /* the clusters are known: one solve for all of them */
         }
         /* Theorem 4: the optimal projection onto all k + 1 selected clusters. */
+        if (K == 1 && w->chol_ok[sel[0]]) { /* gram_solve's result, from the cached factor */
+            for (int t = 0; t < T; t++)
+                b[t] = p[sel[0] * T + t];
+            gram_subst(w->chol + (size_t)sel[0] * T * T, T, b, y);
+            continue;
+        }
         int m = (k + 1) * T;
         for (int s = 0; s <= k; s++)
             for (int t = 0; t < T; t++) {
@@ -359,26 +461,14 @@ static void pass_row(work *w, int assign, int64_t i, float *p, double *sc, float
             }
         }
     }
-    /* The stored (float) coefficients, the residual they leave, and its norm. */
-    memcpy(r, ai, (size_t)n * sizeof *r);
+    /* The stored (float) coefficients; then (now, or by the caller) what they leave. */
     for (int s = 0; s < K; s++) {
         md->idx[i * K + s] = (uint32_t)sel[s];
         for (int t = 0; t < T; t++)
-            yf[s * T + t] = md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
-        cblas_sgemv(CblasRowMajor, CblasTrans, T, n, -1.0f, w->vt + (size_t)sel[s] * T * n, n,
-                    yf + s * T, 1, 1.0f, r, 1);
+            md->coef[((size_t)i * K + s) * T + t] = (float)y[s * T + t];
     }
-    w->rowerr[i] = cblas_dsdot(n, r, 1, r, 1);
-    /* Section 4.3's update needs M_c V_c = sum x y^T over the members, x = r + V_c y the
-     * member's residual with the other clusters fixed (r is orthogonal to V_c): kept as the
-     * sums of r y^T and y y^T. */
-    for (int s = 0; s < K; s++) {
-        float *rc = acc + (size_t)sel[s] * w->acc_stride, *gc = rc + (size_t)T * n;
-        cblas_sger(CblasRowMajor, T, n, 1.0f, yf + s * T, 1, r, 1, rc, n);
-        for (int t = 0; t < T; t++)
-            for (int u = 0; u < T; u++)
-                gc[t * T + u] += yf[s * T + t] * yf[s * T + u];
-    }
+    if (!defer)
+        row_end(w, i, acc, r);
 }
 
 /* One stripe of rows (a task): blocks of SUB_ROWS rows, each projected onto every cluster by
@@ -391,6 +481,7 @@ static void pass_task(void *user, int task, int thread)
     int64_t r0 = w->rows * task / w->nstripes, r1 = w->rows * (task + 1) / w->nstripes;
     float *acc = w->acc + (size_t)task * w->C * w->acc_stride;
     double *sc = w->scratch + (size_t)thread * w->scratch_stride;
+    float *r = (float *)(sc + 64 + 64 + 4096 + 2 * 4096 + 2 * 64);
     float *proj = (float *)(sc + 64 + 64 + 4096 + 2 * 4096 + 2 * 64 + (n + 1) / 2);
     memset(acc, 0, (size_t)w->C * w->acc_stride * sizeof *acc);
     for (int64_t i0 = r0; i0 < r1; i0 += SUB_ROWS) {
@@ -398,8 +489,23 @@ static void pass_task(void *user, int task, int thread)
         if (j->assign) /* projections onto every cluster: the first term of (13) */
             cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)nb, CT, n, 1.0f,
                         w->a + i0 * n, n, w->vall, CT, 0.0f, proj, CT);
+        /* K_m = 1: the rows' ends grouped by cluster (in row order within one), so that a
+         * cluster's basis and sums stay in cache; each sum gets its terms in the same order. */
+        int group = w->K == 1;
         for (int64_t q = 0; q < nb; q++)
-            pass_row(w, j->assign, i0 + q, j->assign ? proj + q * CT : proj, sc, acc);
+            pass_row(w, j->assign, i0 + q, j->assign ? proj + q * CT : proj, sc, acc, group);
+        if (!group)
+            continue;
+        int32_t *start = w->order + (size_t)thread * w->order_stride, *order = start + w->C + 1;
+        memset(start, 0, (size_t)(w->C + 1) * sizeof *start);
+        for (int64_t q = 0; q < nb; q++)
+            start[w->md->idx[i0 + q] + 1]++;
+        for (int c = 0; c < w->C; c++)
+            start[c + 1] += start[c];
+        for (int64_t q = 0; q < nb; q++)
+            order[start[w->md->idx[i0 + q]]++] = (int32_t)q;
+        for (int64_t q = 0; q < nb; q++)
+            row_end(w, i0 + order[q], acc, r);
     }
 }
 
@@ -409,11 +515,7 @@ static void pass_task(void *user, int task, int thread)
 static op_status pass(work *w, int assign, double *total, op_error *err)
 {
     pass_job j = {w, assign};
-    /* Tasks call gemm themselves: OpenBLAS's own threads would only compete with them. */
-    int blas = openblas_get_num_threads();
-    openblas_set_num_threads(1);
     op_status st = op_parallel_for(w->threads, w->nstripes, pass_task, &j, NULL, err);
-    openblas_set_num_threads(blas);
     if (st != OP_OK)
         return st;
     size_t len = (size_t)w->C * w->acc_stride;
@@ -428,6 +530,32 @@ static op_status pass(work *w, int assign, double *total, op_error *err)
         e += w->rowerr[i];
     *total = e;
     return OP_OK;
+}
+
+typedef struct norm_job {
+    const work *w;
+    double part[16]; /* per stripe (work_begin makes at most 16) */
+} norm_job;
+
+static void norm_task(void *user, int task, int thread)
+{
+    norm_job *j = user;
+    const work *w = j->w;
+    int64_t r0 = w->rows * task / w->nstripes, r1 = w->rows * (task + 1) / w->nstripes;
+    (void)thread;
+    j->part[task] = sum_squares(w->a + r0 * w->n, (r1 - r0) * w->n);
+}
+
+/* sum_i ||a_i||^2, by stripes added in order (the same for any thread count). */
+static double matrix_norm2(work *w)
+{
+    norm_job j = {.w = w};
+    double e = 0;
+    if (op_parallel_for(w->threads, w->nstripes, norm_task, &j, NULL, NULL) != OP_OK)
+        return NAN; /* only for the log */
+    for (int s = 0; s < w->nstripes; s++)
+        e += j.part[s];
+    return e;
 }
 
 /* Groups the (row, slot) pairs by cluster into the member lists. */
@@ -687,6 +815,31 @@ static int split_empty(work *w, unsigned char *touched)
     return splits;
 }
 
+typedef struct init_job {
+    work *w;
+    const int *label;
+    int64_t maxc;      /* rows of the largest cluster */
+    op_rsvd_options svd; /* single-threaded */
+    float *x;          /* per thread: maxc x n */
+    op_status *st;     /* per cluster */
+    op_error *errs;
+} init_job;
+
+/* Cluster `task`'s basis: the truncated SVD of its rows. */
+static void init_task(void *user, int task, int thread)
+{
+    init_job *j = user;
+    const work *w = j->w;
+    const int n = w->n;
+    float *x = j->x + (size_t)thread * (size_t)j->maxc * n;
+    int64_t m = 0;
+    for (int64_t i = 0; i < w->rows; i++)
+        if (j->label[i] == task)
+            memcpy(x + m++ * n, w->a + i * n, (size_t)n * sizeof *x);
+    j->st[task] = subspace_of(x, m, n, w->T, &j->svd, w->md->basis + (size_t)task * n * w->T,
+                              &j->errs[task]);
+}
+
 /* Section 5.1: k-means (k-means++ seeding from a fixed seed, Lloyd iterations) of the rows in
  * the space of the global leading right singular vectors, then one CTA step: the truncated SVD
  * of each cluster's rows gives its basis. */
@@ -785,19 +938,30 @@ static op_status initialize(work *w, op_error *err)
     int64_t maxc = 1;
     for (int c = 0; c < C; c++)
         maxc = count[c] > maxc ? count[c] : maxc;
-    x = rows_buffer(w, maxc);
-    if (!x) {
+    /* The clusters' SVDs as parallel tasks, each on one thread (op_rsvd's result does not
+     * depend on the thread count), the first failure in cluster order reported. */
+    int nthreads = op_parallel_threads(w->threads);
+    nthreads = nthreads > C ? C : nthreads;
+    init_job j = {.w = w, .label = label, .maxc = maxc, .svd = *w->svd};
+    j.svd.threads = 1;
+    x = malloc((size_t)nthreads * (size_t)maxc * n * sizeof *x);
+    j.x = x;
+    j.st = malloc((size_t)C * sizeof *j.st);
+    j.errs = calloc((size_t)C, sizeof *j.errs);
+    if (!x || !j.st || !j.errs) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory");
+        free(j.st);
+        free(j.errs);
         goto done;
     }
-    for (int c = 0; c < C && st == OP_OK; c++) {
-        int64_t m = 0;
-        for (int64_t i = 0; i < rows; i++)
-            if (label[i] == c)
-                memcpy(x + m++ * n, w->a + i * n, (size_t)n * sizeof *x);
-        st = subspace_of(x, m, n, T, w->svd, w->md->basis + (size_t)c * n * T, err);
-    }
+    st = op_parallel_for(nthreads, C, init_task, &j, NULL, err);
+    for (int c = 0; c < C && st == OP_OK; c++)
+        if ((st = j.st[c]) != OP_OK && err)
+            *err = j.errs[c];
+    free(j.st);
+    free(j.errs);
 done:
+    free(x);
     free(z);
     free(vg);
     free(cent);
@@ -833,6 +997,10 @@ static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
     w->vall = malloc((size_t)cols * C * T * sizeof *w->vall);
     w->vt = malloc((size_t)cols * C * T * sizeof *w->vt);
     w->gram = malloc((size_t)C * T * C * T * sizeof *w->gram);
+    w->chol = malloc((size_t)C * T * T * sizeof *w->chol);
+    w->order_stride = (size_t)C + 1 + SUB_ROWS;
+    w->order = malloc((size_t)w->nthreads * w->order_stride * sizeof *w->order);
+    w->chol_ok = malloc((size_t)C);
     w->rowerr = malloc((size_t)rows * sizeof *w->rowerr);
     w->mem_row = malloc(ni * sizeof *w->mem_row);
     w->mem_slot = malloc(ni * sizeof *w->mem_slot);
@@ -840,7 +1008,7 @@ static op_status work_begin(work *w, const float *a, int64_t rows, int cols,
     w->acc = malloc((size_t)w->nstripes * C * w->acc_stride * sizeof *w->acc);
     w->sum = malloc((size_t)C * w->acc_stride * sizeof *w->sum);
     w->scratch = malloc((size_t)w->nthreads * w->scratch_stride * sizeof *w->scratch);
-    if (!w->vall || !w->vt || !w->gram || !w->rowerr || !w->mem_row || !w->mem_slot ||
+    if (!w->vall || !w->vt || !w->gram || !w->chol || !w->chol_ok || !w->order || !w->rowerr || !w->mem_row || !w->mem_slot ||
         !w->mem_start || !w->acc || !w->sum || !w->scratch)
         return op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows",
                             (long long)rows);
@@ -852,6 +1020,9 @@ static void work_end(work *w)
     free(w->vall);
     free(w->vt);
     free(w->gram);
+    free(w->chol);
+    free(w->order);
+    free(w->chol_ok);
     free(w->rowerr);
     free(w->mem_row);
     free(w->mem_slot);
@@ -998,6 +1169,10 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
     md->idx = malloc(ni * sizeof *md->idx);
     work w = {0};
     op_status st = OP_OK;
+    /* The passes' tasks call gemm themselves, and the other products are small (the clusters'
+     * SVDs): OpenBLAS's own threads would only compete with the tasks or wait for work. */
+    int blas = openblas_get_num_threads();
+    openblas_set_num_threads(1);
     if (!md->basis || !md->coef || !md->idx) {
         st = op_error_set(err, OP_ERR_NOMEM, "kcta: out of memory for %lld rows", (long long)rows);
         goto done;
@@ -1040,6 +1215,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
             (st = initialize(&w, err)) != OP_OK)
             goto done;
     }
+    md->norm2 = matrix_norm2(&w);
     op_progress_advance(progress, 1);
     int reported = 0; /* iterations whose progress unit was advanced */
     st = iterate(&w, opt->max_iters, opt->tol, progress, &reported, err);
@@ -1057,6 +1233,7 @@ op_status op_kcta_factor(const float *a, int64_t rows, int cols, const op_kcta_o
         }
 done:
     work_end(&w);
+    openblas_set_num_threads(blas);
     if (st != OP_OK)
         op_kcta_free(md);
     return st;

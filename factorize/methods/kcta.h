@@ -30,7 +30,8 @@
  * the previous one, the previous iteration is restored and the iteration stops (section 5.3),
  * so the error never increases.
  * The result is the same for any thread count: the passes split the rows into stripes fixed
- * by the sizes alone and add the stripes' sums in order.
+ * by the sizes alone and add the stripes' sums in order; the initial per-cluster SVDs are
+ * parallel tasks, each single-threaded. OpenBLAS runs single-threaded during the fit.
  * With K_m = 1 this is CTA: hard clustering with a rank-T subspace per cluster. */
 #ifndef OP_FACTOR_KCTA_H
 #define OP_FACTOR_KCTA_H
@@ -71,6 +72,7 @@ typedef struct op_kcta_model {
      * (nhistory = iterations + 1); non-increasing, the last one the model's. */
     double history[OP_KCTA_MAX_HISTORY + 1];
     int nhistory;
+    double norm2;     /* sum_i ||a_i||^2 of the whole matrix, in double */
 } op_kcta_model;
 
 /* Factors the row-major rows x cols matrix a (finite values). Fails with OP_ERR_INPUT for

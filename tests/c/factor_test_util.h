@@ -242,4 +242,23 @@ static inline void check_file_contains(const char *path, const char *text)
     free(buf);
 }
 
+/* in holds d with a NaN at channel 1 (G), row 5, column 7 and an infinity elsewhere: the
+ * factor command with args refuses it naming the NaN and writes nothing; with san (the same
+ * and --sanitize, report at report) it replaces both by 0 and reports them. */
+static inline void check_nonfinite_handled(const ds_spec *d, const char *in, const char *out,
+                                           const char *report, const char *const *args,
+                                           const char *const *san)
+{
+    char errtext[8192];
+    assert_int_equal(run_factor(in, out, errtext, sizeof errtext, args), 2);
+    assert_non_null(strstr(errtext, "RD.G"));
+    assert_non_null(strstr(errtext, "row 5, column 7"));
+    assert_non_null(strstr(errtext, "NaN"));
+    assert_int_equal(access(out, F_OK), -1); /* nothing written */
+    assert_int_equal(run_factor(in, out, errtext, sizeof errtext, san), 0);
+    assert_non_null(strstr(errtext, "replaced 2 non-finite"));
+    check_file_contains(report, "\"nonfinite_replaced\": 2,");
+    assert_true(ds_compare(d, out, NULL) < 0.05);
+}
+
 #endif

@@ -372,6 +372,26 @@ static void bad_arguments(void **state)
     free(d.v);
 }
 
+/* kcta counts the values in its own preprocessing pass (counts_values): a non-finite one is
+ * still named (channel, row, column), nothing is written, and --sanitize replaces them. */
+static void nan_and_inf(void **state)
+{
+    ds_spec d = ds_chess(8, 8, 5, 0);
+    *ds_at(&d, 1, 5, 7) = NAN;
+    *ds_at(&d, 2, 9, 3) = INFINITY;
+    char *in = ds_write(&d);
+    char out[1024], report[1024];
+    snprintf(out, sizeof out, "%s", op_test_tmp_path("kcta-nan.opm"));
+    snprintf(report, sizeof report, "%s", op_test_tmp_path("kcta-nan.json"));
+    const char *args[] = {"--method", "kcta", "-C", "3", "--km", "1", "-T", "2", "--report",
+                          report, NULL};
+    const char *san[] = {"--method", "kcta", "-C", "3", "--km", "1", "-T", "2", "--report",
+                         report, "--sanitize", NULL};
+    check_nonfinite_handled(&d, in, out, report, args, san);
+    free(in);
+    free(d.v);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -382,6 +402,7 @@ int main(void)
         cmocka_unit_test(empty_clusters_are_split),
         cmocka_unit_test(end_to_end),
         cmocka_unit_test(bad_arguments),
+        cmocka_unit_test(nan_and_inf),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
