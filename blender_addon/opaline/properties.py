@@ -118,8 +118,8 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
                                             "per translucent object (0: the renderer's own "
                                             "default, --limit sss-max-points; else written as "
                                             "maxPoints and passed by F12). A measured material "
-                                            "at its physical size lays only the points near the "
-                                            "view. Above it the points are coarser than the "
+                                            "at its physical size and the dipole lay only the "
+                                            "points near the view. Above it the points are coarser than the "
                                             "material and the render warns: raise it (more "
                                             "memory and pre-pass time)")
     threads: IntProperty(name="Threads", default=0, min=0,

@@ -36,6 +36,9 @@ static inline op_v3 v3_norm(op_v3 a)
     return l > 0.0f ? v3_scale(a, 1.0f / l) : a;
 }
 static inline float v3_max(op_v3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+/* Component-wise minimum and maximum (box corners). */
+static inline op_v3 v3_lo(op_v3 a, op_v3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
+static inline op_v3 v3_hi(op_v3 a, op_v3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
 static inline float v3_lum(op_v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
 static inline int v3_is_black(op_v3 a) { return a.x == 0.0f && a.y == 0.0f && a.z == 0.0f; }
 static inline op_v3 v3_from_d(const double d[3]) { return v3((float)d[0], (float)d[1], (float)d[2]); }

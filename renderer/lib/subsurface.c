@@ -56,8 +56,9 @@ typedef struct sss_shape {
     int n;
     sss_point *pts;
     int nfull;    /* the points of the whole layout (n unless windowed) */
-    int *gid;     /* windowed (n points of a measured layout of nfull, those near the view):
-                     per point its index in the whole layout (ascending); NULL: the identity */
+    int *gid;     /* windowed (n points of a layout of nfull, those near the view): per
+                     point its index in the whole layout (ascending for a measured layout, in
+                     Morton order for the dipole's); NULL: the identity */
     sss_grid gather, interp;
     struct gather_pt *gpts; /* the scatter's: the points in the gather grid's bucket order */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
@@ -78,6 +79,9 @@ typedef struct sss_shape {
     int nsrc, nrecv;       /* how many are computed */
     int reused_src, reused_recv; /* the sources and receivers of this view taken from the store */
     int unsaved;           /* a windowed shape too large for the store's entry: computed only */
+    int levels;            /* a windowed dipole laid in levels around the view (lay_levels): its
+                              exitance depends on the view's regions, so the store lends it
+                              irradiance only */
 } sss_shape;
 
 struct op_sss_cache {
@@ -300,6 +304,25 @@ static long long centred_count(const op_trimesh *m, int W, int H, double sx, dou
     return n;
 }
 
+/* The dipole's windowed layout in levels (docs/subsurface-rendering.md, *Large objects*):
+ * level l is an area-uniform layout of level_points(n0, l) points, 2^l times the profile's
+ * spacing apart; its points have indices level_first(n0, l) + k in the whole layout. */
+enum { DIPOLE_LEVELS = 16, MAX_REGIONS = 24 };
+
+static long long level_points(long long n0, int l)
+{
+    long long d = 1LL << (2 * l);
+    return (n0 + d - 1) / d;
+}
+
+static long long level_first(long long n0, int l)
+{
+    long long f = 0;
+    for (int i = 0; i < l; i++)
+        f += level_points(n0, i);
+    return f;
+}
+
 op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
 {
     op_v3 ext = v3_sub(scene->bmax, scene->bmin);
@@ -358,6 +381,15 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
                 d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
                 d->windowed = step > 0.0 && d->points > d->max_points;
             }
+        }
+        if (capped && d->is_dipole && want > d->max_points && want <= INT32_MAX &&
+            level_first((long long)ceil(want), DIPOLE_LEVELS) <= INT32_MAX) {
+            /* the dipole's layout in levels, windowed: only the points within reach of the
+             * view are laid when they are at most maxPoints (make_points) */
+            capped = 0;
+            d->finest = (int)ceil(want);
+            d->points = (int)level_first(d->finest, DIPOLE_LEVELS);
+            d->windowed = 1;
         }
         if (capped && want > d->max_points)
             op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
@@ -558,18 +590,18 @@ static long long lay_centred(const op_trimesh *m, sss_shape *ss, double sx, doub
 
 /* The window of a windowed shape: cells of a quarter of the reach below that cover every point
  * within reach of a camera hit on it, the reach being what a receiver there may need: the
- * lookup's radius h and the hit's footprint (the receivers), a source's reach from a receiver
- * and a neighbour's from a source (the normalization), each at most sqrt(3) x the gather
- * radius, and a spacing. */
+ * receivers (within the lookup's radius h of a point of the hit's footprint, foot x the
+ * footprint), what a receiver's sum reaches beyond it (`beyond`: the sources and the
+ * neighbours their normalization reads), and a spacing. */
 static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
-                              cell_set *win, op_error *err)
+                              float foot, float beyond, cell_set *win, op_error *err)
 {
     float reach = 0.0f;
     for (int r = 0; r < gh; r++)
         for (int k = 0; k < cam->rows[r].n; k++)
             if (cam->rows[r].h[k].sss == sss)
                 reach = fmaxf(reach, pix * cam->rows[r].h[k].span);
-    reach += ss->h + 2.0f * sqrtf(3.0f) * ss->radius + ss->spacing;
+    reach = reach * foot + ss->h + beyond + ss->spacing;
     cell_set hits;
     memset(&hits, 0, sizeof hits);
     memset(win, 0, sizeof *win);
@@ -686,6 +718,245 @@ static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
     return 1;
 }
 
+/* Point k of the area-uniform layout of n points on mesh m (in triangle t): systematic
+ * sampling of the area, an R2 sequence inside each triangle; a material tiled every sx x sy. */
+static void uniform_point(const op_trimesh *m, const sss_shape *ss, long long k, int t, double sx,
+                          double sy, sss_point *q)
+{
+    double r1 = 0.5 + (double)k * 0.7548776662466927, r2 = 0.5 + (double)k * 0.5698402909980532;
+    float b1, b2;
+    op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
+    float b0 = 1.0f - b1 - b2;
+    const uint32_t *ix = m->idx + 3 * (size_t)t;
+    point_geometry(m, t, b0, b1, b2, q);
+    float u, v;
+    if (triangle_uv_frame(m, t, q->n, &q->tu, &q->tv)) {
+        const float *uv = m->uv;
+        u = uv[2 * ix[0]] * b0 + uv[2 * ix[1]] * b1 + uv[2 * ix[2]] * b2;
+        v = uv[2 * ix[0] + 1] * b0 + uv[2 * ix[1] + 1] * b1 + uv[2 * ix[2] + 1] * b2;
+    } else {
+        int ua, va;
+        box_axes(q->n, &ua, &va);
+        box_frame(q, ua, va);
+        u = v3_get(q->p, ua) / (float)sx;
+        v = v3_get(q->p, va) / (float)sy;
+    }
+    q->fx = wrap(u * (float)ss->width, ss->width);
+    q->fy = wrap(v * (float)ss->height, ss->height);
+}
+
+/* The first index of triangle t's points in a windowed area-uniform layout of n points: those k
+ * whose (k + 1/2) / n of the area falls in t's part of the cumulative area (in double, so the
+ * triangles partition 0 .. n - 1 exactly for any n). */
+static long long uniform_first(const op_trimesh *m, int t, int n)
+{
+    if (t <= 0)
+        return 0;
+    if (t >= m->ntris)
+        return n;
+    double f = ceil((double)m->area_cdf[t - 1] / (double)m->area * n - 0.5);
+    return f < 0.0 ? 0 : f > n ? n : (long long)f;
+}
+
+/* The regions around the camera's hits on a windowed dipole shape: region j holds the surface
+ * within D_j = D_0 2^j of some hit (window j: the cells of D_j / 4 within 4 of a hit's, which
+ * cover every point that close) and not in an earlier region; its points are of level
+ * level[j]. */
+typedef struct level_plan {
+    int nregions;
+    int level[MAX_REGIONS];
+    cell_set win[MAX_REGIONS];
+    op_v3 lo, hi; /* the bounds of every window */
+} level_plan;
+
+static void level_plan_free(level_plan *lp)
+{
+    for (int j = 0; j < lp->nregions; j++)
+        free(lp->win[j].tab);
+    lp->nregions = 0;
+}
+
+/* Window j of lp: the cells of side d / 4 within 4 of a cell holding a camera hit on shape sss;
+ * 0 when out of memory or (j = 0) when the hits' cells are so many that the finest level could
+ * not fit in cap points (each hit's disk of radius d, at least 12 spacings, is in it, and a
+ * hit's disk overlaps those of at most 81 others in distinct cells: 5.6 points per hit cell). */
+static int level_window(const cam_job *cam, int gh, int sss, float d, int cap, cell_set *win)
+{
+    cell_set hits;
+    memset(&hits, 0, sizeof hits);
+    memset(win, 0, sizeof *win);
+    hits.cells.cell = win->cells.cell = d / 4.0f;
+    int ok = 1;
+    for (int r = 0; r < gh && ok; r++)
+        for (int k = 0; k < cam->rows[r].n && ok; k++)
+            if (cam->rows[r].h[k].sss == sss) {
+                int32_t c[3];
+                cell_of(&hits.cells, cam->rows[r].h[k].p, c);
+                ok = cell_set_add(&hits, c) && (cap <= 0 || (long long)hits.count * 4 <= cap);
+            }
+    for (uint32_t b = 0; b < hits.size && ok; b++) {
+        const int32_t *h = hits.tab + 3 * (size_t)b;
+        if (h[0] == INT32_MIN)
+            continue;
+        int32_t c[3];
+        for (c[2] = h[2] - 4; c[2] <= h[2] + 4 && ok; c[2]++)
+            for (c[1] = h[1] - 4; c[1] <= h[1] + 4 && ok; c[1]++)
+                for (c[0] = h[0] - 4; c[0] <= h[0] + 4 && ok; c[0]++)
+                    ok = cell_set_add(win, c);
+    }
+    free(hits.tab);
+    int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+    for (uint32_t b = 0; b < win->size; b++) {
+        const int32_t *c = win->tab + 3 * (size_t)b;
+        for (int a = 0; a < 3 && c[0] != INT32_MIN; a++) {
+            lo[a] = c[a] < lo[a] ? c[a] : lo[a];
+            hi[a] = c[a] > hi[a] ? c[a] : hi[a];
+        }
+    }
+    float w = win->cells.cell;
+    win->lo = v3((float)lo[0] * w, (float)lo[1] * w, (float)lo[2] * w);
+    win->hi = v3((float)(hi[0] + 1) * w, (float)(hi[1] + 1) * w, (float)(hi[2] + 1) * w);
+    return ok;
+}
+
+/* Plans the regions of a windowed dipole shape. Receivers lie within `recv` of a hit (the
+ * lookup's radius and the hits' footprints); region 0 reaches what their exact pairs and the
+ * normalization of those pairs' sources read (the profile's exact radius and ball) at the
+ * finest level; a region farther out is at least D_{j-1} - recv from every receiver, where the
+ * tree aggregates clusters of up to theta x that distance and, within a channel's fade radius,
+ * of up to 0.75 of its diffusion length: its points are at most half of each bound apart. The
+ * regions end past the profile's reach. Returns -1 when out of memory, 0 when the finest level
+ * holds too many hit cells (see level_window), 1 when planned. */
+static int level_plan_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
+                            const op_sss_dipole_kernel *dk, level_plan *lp)
+{
+    memset(lp, 0, sizeof *lp);
+    float span = 0.0f;
+    for (int r = 0; r < gh; r++)
+        for (int k = 0; k < cam->rows[r].n; k++)
+            if (cam->rows[r].h[k].sss == sss)
+                span = fmaxf(span, pix * cam->rows[r].h[k].span);
+    const op_sss_radial *q = &dk->radial;
+    /* thin_receivers may put the receivers 2 sqrt(3) / 12 of a footprint apart */
+    float recv = span * (1.0f + 2.0f * sqrtf(3.0f) / 12.0f) + ss->h;
+    float d0 = recv + q->exact + q->ball + ss->spacing;
+    float outer = recv + q->reach + ss->spacing;
+    for (int j = 0; j < MAX_REGIONS; j++) {
+        float d = d0 * (float)(1 << j);
+        int l = 0;
+        if (j > 0) {
+            float from = 0.5f * d - recv, most = 0.5f * q->theta * from;
+            for (int c = 0; c < 3; c++)
+                if (from < q->fade[c])
+                    most = fminf(most, 0.5f * (float)op_sss_dipole_length(&dk->d, c));
+            l = most > ss->spacing ? (int)floorf(log2f(most / ss->spacing)) : 0;
+            if (l < lp->level[j - 1])
+                l = lp->level[j - 1];
+            if (l > DIPOLE_LEVELS - 1)
+                l = DIPOLE_LEVELS - 1;
+        }
+        lp->level[j] = l;
+        lp->nregions = j + 1;
+        if (!level_window(cam, gh, sss, d, j == 0 ? ss->desc->max_points : 0, &lp->win[j]))
+            return j == 0 && lp->win[0].tab == NULL ? 0 : -1;
+        if (d >= outer)
+            break;
+    }
+    lp->lo = lp->win[0].lo;
+    lp->hi = lp->win[0].hi;
+    for (int j = 1; j < lp->nregions; j++) {
+        lp->lo = v3_lo(lp->lo, lp->win[j].lo);
+        lp->hi = v3_hi(lp->hi, lp->win[j].hi);
+    }
+    return 1;
+}
+
+/* Whether the boxes [alo, ahi] and [blo, bhi] meet. */
+static int box_overlap(op_v3 alo, op_v3 ahi, op_v3 blo, op_v3 bhi)
+{
+    return ahi.x >= blo.x && ahi.y >= blo.y && ahi.z >= blo.z && alo.x <= bhi.x &&
+           alo.y <= bhi.y && alo.z <= bhi.z;
+}
+
+/* The region of point p: the first whose window holds it, or -1 (beyond every window). */
+static int level_region(const level_plan *lp, op_v3 p)
+{
+    if (!box_overlap(p, p, lp->lo, lp->hi))
+        return -1;
+    for (int j = 0; j < lp->nregions; j++) {
+        int32_t c[3];
+        cell_of(&lp->win[j].cells, p, c);
+        if (cell_set_has(&lp->win[j], c))
+            return j;
+    }
+    return -1;
+}
+
+/* Lays a windowed dipole shape's points by the plan: of each level's layout, the points whose
+ * region is of that level, each with its index in the whole layout in gid and the area it
+ * stands for, at most ss->desc->max_points of them; returns 0 when there are more (nothing
+ * usable is laid) and -1 when out of memory. */
+static int lay_levels(const op_trimesh *m, sss_shape *ss, double sx, double sy, long long n0,
+                      const level_plan *lp)
+{
+    int cap = ss->desc->max_points, laid = 0;
+    ss->pts = calloc((size_t)cap, sizeof *ss->pts);
+    ss->gid = malloc((size_t)cap * sizeof *ss->gid);
+    if (!ss->pts || !ss->gid)
+        return -1;
+    for (int l = 0; l < DIPOLE_LEVELS; l++) {
+        /* the bounds of the windows of this level's regions */
+        op_v3 wlo = v3s(FLT_MAX), whi = v3s(-FLT_MAX);
+        for (int j = 0; j < lp->nregions; j++)
+            if (lp->level[j] == l) {
+                wlo = v3_lo(wlo, lp->win[j].lo);
+                whi = v3_hi(whi, lp->win[j].hi);
+            }
+        if (wlo.x > whi.x)
+            continue;
+        long long n = level_points(n0, l), first = level_first(n0, l);
+        float area = (float)((double)m->area / (double)n);
+        for (int t = 0; t < m->ntris; t++) {
+            long long k0 = uniform_first(m, t, n), k1 = uniform_first(m, t + 1, n);
+            if (k0 == k1)
+                continue;
+            op_v3 a, b, c;
+            op_trimesh_tri(m, t, &a, &b, &c);
+            op_v3 lo = v3_lo(a, v3_lo(b, c)), hi = v3_hi(a, v3_hi(b, c));
+            if (!box_overlap(lo, hi, wlo, whi))
+                continue;
+            for (long long k = k0; k < k1; k++) {
+                double r1 = 0.5 + (double)k * 0.7548776662466927;
+                double r2 = 0.5 + (double)k * 0.5698402909980532;
+                float b1, b2;
+                op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
+                op_v3 p = v3_add(v3_add(v3_scale(a, 1.0f - b1 - b2), v3_scale(b, b1)),
+                                 v3_scale(c, b2));
+                if (!box_overlap(p, p, wlo, whi))
+                    continue;
+                int j = level_region(lp, p);
+                if (j < 0 || lp->level[j] != l)
+                    continue;
+                if (laid == cap)
+                    return 0;
+                ss->gid[laid] = (int)(first + k);
+                uniform_point(m, ss, k, t, sx, sy, &ss->pts[laid]);
+                ss->pts[laid++].a = area;
+            }
+        }
+    }
+    if (laid == 0)
+        return 0;
+    ss->n = laid;
+    sss_point *p = realloc(ss->pts, (size_t)laid * sizeof *p);
+    int *g = realloc(ss->gid, (size_t)laid * sizeof *g);
+    if (p)
+        ss->pts = p;
+    if (g)
+        ss->gid = g;
+    return 1;
+}
+
 typedef struct morton_key {
     uint64_t key;
     int index;
@@ -738,9 +1009,16 @@ static op_status spatial_order(sss_shape *ss, op_v3 lo, op_v3 hi, op_error *err)
     qsort(k, (size_t)ss->n, sizeof *k, morton_cmp);
     for (int i = 0; i < ss->n; i++)
         p[i] = ss->pts[k[i].index];
-    free(k);
     free(ss->pts);
     ss->pts = p;
+    if (ss->gid) {
+        /* gid's room (n entries) takes the permutation */
+        for (int i = 0; i < ss->n; i++)
+            k[i].key = (uint64_t)ss->gid[k[i].index];
+        for (int i = 0; i < ss->n; i++)
+            ss->gid[i] = (int)k[i].key;
+    }
+    free(k);
     return OP_OK;
 }
 
@@ -777,15 +1055,41 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     ss->a_i = m->area / (float)n;
     ss->spacing = sqrtf(ss->a_i);
     if (ss->desc->windowed) {
-        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
-                                   ss->desc->density);
         int laid = 0;
-        if (cam) {
+        if (cam && ss->hier) {
+            /* the finest level's points: the profile's spacing */
+            ss->a_i = m->area / (float)ss->desc->finest;
+            ss->spacing = sqrtf(ss->a_i);
+            ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py)); /* prepare_shape's */
+            op_sss_dipole_kernel dk;
+            op_status st = op_sss_dipole_kernel_init(&dk, &ss->desc->dipole, ss->a_i,
+                                                     ss->spacing, err);
+            if (st)
+                return st;
+            level_plan lp;
+            laid = level_plan_build(ss, sh->sss, cam, gh, pix, &dk, &lp);
+            if (laid > 0)
+                laid = lay_levels(m, ss, sx, sy, ss->desc->finest, &lp);
+            ss->levels = laid > 0;
+            if (laid > 0) {
+                int counts[DIPOLE_LEVELS] = {0};
+                for (int i = 0; i < ss->n; i++)
+                    counts[ss->gid[i] < level_first(ss->desc->finest, 1) ? 0 : 1]++;
+                op_log(OP_LOG_DEBUG, "%s: subsurface: %d regions around the view, %d points "
+                       "at the profile's spacing and %d coarser", sh->label, lp.nregions,
+                       counts[0], counts[1]);
+            }
+            level_plan_free(&lp);
+            op_sss_dipole_kernel_free(&dk);
+        } else if (cam) {
+            double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
+                                       ss->desc->density);
             /* the radii prepare_shape sets for a centred shape */
             ss->h = 2.0f * ss->spacing;
             ss->radius = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
             cell_set win;
-            op_status st = window_build(ss, sh->sss, cam, gh, pix, &win, err);
+            op_status st = window_build(ss, sh->sss, cam, gh, pix, 1.0f,
+                                        2.0f * sqrtf(3.0f) * ss->radius, &win, err);
             laid = st ? -1 : lay_window(m, ss, sx, sy, step, &win);
             free(win.tab);
             if (st)
@@ -795,14 +1099,17 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
             return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points",
                                 ss->desc->max_points);
         if (laid) {
-            ss->centred = 1;
-            return OP_OK;
+            ss->centred = !ss->hier;
+            return ss->hier ? spatial_order(ss, scene->bmin, scene->bmax, err) : OP_OK;
         }
         op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance points "
-               "(one per material pixel) than maxPoints; capped at %d (coarser than the "
-               "material: raise maxPoints or lower scale)", sh->label, n, ss->desc->max_points);
+               "(%s) than maxPoints; capped at %d (coarser than the material: raise maxPoints "
+               "or lower scale)", sh->label, ss->hier ? ss->desc->finest : n,
+               ss->hier ? "at the profile's spacing" :
+               "one per material pixel", ss->desc->max_points);
         free(ss->pts);
         free(ss->gid);
+        ss->pts = NULL;
         ss->gid = NULL;
         n = ss->n = ss->nfull = ss->desc->max_points;
         ss->a_i = m->area / (float)n;
@@ -822,29 +1129,9 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
         memset(ss->pts, 0, (size_t)n * sizeof *ss->pts);
     }
     for (int k = 0; k < n; k++) {
-        sss_point *q = &ss->pts[k];
-        /* systematic sampling of the area, an R2 sequence inside each triangle */
-        int t = op_trimesh_pick(m, ((float)k + 0.5f) / (float)n);
-        double r1 = 0.5 + k * 0.7548776662466927, r2 = 0.5 + k * 0.5698402909980532;
-        float b1, b2;
-        op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
-        float b0 = 1.0f - b1 - b2;
-        const uint32_t *ix = m->idx + 3 * (size_t)t;
-        point_geometry(m, t, b0, b1, b2, q);
-        float u, v;
-        if (triangle_uv_frame(m, t, q->n, &q->tu, &q->tv)) {
-            const float *uv = m->uv;
-            u = uv[2 * ix[0]] * b0 + uv[2 * ix[1]] * b1 + uv[2 * ix[2]] * b2;
-            v = uv[2 * ix[0] + 1] * b0 + uv[2 * ix[1] + 1] * b1 + uv[2 * ix[2] + 1] * b2;
-        } else {
-            int ua, va;
-            box_axes(q->n, &ua, &va);
-            box_frame(q, ua, va);
-            u = v3_get(q->p, ua) / (float)sx;
-            v = v3_get(q->p, va) / (float)sy;
-        }
-        q->fx = wrap(u * (float)ss->width, ss->width);
-        q->fy = wrap(v * (float)ss->height, ss->height);
+        uniform_point(m, ss, k, op_trimesh_pick(m, ((float)k + 0.5f) / (float)n), sx, sy,
+                      &ss->pts[k]);
+        ss->pts[k].a = ss->a_i;
     }
     return ss->hier ? spatial_order(ss, scene->bmin, scene->bmax, err) : OP_OK;
 }
@@ -1333,7 +1620,7 @@ static op_status select_receivers(sss_shape *ss, const op_sss_saved *sv, op_erro
     ss->nrecv = ss->nsrc = 0;
     for (int j = 0; j < ss->n; j++) {
         size_t g = (size_t)point_index(ss, j);
-        int known = ss->recv[j] && sv && (sv->has[g] & OP_SSS_HAS_M);
+        int known = ss->recv[j] && sv && !ss->levels && (sv->has[g] & OP_SSS_HAS_M);
         if (known) {
             ss->pts[j].m = v3(sv->m[3 * g], sv->m[3 * g + 1], sv->m[3 * g + 2]);
             ss->reused_recv++;
@@ -1564,9 +1851,9 @@ static void weigh_task(void *user, int task, int thread)
         last = ss->n;
     for (int i = first; i < last; i++) {
         const sss_point *q = &ss->pts[i];
-        job->w[i] = v3_scale(q->e, ss->a_i);
+        job->w[i] = v3_scale(q->e, q->a);
         job->wn[i] = job->w[i];
-        job->ga[i] = v3s(ss->a_i);
+        job->ga[i] = v3s(q->a);
         if (!ss->near_recv[i])
             continue; /* not used */
         float r2 = k->ball * k->ball;
@@ -1579,11 +1866,11 @@ static void weigh_task(void *user, int task, int thread)
             k->near(k->user, v3_len(d), v);
             got = v3_add(got, v3(v[0], v[1], v[2]));
         });
-        got = v3_scale(got, ss->a_i);
+        got = v3_scale(got, q->a); /* its neighbours within the ball: of its level */
         float g[3], have[3] = {got.x, got.y, got.z};
         for (int c = 0; c < 3; c++) {
             float r = have[c] > 0.0f ? k->ball_total[c] / have[c] : 1.0f;
-            g[c] = (r < 0.5f ? 0.5f : r > 2.0f ? 2.0f : r) * ss->a_i;
+            g[c] = (r < 0.5f ? 0.5f : r > 2.0f ? 2.0f : r) * q->a;
         }
         job->ga[i] = v3(g[0], g[1], g[2]);
         job->wn[i] = v3_mul(q->e, job->ga[i]);
@@ -1744,7 +2031,7 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
             e[2] = ss->pts[i].e.z;
             sv->has[g] |= OP_SSS_HAS_E;
         }
-        for (int j = 0; j < ss->n; j++)
+        for (int j = 0; j < ss->n && !ss->levels; j++)
             if (ss->rmap[j] >= 0) {
                 size_t g = (size_t)point_index(ss, j);
                 float *m = sv->m + 3 * g;
@@ -1756,7 +2043,7 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
         store->reused_e += ss->reused_src;
         store->reused_m += ss->reused_recv;
         store->new_e += ss->nsrc;
-        store->new_m += ss->nrecv;
+        store->new_m += ss->levels ? 0 : ss->nrecv;
     }
 }
 
