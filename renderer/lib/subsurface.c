@@ -588,35 +588,36 @@ static long long lay_centred(const op_trimesh *m, sss_shape *ss, double sx, doub
     return j.k;
 }
 
-/* The window of a windowed shape: cells of a quarter of the reach below that cover every point
- * within reach of a camera hit on it, the reach being what a receiver there may need: the
- * receivers (within the lookup's radius h of a point of the hit's footprint, foot x the
- * footprint), what a receiver's sum reaches beyond it (`beyond`: the sources and the
- * neighbours their normalization reads), and a spacing. */
-static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
-                              float foot, float beyond, cell_set *win, op_error *err)
+/* The largest footprint (pix x span) of the camera's hits on shape sss. */
+static float hits_span(const cam_job *cam, int gh, int sss, float pix)
 {
-    float reach = 0.0f;
+    float span = 0.0f;
     for (int r = 0; r < gh; r++)
         for (int k = 0; k < cam->rows[r].n; k++)
             if (cam->rows[r].h[k].sss == sss)
-                reach = fmaxf(reach, pix * cam->rows[r].h[k].span);
-    reach = reach * foot + ss->h + beyond + ss->spacing;
+                span = fmaxf(span, pix * cam->rows[r].h[k].span);
+    return span;
+}
+
+/* The window of every point within d of a camera hit on shape sss: the cells of side d / 4
+ * within 4 of a cell that holds a hit (such a point lies in one), with their bounds. Returns 1,
+ * -1 when out of memory, and 0 when cap > 0 and the hits' cells are more than cap / 4. */
+static int hit_window(const cam_job *cam, int gh, int sss, float d, int cap, cell_set *win)
+{
     cell_set hits;
     memset(&hits, 0, sizeof hits);
     memset(win, 0, sizeof *win);
-    hits.cells.cell = win->cells.cell = reach / 4.0f;
-    hits.cells.origin = win->cells.origin = v3s(0.0f);
-    int ok = 1;
-    for (int r = 0; r < gh && ok; r++)
-        for (int k = 0; k < cam->rows[r].n && ok; k++)
+    hits.cells.cell = win->cells.cell = d / 4.0f;
+    int ok = 1, over = 0;
+    for (int r = 0; r < gh && ok && !over; r++)
+        for (int k = 0; k < cam->rows[r].n && ok && !over; k++)
             if (cam->rows[r].h[k].sss == sss) {
                 int32_t c[3];
                 cell_of(&hits.cells, cam->rows[r].h[k].p, c);
                 ok = cell_set_add(&hits, c);
+                over = cap > 0 && (long long)hits.count * 4 > cap;
             }
-    /* a point within reach of a hit in cell c lies in a cell within 4 of c along each axis */
-    for (uint32_t b = 0; b < hits.size && ok; b++) {
+    for (uint32_t b = 0; b < hits.size && ok && !over; b++) {
         const int32_t *h = hits.tab + 3 * (size_t)b;
         if (h[0] == INT32_MIN)
             continue;
@@ -638,7 +639,21 @@ static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, 
     float w = win->cells.cell;
     win->lo = v3((float)lo[0] * w, (float)lo[1] * w, (float)lo[2] * w);
     win->hi = v3((float)(hi[0] + 1) * w, (float)(hi[1] + 1) * w, (float)(hi[2] + 1) * w);
-    return ok ? OP_OK : op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface window");
+    return !ok ? -1 : !over;
+}
+
+/* The window of a windowed measured shape: every point within reach of a camera hit on it, the
+ * reach being what a receiver there may need: the lookup's radius h and the hit's footprint
+ * (the receivers), a source's reach from a receiver and a neighbour's from a source (the
+ * normalization), each at most sqrt(3) x the gather radius, and a spacing. */
+static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
+                              cell_set *win, op_error *err)
+{
+    float reach = hits_span(cam, gh, sss, pix) + ss->h + 2.0f * sqrtf(3.0f) * ss->radius +
+                  ss->spacing;
+    return hit_window(cam, gh, sss, reach, 0, win) > 0
+               ? OP_OK
+               : op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface window");
 }
 
 /* The samples of triangle j->t (material coordinates xy) that may lie in the window's bounds:
@@ -776,66 +791,21 @@ static void level_plan_free(level_plan *lp)
     lp->nregions = 0;
 }
 
-/* Window j of lp: the cells of side d / 4 within 4 of a cell holding a camera hit on shape sss;
- * 0 when out of memory or (j = 0) when the hits' cells are so many that the finest level could
- * not fit in cap points (each hit's disk of radius d, at least 12 spacings, is in it, and a
- * hit's disk overlaps those of at most 81 others in distinct cells: 5.6 points per hit cell). */
-static int level_window(const cam_job *cam, int gh, int sss, float d, int cap, cell_set *win)
-{
-    cell_set hits;
-    memset(&hits, 0, sizeof hits);
-    memset(win, 0, sizeof *win);
-    hits.cells.cell = win->cells.cell = d / 4.0f;
-    int ok = 1;
-    for (int r = 0; r < gh && ok; r++)
-        for (int k = 0; k < cam->rows[r].n && ok; k++)
-            if (cam->rows[r].h[k].sss == sss) {
-                int32_t c[3];
-                cell_of(&hits.cells, cam->rows[r].h[k].p, c);
-                ok = cell_set_add(&hits, c) && (cap <= 0 || (long long)hits.count * 4 <= cap);
-            }
-    for (uint32_t b = 0; b < hits.size && ok; b++) {
-        const int32_t *h = hits.tab + 3 * (size_t)b;
-        if (h[0] == INT32_MIN)
-            continue;
-        int32_t c[3];
-        for (c[2] = h[2] - 4; c[2] <= h[2] + 4 && ok; c[2]++)
-            for (c[1] = h[1] - 4; c[1] <= h[1] + 4 && ok; c[1]++)
-                for (c[0] = h[0] - 4; c[0] <= h[0] + 4 && ok; c[0]++)
-                    ok = cell_set_add(win, c);
-    }
-    free(hits.tab);
-    int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
-    for (uint32_t b = 0; b < win->size; b++) {
-        const int32_t *c = win->tab + 3 * (size_t)b;
-        for (int a = 0; a < 3 && c[0] != INT32_MIN; a++) {
-            lo[a] = c[a] < lo[a] ? c[a] : lo[a];
-            hi[a] = c[a] > hi[a] ? c[a] : hi[a];
-        }
-    }
-    float w = win->cells.cell;
-    win->lo = v3((float)lo[0] * w, (float)lo[1] * w, (float)lo[2] * w);
-    win->hi = v3((float)(hi[0] + 1) * w, (float)(hi[1] + 1) * w, (float)(hi[2] + 1) * w);
-    return ok;
-}
-
 /* Plans the regions of a windowed dipole shape. Receivers lie within `recv` of a hit (the
  * lookup's radius and the hits' footprints); region 0 reaches what their exact pairs and the
  * normalization of those pairs' sources read (the profile's exact radius and ball) at the
  * finest level; a region farther out is at least D_{j-1} - recv from every receiver, where the
  * tree aggregates clusters of up to theta x that distance and, within a channel's fade radius,
  * of up to 0.75 of its diffusion length: its points are at most half of each bound apart. The
- * regions end past the profile's reach. Returns -1 when out of memory, 0 when the finest level
- * holds too many hit cells (see level_window), 1 when planned. */
+ * regions end past the profile's reach. Returns -1 when out of memory, 0 when the hits' cells
+ * of region 0 are too many for maxPoints (each hit's disk of radius D_0, at least 12 spacings,
+ * is in it, and overlaps those of at most 81 others in distinct cells: over 5.6 points per
+ * cell), 1 when planned. */
 static int level_plan_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
                             const op_sss_dipole_kernel *dk, level_plan *lp)
 {
     memset(lp, 0, sizeof *lp);
-    float span = 0.0f;
-    for (int r = 0; r < gh; r++)
-        for (int k = 0; k < cam->rows[r].n; k++)
-            if (cam->rows[r].h[k].sss == sss)
-                span = fmaxf(span, pix * cam->rows[r].h[k].span);
+    float span = hits_span(cam, gh, sss, pix);
     const op_sss_radial *q = &dk->radial;
     /* thin_receivers may put the receivers 2 sqrt(3) / 12 of a footprint apart */
     float recv = span * (1.0f + 2.0f * sqrtf(3.0f) / 12.0f) + ss->h;
@@ -857,8 +827,9 @@ static int level_plan_build(const sss_shape *ss, int sss, const cam_job *cam, in
         }
         lp->level[j] = l;
         lp->nregions = j + 1;
-        if (!level_window(cam, gh, sss, d, j == 0 ? ss->desc->max_points : 0, &lp->win[j]))
-            return j == 0 && lp->win[0].tab == NULL ? 0 : -1;
+        int got = hit_window(cam, gh, sss, d, j == 0 ? ss->desc->max_points : 0, &lp->win[j]);
+        if (got <= 0)
+            return got;
         if (d >= outer)
             break;
     }
@@ -1088,8 +1059,7 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
             ss->h = 2.0f * ss->spacing;
             ss->radius = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
             cell_set win;
-            op_status st = window_build(ss, sh->sss, cam, gh, pix, 1.0f,
-                                        2.0f * sqrtf(3.0f) * ss->radius, &win, err);
+            op_status st = window_build(ss, sh->sss, cam, gh, pix, &win, err);
             laid = st ? -1 : lay_window(m, ss, sx, sy, step, &win);
             free(win.tab);
             if (st)
