@@ -35,11 +35,18 @@ DIPOLE_REACH_MM, DIPOLE_SPACING_MM = 68.0, 0.368  # Marble (docs/subsurface-rend
 MEASURED_KS = [9, 17, 29, 41]
 
 
-def render(build, scene, threads):
+NO_CAP = ("sss-points=1e9", "kernel=255", "sss-max-points=5e7")
+
+
+def render(build, scene, threads, limits=NO_CAP, tag=""):
+    """Renders scene with build's opaline-render (-v, the --limit values given) to
+    SCENE.BUILD[TAG].pfm; returns the pre-pass seconds, the points laid, the peak resident MiB
+    and the process's CPU seconds (user + sys)."""
     cmd = ["/usr/bin/time", "-f", "MAXRSS %M CPU %U %S", os.path.join(build, "bin", "opaline-render"),
-           "-v", "-t", str(threads), "--limit", "sss-points=1e9", "--limit", "kernel=255",
-           "--limit", "sss-max-points=5e7",
-           scene, "-o", scene + "." + os.path.basename(build.rstrip("/")) + ".pfm"]
+           "-v", "-t", str(threads)]
+    for lim in limits:
+        cmd += ["--limit", lim]
+    cmd += [scene, "-o", scene + "." + os.path.basename(build.rstrip("/")) + tag + ".pfm"]
     p = subprocess.run(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     if p.returncode:
         sys.exit("failed: %s\n%s" % (" ".join(cmd), p.stderr[-2000:]))

@@ -37,12 +37,13 @@ typedef struct op_sss_desc {
     double density;        /* irradiance points per material pixel area */
     int max_points;
     int points;            /* the irradiance points of its layout (op_sss_plan) */
-    int finest;            /* windowed dipole: the points of its layout's finest level, at the
-                              profile's spacing (its levels' points add up to points) */
-    int windowed;          /* 1: a measured material at its physical size, or the dipole at
-                              its profile's spacing, needing more than max_points: only the
-                              points near the view are laid, up to max_points, else the shape
-                              is coarsened (subsurface.c) */
+    int windowed;          /* 1: a shape needing more than max_points (a measured material,
+                              or the dipole at its profile's spacing): only the points near the
+                              view are laid, up to max_points, else the shape is coarsened
+                              (subsurface.c) */
+    int finest;            /* the points of its layout's finest level: one per material pixel,
+                              or at the profile's spacing (a windowed dipole's levels add up to
+                              points) */
     op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
     int is_dipole;         /* 1: the classical dipole below instead of a material (material NULL) */
     op_sss_dipole dipole;      /* coefficients per scene unit (docs/subsurface-rendering.md) */

@@ -22,7 +22,8 @@
                                   at their pixel centres; 5: the dipole's points in Morton order;
                                   6: measured materials' windowed layouts (no maxPoints coarsening
                                   where the view needs fewer) and the scatter's finer cells;
-                                  7: the dipole's windowed layouts */
+                                  7: windowed layouts of the dipole (in levels) and of stretched
+                                  maps */
 
 enum { OP_SSS_KEY_BYTES = 16 };
 

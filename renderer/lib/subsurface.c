@@ -358,45 +358,38 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        int capped = d->is_dipole;
         d->windowed = 0;
-        if (!capped) {
+        if (!d->is_dipole) {
             /* a measured material: one point per material pixel (at its centre where the map
-             * shows the material at its physical size, then with no cap: a shape needing more
-             * than maxPoints lays only the points near the view, make_points) */
+             * shows the material at its physical size); a shape needing more than maxPoints
+             * lays only the points near the view (make_points) */
             const op_material_info *info = op_material_get_info(d->material);
             double sx = size_x * 0.01 * d->scale, sy = size_y * 0.01 * d->scale;
             double step = centred_step(&sh->mesh, info->width, info->height, sx, sy, a_pix,
                                        d->density);
             if (step > 0.0)
                 want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy, step);
-            else
-                capped = want > d->max_points;
             if (want > INT32_MAX)
                 return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
                                     "points (one per material pixel at density %g) are more "
                                     "than a shape can hold (%d)", sh->label, want, d->density,
                                     INT32_MAX);
-            if (!capped) {
-                d->points = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
-                d->windowed = step > 0.0 && d->points > d->max_points;
-            }
-        }
-        if (capped && d->is_dipole && want > d->max_points && want <= INT32_MAX &&
-            level_first((long long)ceil(want), DIPOLE_LEVELS) <= INT32_MAX) {
-            /* the dipole's layout in levels, windowed: only the points within reach of the
-             * view are laid when they are at most maxPoints (make_points) */
-            capped = 0;
+            d->points = d->finest = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
+            d->windowed = d->points > d->max_points;
+        } else if (want > d->max_points && want <= INT32_MAX &&
+                   level_first((long long)ceil(want), DIPOLE_LEVELS) <= INT32_MAX) {
+            /* the dipole's layout in levels, windowed in the same way */
             d->finest = (int)ceil(want);
             d->points = (int)level_first(d->finest, DIPOLE_LEVELS);
             d->windowed = 1;
+        } else {
+            if (want > d->max_points)
+                op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points at the "
+                       "profile's spacing; capped at %d (coarser than the material: raise "
+                       "maxPoints or lower scale)", sh->label, want, d->max_points);
+            d->points = d->finest =
+                want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         }
-        if (capped && want > d->max_points)
-            op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points for one per "
-                   "material pixel; capped at %d (coarser than the material: raise maxPoints or "
-                   "lower scale)", sh->label, want, d->max_points);
-        if (capped)
-            d->points = want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         total += d->windowed ? d->max_points : d->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
@@ -642,18 +635,13 @@ static int hit_window(const cam_job *cam, int gh, int sss, float d, int cap, cel
     return !ok ? -1 : !over;
 }
 
-/* The window of a windowed measured shape: every point within reach of a camera hit on it, the
- * reach being what a receiver there may need: the lookup's radius h and the hit's footprint
- * (the receivers), a source's reach from a receiver and a neighbour's from a source (the
- * normalization), each at most sqrt(3) x the gather radius, and a spacing. */
-static op_status window_build(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
-                              cell_set *win, op_error *err)
+/* The reach of a windowed measured shape's window around the camera's hits on it: what a
+ * receiver there may need: the lookup's radius h and the hit's footprint (the receivers), a
+ * source's reach from a receiver and a neighbour's from a source (the normalization), each at
+ * most sqrt(3) x the gather radius, and a spacing. */
+static float window_reach(const sss_shape *ss, int sss, const cam_job *cam, int gh, float pix)
 {
-    float reach = hits_span(cam, gh, sss, pix) + ss->h + 2.0f * sqrtf(3.0f) * ss->radius +
-                  ss->spacing;
-    return hit_window(cam, gh, sss, reach, 0, win) > 0
-               ? OP_OK
-               : op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface window");
+    return hits_span(cam, gh, sss, pix) + ss->h + 2.0f * sqrtf(3.0f) * ss->radius + ss->spacing;
 }
 
 /* The samples of triangle j->t (material coordinates xy) that may lie in the window's bounds:
@@ -993,9 +981,74 @@ static op_status spatial_order(sss_shape *ss, op_v3 lo, op_v3 hi, op_error *err)
     return OP_OK;
 }
 
-/* Lays shape sh's points. A windowed shape (op_sss_desc.windowed) lays those of its centred
- * layout in the window of the camera's hits (cam: gh rows; NULL: the whole shape is in view)
- * when they are at most maxPoints, and is coarsened to maxPoints points otherwise. */
+/* Lays a windowed shape's points near the view (the camera's hits in cam: gh rows; pix the
+ * angle between neighbouring rays): the dipole in levels around it (level_plan_build,
+ * lay_levels), a measured material at its physical size at its pixel centres within reach
+ * (lay_window), one on a stretched map as the points of its area-uniform layout within reach
+ * (lay_levels with one region). Sets *laid to 1 when they are laid, 0 when the view needs more
+ * than maxPoints (nothing usable is laid). */
+static op_status lay_near_view(const op_shape_rec *sh, sss_shape *ss, const cam_job *cam, int gh,
+                               float pix, double sx, double sy, int *laid, op_error *err)
+{
+    const op_trimesh *m = &sh->mesh;
+    level_plan lp;
+    memset(&lp, 0, sizeof lp);
+    int got;
+    if (ss->hier) {
+        /* the finest level's points: the profile's spacing */
+        ss->a_i = m->area / (float)ss->desc->finest;
+        ss->spacing = sqrtf(ss->a_i);
+        ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py)); /* prepare_shape's */
+        op_sss_dipole_kernel dk;
+        op_status st = op_sss_dipole_kernel_init(&dk, &ss->desc->dipole, ss->a_i, ss->spacing,
+                                                 err);
+        if (st)
+            return st;
+        got = level_plan_build(ss, sh->sss, cam, gh, pix, &dk, &lp);
+        op_sss_dipole_kernel_free(&dk);
+        if (got > 0)
+            got = lay_levels(m, ss, sx, sy, ss->desc->finest, &lp);
+        ss->levels = got > 0;
+        if (got > 0) {
+            int fine = 0;
+            for (int i = 0; i < ss->n; i++)
+                fine += ss->gid[i] < ss->desc->finest;
+            op_log(OP_LOG_DEBUG, "%s: subsurface: %d regions around the view, %d points at the "
+                   "profile's spacing and %d coarser", sh->label, lp.nregions, fine,
+                   ss->n - fine);
+        }
+    } else {
+        /* the radii prepare_shape sets */
+        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
+                                   ss->desc->density);
+        int half = ss->kernel / 2;
+        if (step > 0.0) {
+            ss->h = 2.0f * ss->spacing;
+            ss->radius = ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
+        } else {
+            ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
+            ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+        }
+        lp.nregions = 1;
+        got = hit_window(cam, gh, sh->sss, window_reach(ss, sh->sss, cam, gh, pix), 0, &lp.win[0]);
+        lp.lo = lp.win[0].lo;
+        lp.hi = lp.win[0].hi;
+        if (got > 0)
+            got = step > 0.0 ? lay_window(m, ss, sx, sy, step, &lp.win[0])
+                             : lay_levels(m, ss, sx, sy, ss->desc->finest, &lp);
+        ss->centred = got > 0 && step > 0.0;
+    }
+    level_plan_free(&lp);
+    if (got < 0)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points",
+                            ss->desc->max_points);
+    *laid = got;
+    return OP_OK;
+}
+
+/* Lays shape sh's points. A windowed shape (op_sss_desc.windowed) lays those near the camera's
+ * hits (cam: gh rows; NULL: the whole shape is in view; lay_near_view) when they are at most
+ * maxPoints, and is coarsened to maxPoints points otherwise. */
 static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
                              const cam_job *cam, int gh, float pix, op_error *err)
 {
@@ -1027,51 +1080,13 @@ static op_status make_points(const op_scene *scene, const op_shape_rec *sh, sss_
     ss->spacing = sqrtf(ss->a_i);
     if (ss->desc->windowed) {
         int laid = 0;
-        if (cam && ss->hier) {
-            /* the finest level's points: the profile's spacing */
-            ss->a_i = m->area / (float)ss->desc->finest;
-            ss->spacing = sqrtf(ss->a_i);
-            ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py)); /* prepare_shape's */
-            op_sss_dipole_kernel dk;
-            op_status st = op_sss_dipole_kernel_init(&dk, &ss->desc->dipole, ss->a_i,
-                                                     ss->spacing, err);
-            if (st)
-                return st;
-            level_plan lp;
-            laid = level_plan_build(ss, sh->sss, cam, gh, pix, &dk, &lp);
-            if (laid > 0)
-                laid = lay_levels(m, ss, sx, sy, ss->desc->finest, &lp);
-            ss->levels = laid > 0;
-            if (laid > 0) {
-                int counts[DIPOLE_LEVELS] = {0};
-                for (int i = 0; i < ss->n; i++)
-                    counts[ss->gid[i] < level_first(ss->desc->finest, 1) ? 0 : 1]++;
-                op_log(OP_LOG_DEBUG, "%s: subsurface: %d regions around the view, %d points "
-                       "at the profile's spacing and %d coarser", sh->label, lp.nregions,
-                       counts[0], counts[1]);
-            }
-            level_plan_free(&lp);
-            op_sss_dipole_kernel_free(&dk);
-        } else if (cam) {
-            double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
-                                       ss->desc->density);
-            /* the radii prepare_shape sets for a centred shape */
-            ss->h = 2.0f * ss->spacing;
-            ss->radius = ((float)(ss->kernel / 2) + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
-            cell_set win;
-            op_status st = window_build(ss, sh->sss, cam, gh, pix, &win, err);
-            laid = st ? -1 : lay_window(m, ss, sx, sy, step, &win);
-            free(win.tab);
+        if (cam) {
+            op_status st = lay_near_view(sh, ss, cam, gh, pix, sx, sy, &laid, err);
             if (st)
                 return st;
         }
-        if (laid < 0)
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points",
-                                ss->desc->max_points);
-        if (laid) {
-            ss->centred = !ss->hier;
+        if (laid)
             return ss->hier ? spatial_order(ss, scene->bmin, scene->bmax, err) : OP_OK;
-        }
         op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance points "
                "(%s) than maxPoints; capped at %d (coarser than the material: raise maxPoints "
                "or lower scale)", sh->label, ss->hier ? ss->desc->finest : n,

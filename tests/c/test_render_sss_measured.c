@@ -127,7 +127,7 @@ static const char *patch_mesh(int tiles)
  * `height`) needs. */
 static op_sss_cache *prepass_patch(const char *mat, int tiles, int spot, double density,
                                    int threads, int max_points, int everywhere, double height,
-                                   op_scene **scene)
+                                   double scale, op_scene **scene)
 {
     char em[512], text[4096], mesh[1024], cap[128] = "";
     snprintf(mesh, sizeof mesh, "%s", patch_mesh(tiles));
@@ -152,11 +152,11 @@ static op_sss_cache *prepass_patch(const char *mat, int tiles, int spot, double 
              " %s"
              " <shape type=\"obj\"><string name=\"filename\" value=\"%s\"/>"
              "  <subsurface type=\"raw\">"
-             "  <string name=\"material\" value=\"%s\"/><float name=\"scale\" value=\"100\"/>"
+             "  <string name=\"material\" value=\"%s\"/><float name=\"scale\" value=\"%.9g\"/>"
              "  <float name=\"density\" value=\"%g\"/>%s"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
-             height, em, mesh, mat, density, cap);
+             height, em, mesh, mat, scale, density, cap);
     const char *path = op_test_write_temp("patch.xml", text);
     op_error err = {0};
     OP_ASSERT_OK(op_scene_load(path, NULL, 0, scene, &err), err);
@@ -169,7 +169,7 @@ static op_sss_cache *prepass_patch(const char *mat, int tiles, int spot, double 
 static op_sss_cache *prepass(const char *mat, int spot, double density, int threads,
                              op_scene **scene)
 {
-    return prepass_patch(mat, TILES, spot, density, threads, 0, 1, 4.0, scene);
+    return prepass_patch(mat, TILES, spot, density, threads, 0, 1, 4.0, 100.0, scene);
 }
 
 /* The exitance op_sss_lookup gives at the central tile's pixel centres (3 x W x W) of a
@@ -249,18 +249,20 @@ static op_material *make_material(int K, char mat[1024])
 }
 
 /* The points a camera-marked (or everywhere) pre-pass of the BIG patch at height 2.5 lays, and
- * into out (unless NULL) the central tile's exitance. */
+ * into out (unless NULL) the central tile's exitance; the material at its physical size
+ * (stretch 1) or shown stretch times smaller by its map (scale 100 / stretch). */
 static long long big_patch(const char *mat, int spot, int threads, int max_points, int everywhere,
-                           float *out)
+                           double stretch, float *out)
 {
     op_scene *scene = NULL;
     op_sss_cache *c = prepass_patch(mat, BIG, spot, 1.0, threads, max_points, everywhere, 2.5,
-                                    &scene);
+                                    100.0 / stretch, &scene);
     op_sss_stats st;
     op_sss_cache_stats(c, &st);
     if (out)
         lookup_tile(c, BIG, out);
-    if (out && st.points < BIG * BIG * W * W) { /* windowed: a corner far outside the view
+    if (out && st.points < BIG * BIG * W * W * stretch * stretch * 0.9) { /* windowed: a
+                                                 * corner far outside the view
                                                  * has no point near it, so no exitance */
         op_v3 m, corner = v3(0.1f - 0.5f * BIG, 0.1f - 0.5f * BIG, 0.0f);
         assert_false(op_sss_lookup(c, 0, corner, v3(0.0f, 0.0f, 1.0f), &m));
@@ -329,15 +331,39 @@ static void test_large_shape(void **state)
         static double ref[3 * W * W];
         static float got[3 * W * W], whole[3 * W * W];
         brute_force(m, K, BIG, spot, ref);
-        long long laid = big_patch(mat, spot, 2, CAP, 0, got);
+        long long laid = big_patch(mat, spot, 2, CAP, 0, 1.0, got);
         printf("large shape, %s light: %lld points laid of %d (maxPoints %d)\n",
                spot ? "spot" : "uniform", laid, FULL, CAP);
         assert_true(laid > 0 && laid < CAP);
         compare(got, ref, spot ? "large shape, spot" : "large shape, uniform");
-        assert_int_equal(big_patch(mat, spot, 1, 2 * FULL, 0, whole), FULL);
+        assert_int_equal(big_patch(mat, spot, 1, 2 * FULL, 0, 1.0, whole), FULL);
         assert_memory_equal(got, whole, sizeof got);
     }
-    assert_int_equal(big_patch(mat, 0, 2, CAP, 1, NULL), CAP);
+    assert_int_equal(big_patch(mat, 0, 2, CAP, 1, 1.0, NULL), CAP);
+    op_material_close(m);
+}
+
+/* The same patch with a map that shows the material 1.25 times smaller than its physical size
+ * (the area-uniform layout, 48400 points at one per material pixel area): seen close up with
+ * maxPoints 16000 it lays only the points near the view, and the central tile's exitance is
+ * bit for bit that of the whole layout; with every point a receiver it is coarsened. */
+static void test_large_stretched_shape(void **state)
+{
+    (void)state;
+    enum { K = 9, CAP = 16000, FULL = 48400 };
+    const double stretch = 1.25;
+    char mat[1024];
+    op_material *m = make_material(K, mat);
+    for (int spot = 0; spot < 2; spot++) {
+        static float got[3 * W * W], whole[3 * W * W];
+        long long laid = big_patch(mat, spot, 2, CAP, 0, stretch, got);
+        printf("large stretched shape, %s light: %lld points laid of %d (maxPoints %d)\n",
+               spot ? "spot" : "uniform", laid, FULL, CAP);
+        assert_true(laid > 0 && laid < CAP);
+        assert_int_equal(big_patch(mat, spot, 1, 2 * FULL, 0, stretch, whole), FULL);
+        assert_memory_equal(got, whole, sizeof got);
+    }
+    assert_int_equal(big_patch(mat, 0, 2, CAP, 1, stretch, NULL), CAP);
     op_material_close(m);
 }
 
@@ -426,6 +452,7 @@ int main(void)
         cmocka_unit_test(test_brute_force_k7),
         cmocka_unit_test(test_brute_force_k9),
         cmocka_unit_test(test_large_shape),
+        cmocka_unit_test(test_large_stretched_shape),
         cmocka_unit_test(test_raster),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
