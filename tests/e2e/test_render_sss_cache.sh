@@ -6,7 +6,8 @@
 # what is not a cache (text, a truncated or corrupted cache, a directory) is refused with exit 2
 # and left as it was; an older format version is replaced; --sss-cache-only writes the cache for
 # the whole film and cropped tiles then compute nothing and match the full render bit for bit;
-# two renders writing one cache at once each leave a complete file.
+# two renders writing one cache at once each leave a complete file; a large dipole square laid in
+# levels around the view gives the uncached image from a fresh, reused and moved camera's cache.
 set -uo pipefail
 source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
 e2e_setup render_sss_cache opaline-render
@@ -131,5 +132,40 @@ wait $p2 || fail "concurrent writer 2 exited $?"
 render -D camx=2 --sss-cache "$T/shared" -o "$T/p3.pfm" || fail "reading the shared cache exited $?"
 grep -q "pre-pass cache $T/shared: reused" "$T/err" || fail "the shared cache is not valid"
 cmp -s "$T/p3.pfm" "$T/moved_none.pfm" || fail "the shared cache gives another image"
+# A large dipole square seen close up is laid in levels around the view (docs/subsurface-
+# rendering.md, "Large objects"): the cache lends its irradiance, its exitance is summed again,
+# so a render from the cache, fresh, reused or with the camera moved, is the uncached one.
+cat > "$T/large.xml" <<'XML'
+<scene version="0.6.0"><integrator type="path"/>
+ <default name="camx" value="30"/>
+ <sensor type="perspective"><float name="fov" value="28"/>
+  <transform name="toWorld"><lookat origin="$camx,0,60" target="$camx,0,0" up="0,1,0"/></transform>
+  <sampler type="independent"><integer name="sampleCount" value="2"/></sampler>
+  <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/>
+  <rfilter type="box"/></film></sensor>
+ <emitter type="spot"><transform name="toWorld"><lookat origin="0,0,200" target="0,0,0"/></transform>
+  <spectrum name="intensity" value="40000"/><float name="cutoffAngle" value="5.71"/>
+  <float name="beamWidth" value="5.71"/></emitter>
+ <shape type="rectangle"><transform name="toWorld"><scale x="150" y="150" z="1"/></transform>
+  <subsurface type="dipole"><string name="material" value="Marble"/><float name="scale" value="1000"/>
+  <integer name="maxPoints" value="60000"/><integer name="irrSamples" value="1"/></subsurface></shape>
+</scene>
+XML
+large() { "$R" -v -t 2 "$@" "$T/large.xml" 2>"$T/err"; }
+large -o "$T/l_none.pfm" || fail "large square without a cache exited $?"
+grep -q "regions around the view" "$T/err" || fail "the large square was not laid in levels"
+grep -q "capped at" "$T/err" && fail "the large square was capped"
+large --sss-cache "$T/lc" -o "$T/l_fresh.pfm" || fail "large square, fresh cache: exit $?"
+large --sss-cache "$T/lc" -o "$T/l_reused.pfm" || fail "large square, reused cache: exit $?"
+grep -q "pre-pass cache $T/lc: reused [1-9][0-9]* sources / 0 receivers, computed 0 new" \
+    "$T/err" || fail "large square: the irradiance was not all reused"
+cmp -s "$T/l_none.pfm" "$T/l_fresh.pfm" || fail "large square: fresh-cache image differs"
+cmp -s "$T/l_none.pfm" "$T/l_reused.pfm" || fail "large square: reused-cache image differs"
+large -D camx=36 -o "$T/l_moved_none.pfm" || fail "large square moved: exit $?"
+large -D camx=36 --sss-cache "$T/lc" -o "$T/l_moved.pfm" || fail "large square moved, cache: $?"
+grep -q "pre-pass cache $T/lc: reused [1-9][0-9]* sources" "$T/err" ||
+    fail "large square moved: nothing reused"
+cmp -s "$T/l_moved_none.pfm" "$T/l_moved.pfm" || fail "large square moved: image differs"
+
 ls "$T" | grep -q "tmp-opaline" && fail "temporary files left behind"
 echo "ok"
