@@ -40,7 +40,7 @@ typedef struct op_sss_desc {
     int windowed;          /* 1: a shape needing more than max_points (a measured material,
                               or the dipole at its profile's spacing): only the points near the
                               view are laid, up to max_points, else the shape is coarsened
-                              (subsurface.c) */
+                              (sss_layout.c) */
     int finest;            /* the points of its layout's finest level: one per material pixel,
                               or at the profile's spacing (a windowed dipole's levels add up to
                               points) */

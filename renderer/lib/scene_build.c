@@ -2,6 +2,7 @@
 #include "scene_build.h"
 
 #include "material_name.h"
+#include "sss_layout.h"
 #include "subsurface.h"
 
 #include <errno.h>

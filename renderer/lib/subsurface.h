@@ -88,15 +88,6 @@ typedef struct op_sss_stats {
     double seconds;      /* the build's wall time */
 } op_sss_stats;
 
-/* Plans, before any work, the irradiance points of every translucent shape of the built scene
- * (its bounds set): checks that a material pixel in scene units is finite, positive and within
- * what single precision can grid across the scene, fixes each shape's point count (about
- * `density` per material pixel area, computed in double; a shape needing more than its
- * maxPoints is windowed: at most maxPoints of them are laid, those near the view, else it is
- * coarsened to maxPoints) and refuses a total (of what may be laid) over max_total
- * ("sss-points"). Fills each op_sss_desc's points and windowed. */
-op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err);
-
 /* Builds the cache for the translucent shapes of scene (see above for which parts). */
 op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
                              op_sss_cache **out, op_error *err);
