@@ -541,8 +541,9 @@ static void level_plan_free(level_plan *lp)
  * lookup's radius and the hits' footprints); region 0 reaches what their exact pairs and the
  * normalization of those pairs' sources read (the profile's exact radius and ball) at the
  * finest level; a region farther out is at least D_{j-1} - recv from every receiver, where the
- * tree aggregates clusters of up to theta x that distance and, within a channel's fade radius,
- * of up to 0.75 of its diffusion length: its points are at most half of each bound apart. The
+ * tree aggregates clusters of up to theta x that distance (and, within a channel's fade
+ * radius, of up to 0.75 of its diffusion length): its points are at most half of theta x that
+ * distance apart and, within a channel's fade radius, half its diffusion length. The
  * regions end past the profile's reach. Returns -1 when out of memory, 0 when the hits' cells
  * of region 0 are too many for maxPoints (each hit's disk of radius D_0, at least 12 spacings,
  * is in it, and overlaps those of at most 81 others in distinct cells: over 5.6 points per
