@@ -479,14 +479,20 @@ static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
     return 1;
 }
 
+/* The barycentrics of point k of an area-uniform layout within its triangle: the R2 sequence. */
+static void uniform_bary(long long k, float *b1, float *b2)
+{
+    double r1 = 0.5 + (double)k * 0.7548776662466927, r2 = 0.5 + (double)k * 0.5698402909980532;
+    op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), b1, b2);
+}
+
 /* Point k of the area-uniform layout of n points on mesh m (in triangle t): systematic
  * sampling of the area, an R2 sequence inside each triangle; a material tiled every sx x sy. */
 static void uniform_point(const op_trimesh *m, const sss_shape *ss, long long k, int t, double sx,
                           double sy, sss_point *q)
 {
-    double r1 = 0.5 + (double)k * 0.7548776662466927, r2 = 0.5 + (double)k * 0.5698402909980532;
     float b1, b2;
-    op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
+    uniform_bary(k, &b1, &b2);
     float b0 = 1.0f - b1 - b2;
     const uint32_t *ix = m->idx + 3 * (size_t)t;
     point_geometry(m, t, b0, b1, b2, q);
@@ -644,10 +650,8 @@ static int lay_levels(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
             if (!box_overlap(lo, hi, wlo, whi))
                 continue;
             for (long long k = k0; k < k1; k++) {
-                double r1 = 0.5 + (double)k * 0.7548776662466927;
-                double r2 = 0.5 + (double)k * 0.5698402909980532;
                 float b1, b2;
-                op_sample_triangle((float)(r1 - floor(r1)), (float)(r2 - floor(r2)), &b1, &b2);
+                uniform_bary(k, &b1, &b2);
                 op_v3 p = v3_add(v3_add(v3_scale(a, 1.0f - b1 - b2), v3_scale(b, b1)),
                                  v3_scale(c, b2));
                 if (!box_overlap(p, p, wlo, whi))
