@@ -15,7 +15,7 @@
  * `density` per material pixel area, computed in double; a shape needing more than its
  * maxPoints is windowed: at most maxPoints of them are laid, those near the view, else it is
  * coarsened to maxPoints) and refuses a total (of what may be laid) over max_total
- * ("sss-points"). Fills each op_sss_desc's points and windowed. */
+ * ("sss-points"). Fills each op_sss_desc's points, finest and windowed. */
 op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err);
 
 /* Lays the points of shape sh (ss->desc set) and fills ss's layout fields (its pixel size,
