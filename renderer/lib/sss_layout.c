@@ -274,6 +274,28 @@ static int cell_set_box(const cell_set *cs, op_v3 lo, op_v3 hi)
     return 0;
 }
 
+/* A windowed layout's room: maxPoints points and their indices in the whole layout; 0 when out
+ * of memory. */
+static int window_alloc(sss_shape *ss)
+{
+    ss->pts = calloc((size_t)ss->desc->max_points, sizeof *ss->pts);
+    ss->gid = malloc((size_t)ss->desc->max_points * sizeof *ss->gid);
+    return ss->pts && ss->gid;
+}
+
+/* Keeps the first laid (> 0) points of a windowed layout, its room shrunk to them; returns 1. */
+static int window_keep(sss_shape *ss, int laid)
+{
+    ss->n = laid;
+    sss_point *p = realloc(ss->pts, (size_t)laid * sizeof *p);
+    int *g = realloc(ss->gid, (size_t)laid * sizeof *g);
+    if (p)
+        ss->pts = p;
+    if (g)
+        ss->gid = g;
+    return 1;
+}
+
 typedef struct lay_job {
     const op_trimesh *m;
     sss_shape *ss;
@@ -438,9 +460,7 @@ static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
                       const cell_set *win)
 {
     int cap = ss->desc->max_points;
-    ss->pts = calloc((size_t)cap, sizeof *ss->pts);
-    ss->gid = malloc((size_t)cap * sizeof *ss->gid);
-    if (!ss->pts || !ss->gid)
+    if (!window_alloc(ss))
         return -1;
     lay_job j = {.m = m, .ss = ss, .win = win, .cap = cap};
     for (j.t = 0; j.t < m->ntris && !j.over; j.t++) {
@@ -469,14 +489,7 @@ static int lay_window(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
     }
     if (j.over || j.laid == 0)
         return 0;
-    ss->n = j.laid;
-    sss_point *p = realloc(ss->pts, (size_t)j.laid * sizeof *p);
-    int *g = realloc(ss->gid, (size_t)j.laid * sizeof *g);
-    if (p)
-        ss->pts = p;
-    if (g)
-        ss->gid = g;
-    return 1;
+    return window_keep(ss, j.laid);
 }
 
 /* The barycentrics of point k of an area-uniform layout within its triangle: the R2 sequence. */
@@ -624,9 +637,7 @@ static int lay_levels(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
                       const level_plan *lp)
 {
     int cap = ss->desc->max_points, laid = 0;
-    ss->pts = calloc((size_t)cap, sizeof *ss->pts);
-    ss->gid = malloc((size_t)cap * sizeof *ss->gid);
-    if (!ss->pts || !ss->gid)
+    if (!window_alloc(ss))
         return -1;
     for (int l = 0; l < DIPOLE_LEVELS; l++) {
         /* the bounds of the windows of this level's regions */
@@ -669,14 +680,7 @@ static int lay_levels(const op_trimesh *m, sss_shape *ss, double sx, double sy, 
     }
     if (laid == 0)
         return 0;
-    ss->n = laid;
-    sss_point *p = realloc(ss->pts, (size_t)laid * sizeof *p);
-    int *g = realloc(ss->gid, (size_t)laid * sizeof *g);
-    if (p)
-        ss->pts = p;
-    if (g)
-        ss->gid = g;
-    return 1;
+    return window_keep(ss, laid);
 }
 
 typedef struct morton_key {
