@@ -135,37 +135,34 @@ static op_status svd_prepare(op_material *m, op_error *err)
     return OP_OK;
 }
 
-/* e^x for -700 <= x <= 700 (the factors' range check keeps x below; callers clamp x at -700,
- * whose e^x is 0 to float, to keep 2^k a normal number), within 2 ulp of the exact value;
- * branch-free and without calls so that eval_row's loop over columns vectorizes. 2^k is built
- * from the bits of the rounding of x / ln 2; e^r, |r| <= ln(2) / 2, by its Taylor series to r^13
- * (truncation below 1e-17). eval and eval_row both use it, so they agree bit for bit. */
-static inline double exp_vec(double x)
+/* e^x - 1 for -87 <= x <= 88 (the factors' range check keeps x below; callers clamp x at -87,
+ * whose e^x - 1 is -1 to float, to keep 2^k a normal number) in single precision, relative to
+ * the exact value within 2 ulp also for tiny x (the test's bound); branch-free and without
+ * calls so that eval_row's loop over columns vectorizes. 2^k is built from the bits of the
+ * rounding of x / ln 2 (ln 2 in two parts, the first exact in k ln 2); e^r - 1, |r| <= ln(2) / 2,
+ * by its Taylor series to r^7 (truncation below 2e-8 relative); e^x - 1 = (2^k - 1) +
+ * 2^k (e^r - 1), exact in its first term. eval and eval_row both use it, so they agree bit for
+ * bit. */
+static inline float expm1_vec(float x)
 {
-    const double shifter = 0x1.8p52, log2e = 0x1.71547652b82fep0;
-    const double ln2_hi = 0x1.62e42fee00000p-1, ln2_lo = 0x1.a39ef35793c76p-33;
-    double kd = x * log2e + shifter;
-    uint64_t kbits;
+    const float shifter = 0x1.8p23f, log2e = 0x1.715476p0f;
+    const float ln2_hi = 0x1.63p-1f, ln2_lo = -0x1.bd0106p-13f;
+    float kd = x * log2e + shifter;
+    uint32_t kbits;
     memcpy(&kbits, &kd, sizeof kbits);
     kd -= shifter;
-    double r = (x - kd * ln2_hi) - kd * ln2_lo;
-    double p = 1.0 / 6227020800.0;
-    p = p * r + 1.0 / 479001600.0;
-    p = p * r + 1.0 / 39916800.0;
-    p = p * r + 1.0 / 3628800.0;
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r * r + r; /* e^r - 1, exact-ish for tiny r */
-    uint64_t sbits = (kbits + 1023u) << 52;
-    double scale;
+    float r = (x - kd * ln2_hi) - kd * ln2_lo;
+    float p = 1.0f / 5040.0f;
+    p = p * r + 1.0f / 720.0f;
+    p = p * r + 1.0f / 120.0f;
+    p = p * r + 1.0f / 24.0f;
+    p = p * r + 1.0f / 6.0f;
+    p = p * r + 0.5f;
+    p = p * r * r + r; /* e^r - 1 */
+    uint32_t sbits = (kbits + 127u) << 23;
+    float scale;
     memcpy(&scale, &sbits, sizeof scale);
-    return scale + scale * p;
+    return (scale - 1.0f) + scale * p;
 }
 
 /* The reconstruction of one entry of the shifted, normalized matrix, clamped at 0. */
@@ -183,10 +180,8 @@ static inline float entry(const svd_state *s, const float *u, const float *v)
     for (; t < s->terms; t++)
         x0 += u[t] * v[t];
     float x = (x0 + x1) + (x2 + x3);
-    x = x > -700.0f ? x : -700.0f;
-    /* exp in double keeps A * (e^x - 1) accurate to float precision for tiny x (as expm1f
-     * would) and is several times faster than expm1f. */
-    float r = (float)((double)s->a * (exp_vec((double)x) - 1.0) + (double)s->c);
+    x = x > -87.0f ? x : -87.0f;
+    float r = s->a * expm1_vec(x) + s->c;
     return r > 0.0f ? r : 0.0f;
 }
 
@@ -212,7 +207,7 @@ static void svd_eval_row(const op_material *m, int channel, int64_t row, float *
     const float *u = s->u[channel] + row * T, *vt = s->vt[channel];
     const int sh = s->shift[channel] ? (int)s->shift[channel][row] : 0;
     const float mx = s->shift[channel] ? s->max[channel][row] : 1.0f;
-    const double a = s->a, c = s->c;
+    const float a = s->a, c = s->c;
     float x0[OP_EVAL_CHUNK], x1[OP_EVAL_CHUNK], x2[OP_EVAL_CHUNK], x3[OP_EVAL_CHUNK];
     for (int j0 = 0; j0 < n; j0 += OP_EVAL_CHUNK) {
         const int len = n - j0 < OP_EVAL_CHUNK ? n - j0 : OP_EVAL_CHUNK;
@@ -236,11 +231,11 @@ static void svd_eval_row(const op_material *m, int channel, int64_t row, float *
         }
         for (int k = 0; k < len; k++) {
             float x = (x0[k] + x1[k]) + (x2[k] + x3[k]);
-            x0[k] = x > -700.0f ? x : -700.0f;
+            x0[k] = x > -87.0f ? x : -87.0f;
         }
         /* two loops: GCC 12 vectorizes each, not the two in one */
         for (int k = 0; k < len; k++) {
-            float r = (float)(a * (exp_vec((double)x0[k]) - 1.0) + c);
+            float r = a * expm1_vec(x0[k]) + c;
             x0[k] = mx * (r > 0.0f ? r : 0.0f); /* mx is 1 when not shifted: exact */
         }
         op_store_shifted(out, n, j0 + sh, x0, len);

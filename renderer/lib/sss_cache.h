@@ -17,13 +17,14 @@
 
 /* The file format's version, raised whenever the layout or what the pre-pass computes for the
  * same key changes: a file of another version is recomputed and replaced. */
-#define OP_SSS_CACHE_VERSION 7u /* 2: E behind a surface <bsdf> is what crosses it; 3: the dipole's
+#define OP_SSS_CACHE_VERSION 8u /* 2: E behind a surface <bsdf> is what crosses it; 3: the dipole's
                                   hierarchical sum and finer points; 4: measured materials' points
                                   at their pixel centres; 5: the dipole's points in Morton order;
                                   6: measured materials' windowed layouts (no maxPoints coarsening
                                   where the view needs fewer) and the scatter's finer cells;
                                   7: windowed layouts of the dipole (in levels) and of stretched
-                                  maps */
+                                  maps; 8: the measured scatter's normalization summed in
+                                  partial sums, svd materials' e^x in single precision */
 
 enum { OP_SSS_KEY_BYTES = 16 };
 

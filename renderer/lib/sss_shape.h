@@ -34,15 +34,6 @@ typedef struct sss_grid {
     int32_t *coord;  /* 3 per point: its cell */
 } sss_grid;
 
-/* A receiver as the centred scatter reads it, stored in the gather grid's bucket order so that
- * a cell's points are contiguous. */
-typedef struct gather_pt {
-    float x, y, z, nx, ny, nz;
-    float a;        /* centred: its area over the pixel's */
-    int32_t rj;     /* its index among the computed receivers, or -1 */
-    int32_t c[3];   /* its gather cell */
-} gather_pt;
-
 typedef struct sss_shape {
     const op_sss_desc *desc;
     int width, height, kernel, channels;
@@ -62,7 +53,7 @@ typedef struct sss_shape {
                      point its index in the whole layout (ascending for a measured layout, in
                      Morton order for the dipole's); NULL: the identity */
     sss_grid gather, interp;
-    struct gather_pt *gpts; /* the scatter's: the points in the gather grid's bucket order */
+    struct gather_set *gset; /* the scatter's view of the points, cell by cell */
     float *acc; /* scatter pass: one 3 * n accumulator per chunk of sources */
     int nchunks;
     int hier;     /* 1: exitance from the hierarchical sum (the dipole), 0: the scatter */

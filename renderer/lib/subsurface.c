@@ -4,6 +4,7 @@
 
 #include "sss_dipole.h"
 #include "sss_layout.h"
+#include "sss_scatter.h"
 #include "sss_shape.h"
 #include "sss_tree.h"
 
@@ -103,19 +104,12 @@ typedef struct build_job {
     uint64_t seed;
     atomic_int *cancel;
     op_progress *prog; /* the running stage's report, owned by its *_pass call; else NULL */
-    int chunk;  /* sources per scatter chunk */
     /* task -> (shape, first point) */
     int *task_shape, *task_first;
-    float **rows; /* per thread: one kernel row per channel */
-    int scatter_shape;
-    atomic_int nomem; /* a scatter task ran out of memory */
+    int scatter_shape; /* the shape the scattering stage is at */
 } build_job;
 
-/* The scatter's accumulators (one per chunk of sources) take at most about MAX_ACC_BYTES
- * beyond one chunk: fewer chunks for shapes of many points (fixed by the point count, so the
- * summation order does not depend on which points are receivers). */
-enum { POINTS_PER_TASK = 256, MAX_CHUNKS = 16, UNSAVED_FACTOR = 16 };
-#define MAX_ACC_BYTES (256.0 * 1024 * 1024)
+enum { POINTS_PER_TASK = 256, UNSAVED_FACTOR = 16 };
 
 static void irradiance_task(void *user, int task, int thread)
 {
@@ -143,323 +137,6 @@ static void irradiance_task(void *user, int task, int thread)
         q->e = v3_scale(sum, 1.0f / (float)spp);
     }
     op_progress_advance(job->prog, (uint64_t)(last - first));
-}
-
-/* The gather grid's cells are half the gather radius r across. The scatter's receivers of a
- * source s are the points of the cells of side r (aligned with the grid's) that overlap the box
- * of half-extents E around s (centred: per world axis the smaller of r and the extent of the box
- * of half + 1 kernel pixels along s's tangents plus r along its normal; else r) that lie in the
- * kernel's window (kernel_at, centred_task): the set of the scatter before its cells were
- * halved. gather_cells lists the grid cells of those side-r cells that may meet the window (a
- * cell whose extent along s's tangents misses [-(half + 1), half + 1] pixels has no receiver),
- * at most GATHER_CELLS; they are visited in this order. */
-enum { GATHER_CELLS = 512 }; /* 8 per axis: E <= r spans 3 side-r cells (4 with rounding) */
-
-static int gather_cells(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
-                        int32_t cells[GATHER_CELLS][3])
-{
-    const sss_grid *g = &ss->gather;
-    float r = ss->radius, w = (float)(ss->kernel / 2) + 1.0f + 0.01f;
-    int32_t lo[3], hi[3];
-    for (int a = 0; a < 3; a++) {
-        float e = ss->radius;
-        if (ss->centred)
-            e = fminf(((float)(ss->kernel / 2) + 1.0f) * (fabsf(v3_get(s->tu, a)) * ss->px +
-                                                         fabsf(v3_get(s->tv, a)) * ss->py) +
-                          fabsf(v3_get(s->n, a)) * ss->radius,
-                      ss->radius);
-        float o = v3_get(g->origin, a), x = v3_get(s->p, a);
-        lo[a] = 2 * (int32_t)floorf((x - e - o) / r);
-        hi[a] = 2 * (int32_t)floorf((x + e - o) / r) + 1;
-    }
-    /* a cell's extent along gu and gv: its centre's offset -/+ half its side times the
-     * L1 norm */
-    float su = 0.5f * g->cell * (fabsf(gu.x) + fabsf(gu.y) + fabsf(gu.z));
-    float sv = 0.5f * g->cell * (fabsf(gv.x) + fabsf(gv.y) + fabsf(gv.z));
-    int n = 0;
-    for (int32_t cz = lo[2]; cz <= hi[2]; cz++)
-        for (int32_t cy = lo[1]; cy <= hi[1]; cy++)
-            for (int32_t cx = lo[0]; cx <= hi[0]; cx++) {
-                op_v3 m = v3(g->origin.x + ((float)cx + 0.5f) * g->cell - s->p.x,
-                             g->origin.y + ((float)cy + 0.5f) * g->cell - s->p.y,
-                             g->origin.z + ((float)cz + 0.5f) * g->cell - s->p.z);
-                float u = v3_dot(m, gu), v = v3_dot(m, gv);
-                if (u - su > w || u + su < -w || v - sv > w || v + sv < -w || n == GATHER_CELLS)
-                    continue;
-                cells[n][0] = cx;
-                cells[n][1] = cy;
-                cells[n++][2] = cz;
-            }
-    return n;
-}
-
-/* The points [*first, *last) of scatter chunk `chunk`: those whose index in the whole layout
- * lies in [chunk size, (chunk + 1) size), so that a receiver's sum runs in the same order
- * whichever points are laid or are sources. */
-static void chunk_range(const sss_shape *ss, int chunk, int size, int *first, int *last)
-{
-    long long lo = (long long)chunk * size, hi = lo + size;
-    if (hi > ss->nfull)
-        hi = ss->nfull;
-    int b[2];
-    for (int e = 0; e < 2; e++) {
-        long long want = e ? hi : lo;
-        int l = 0, h = ss->n; /* the first point whose index is at least want */
-        while (l < h) {
-            int mid = l + (h - l) / 2;
-            if (point_index(ss, mid) < want)
-                l = mid + 1;
-            else
-                h = mid;
-        }
-        b[e] = l;
-    }
-    *first = b[0];
-    *last = b[1];
-}
-
-/* The kernel value at the receiver r of the source s (its rows rr, rg, rb), interpolated
- * bilinearly between the four kernel offsets around the offset s -> r in material pixels, in s's
- * frame (gu, gv: its tangents over the pixel size). Returns 0 when r is not a receiver of s
- * (other side, or outside the kernel). */
-static int kernel_at(const sss_shape *ss, const sss_point *s, op_v3 gu, op_v3 gv,
-                     const gather_pt *r, const float *rr, const float *rg, const float *rb,
-                     float v[3])
-{
-    if (s->n.x * r->nx + s->n.y * r->ny + s->n.z * r->nz <= 0.0f)
-        return 0;
-    int K = ss->kernel, half = K / 2;
-    op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
-    /* the offsets floor(dx), floor(dy) in [-half - 1, half] */
-    float lim = (float)half + 1.0f, dx = v3_dot(d, gu);
-    if (!(dx >= -lim && dx < lim))
-        return 0;
-    float dy = v3_dot(d, gv);
-    if (!(dy >= -lim && dy < lim))
-        return 0;
-    float flx = floorf(dx), fly = floorf(dy);
-    int ox = (int)flx, oy = (int)fly;
-    float tx = dx - flx, ty = dy - fly;
-    float wx[2] = {1.0f - tx, tx}, wy[2] = {1.0f - ty, ty};
-    v[0] = v[1] = v[2] = 0.0f;
-    for (int b = 0; b < 2; b++) {
-        int oyb = oy + b;
-        if (oyb < -half || oyb > half)
-            continue;
-        for (int a = 0; a < 2; a++) {
-            int oxa = ox + a;
-            if (oxa < -half || oxa > half)
-                continue;
-            int col = (oyb + half) * K + (oxa + half);
-            float w = wx[a] * wy[b];
-            v[0] += w * rr[col];
-            v[1] += w * rg[col];
-            v[2] += w * rb[col];
-        }
-    }
-    return 1;
-}
-
-/* The centred layout's scatter of one chunk of sources (scatter_task's contract): the pair
- * value is the kernel at the whole-pixel offset from the source's pixel to the receiver's
- * (sss_measured.h), each receiver weighted by its area in the normalization, each source's
- * energy E_i A_i g_i / A_pixel. Receivers lie within sqrt(3) gather radii of their source (in
- * the kernel's window they are within one radius in its tangent plane; the bound holds the
- * pairs a curved surface may add, and is what a windowed shape's window assumes). */
-static void centred_task(void *user, int task, int thread)
-{
-    build_job *job = user;
-    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
-    const op_material *mat = ss->desc->material;
-    const sss_grid *g = &ss->gather;
-    int first, last;
-    chunk_range(ss, task, job->chunk, &first, &last);
-    float *acc = ss->acc + (size_t)task * 3 * (size_t)ss->nrecv;
-    int K = ss->kernel, half = K / 2;
-    float *rows = job->rows[thread];
-    float reach2 = 3.0f * ss->radius * ss->radius; /* a pair lies within sqrt(3) radii */
-    int cap = 0, nrec = 0;
-    int32_t *rec = NULL; /* pairs: receiver index, kernel column */
-    int i;
-    for (i = first; i < last; i++) {
-        if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
-            break;
-        const sss_point *s = &ss->pts[i];
-        if (v3_is_black(s->e))
-            continue;
-        int x = (int)s->fx, y = (int)s->fy;
-        for (int c = 0; c < ss->channels; c++)
-            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
-        const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
-                    *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
-        double total[3] = {0, 0, 0};
-        float got[3] = {0, 0, 0};
-        for (int k = 0; k < K * K; k++) {
-            total[0] += rr[k];
-            total[1] += rg[k];
-            total[2] += rb[k];
-        }
-        /* offsets from the source's position inside its pixel (fractions in [0, 1)); a
-         * pixel index is (int)(v + BIAS) - BIAS for |v| < BIAS, without floorf's cost */
-        const float BIAS = 1024.0f;
-        float frx = s->fx - floorf(s->fx) + BIAS, fry = s->fy - floorf(s->fy) + BIAS;
-        int32_t cells[GATHER_CELLS][3];
-        int ncells = gather_cells(ss, s, s->gu, s->gv, cells);
-        nrec = 0;
-        for (int ci = 0; ci < ncells; ci++) {
-            int32_t cx = cells[ci][0], cy = cells[ci][1], cz = cells[ci][2];
-            uint32_t b = cell_hash(cx, cy, cz, g->mask);
-            for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
-                const gather_pt *r = &ss->gpts[k];
-                if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
-                    continue;
-                if (r->nx * s->n.x + r->ny * s->n.y + r->nz * s->n.z <= 0.0f)
-                    continue;
-                op_v3 d = v3(r->x - s->p.x, r->y - s->p.y, r->z - s->p.z);
-                if (v3_dot(d, d) > reach2)
-                    continue; /* beyond a windowed shape's reach (window_build) */
-                float ux = v3_dot(d, s->gu), uy = v3_dot(d, s->gv);
-                if (!(fabsf(ux) < 512.0f && fabsf(uy) < 512.0f))
-                    continue;
-                int ox = (int)(frx + ux) - 1024, oy = (int)(fry + uy) - 1024;
-                if (ox < -half || ox > half || oy < -half || oy > half)
-                    continue;
-                int col = (oy + half) * K + (ox + half);
-                got[0] += rr[col] * r->a;
-                got[1] += rg[col] * r->a;
-                got[2] += rb[col] * r->a;
-                if (r->rj < 0)
-                    continue; /* counts for the normalization only */
-                if (nrec == cap) {
-                    int nc = cap ? 2 * cap : 2048;
-                    int32_t *r2 = realloc(rec, 2 * (size_t)nc * sizeof *rec);
-                    if (!r2) { /* this source's light is lost, reported by the pass */
-                        atomic_store(&job->nomem, 1);
-                        goto next;
-                    }
-                    rec = r2;
-                    cap = nc;
-                }
-                rec[2 * nrec] = r->rj;
-                rec[2 * nrec++ + 1] = col;
-            }
-        }
-        float gn[3];
-        for (int c = 0; c < 3; c++) {
-            double q = got[c] > 0.0f ? total[c] / got[c] : 1.0;
-            gn[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q) * (s->a / ss->a_pix);
-        }
-        {
-            float ex = s->e.x * gn[0], ey = s->e.y * gn[1], ez = s->e.z * gn[2];
-            for (int k = 0; k < nrec; k++) {
-                float *o = acc + 3 * (size_t)rec[2 * k];
-                int col = rec[2 * k + 1];
-                o[0] += ex * rr[col];
-                o[1] += ey * rg[col];
-                o[2] += ez * rb[col];
-            }
-        }
-    next:;
-    }
-    free(rec);
-    op_progress_advance(job->prog, (uint64_t)(i - first));
-}
-
-/* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
- * acc[3 j + c] += E_i,c g_i,c Rd_c(pixel(i), offset(i -> j)) over the receivers j in i's
- * footprint, where g_i,c (clamped to [1/2, 2]) makes the receivers of i get exactly the row's
- * sum (the albedo of i's pixel) times A_pixel / A_i: each source hands on exactly its energy
- * whatever the local arrangement of the points (see docs/subsurface-rendering.md). Chunks are
- * fixed ranges of points, summed in order afterwards, so the result does not depend on the
- * thread count. */
-static void scatter_task(void *user, int task, int thread)
-{
-    build_job *job = user;
-    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
-    const op_material *mat = ss->desc->material;
-    int chunk = task;
-    int first, last;
-    chunk_range(ss, chunk, job->chunk, &first, &last);
-    float *acc = ss->acc + (size_t)chunk * 3 * (size_t)ss->nrecv;
-    int K = ss->kernel;
-    float *rows = job->rows[thread];
-    float expect = ss->a_pix / ss->a_i; /* receivers per kernel pixel */
-    /* the receivers of one source and their kernel values, kept between the two steps */
-    int cap = 0, nrec = 0;
-    int *rec = NULL;
-    float *val = NULL;
-    int i;
-    for (i = first; i < last; i++) {
-        if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
-            break; /* the pass returns OP_ERR_CANCELLED; this chunk's sum is dropped */
-        const sss_point *s = &ss->pts[i];
-        if (v3_is_black(s->e)) /* also every point that is not a source */
-            continue;
-        int x = (int)s->fx, y = (int)s->fy;
-        for (int c = 0; c < ss->channels; c++)
-            op_material_eval_row(mat, c, x, y, rows + (size_t)c * K * K);
-        const float *rr = rows, *rg = ss->channels == 3 ? rows + K * K : rows,
-                    *rb = ss->channels == 3 ? rows + 2 * K * K : rows;
-        double total[3] = {0, 0, 0}, got[3] = {0, 0, 0};
-        for (int k = 0; k < K * K; k++) {
-            total[0] += rr[k];
-            total[1] += rg[k];
-            total[2] += rb[k];
-        }
-        float v[3];
-        nrec = 0;
-        const sss_grid *gr = &ss->gather;
-        op_v3 gu = v3_scale(s->tu, 1.0f / ss->px), gv = v3_scale(s->tv, 1.0f / ss->py);
-        int32_t cells[GATHER_CELLS][3];
-        int ncells = gather_cells(ss, s, gu, gv, cells);
-        for (int ci = 0; ci < ncells; ci++) {
-            int32_t cx = cells[ci][0], cy = cells[ci][1], cz = cells[ci][2];
-            uint32_t b = cell_hash(cx, cy, cz, gr->mask);
-            for (uint32_t k = gr->start[b]; k < gr->start[b + 1]; k++) {
-                const gather_pt *r = &ss->gpts[k];
-                if (r->c[0] != cx || r->c[1] != cy || r->c[2] != cz)
-                    continue;
-                if (!kernel_at(ss, s, gu, gv, r, rr, rg, rb, v))
-                    continue;
-                got[0] += v[0];
-                got[1] += v[1];
-                got[2] += v[2];
-                if (r->rj < 0)
-                    continue; /* counts for the normalization only */
-                if (nrec == cap) {
-                    int nc = cap ? 2 * cap : 1024;
-                    int *r2 = realloc(rec, (size_t)nc * sizeof *rec);
-                    float *v2 = r2 ? realloc(val, 3 * (size_t)nc * sizeof *val) : NULL;
-                    if (r2)
-                        rec = r2;
-                    if (!v2) { /* out of memory: this source's light is lost, reported below */
-                        atomic_store(&job->nomem, 1);
-                        goto scatter;
-                    }
-                    val = v2;
-                    cap = nc;
-                }
-                rec[nrec] = r->rj;
-                memcpy(val + 3 * (size_t)nrec++, v, sizeof v);
-            }
-        }
-    scatter:;
-        float g[3];
-        for (int c = 0; c < 3; c++) {
-            double q = got[c] > 0.0 ? total[c] * expect / got[c] : 1.0;
-            g[c] = (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q);
-        }
-        op_v3 e = v3(s->e.x * g[0], s->e.y * g[1], s->e.z * g[2]);
-        for (int k = 0; k < nrec; k++) {
-            size_t j = (size_t)rec[k];
-            acc[3 * j] += e.x * val[3 * (size_t)k];
-            acc[3 * j + 1] += e.y * val[3 * (size_t)k + 1];
-            acc[3 * j + 2] += e.z * val[3 * (size_t)k + 2];
-        }
-    }
-    free(rec);
-    free(val);
-    op_progress_advance(job->prog, (uint64_t)(i - first));
 }
 
 enum { CAM_MAX_BOUNCES = 8 };
@@ -604,7 +281,7 @@ static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
 }
 
 /* The scatter's selection (select_receivers, then): the sources, the points whose gather cells
- * (gather_cells, those the scatter visits) hold a computed receiver. */
+ * (op_sss_gather_cells, those the scatter visits) hold a computed receiver. */
 static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
 {
     const sss_grid *g = &ss->gather;
@@ -619,10 +296,8 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
             ok = cell_set_add(&marked, g->coord + 3 * j);
     for (int i = 0; i < ss->n && ok; i++) {
         const sss_point *q = &ss->pts[i];
-        op_v3 gu = ss->centred ? q->gu : v3_scale(q->tu, 1.0f / ss->px);
-        op_v3 gv = ss->centred ? q->gv : v3_scale(q->tv, 1.0f / ss->py);
-        int32_t cells[GATHER_CELLS][3];
-        int ncells = gather_cells(ss, q, gu, gv, cells), need = 0;
+        int32_t cells[OP_SSS_GATHER_CELLS][3];
+        int ncells = op_sss_gather_cells(ss, q, cells), need = 0;
         for (int ci = 0; ci < ncells && !need; ci++)
             need = cell_set_has(&marked, cells[ci]);
         if (need)
@@ -631,19 +306,7 @@ static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *
     free(marked.tab);
     if (!ok)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
-    {
-        if (!(ss->gpts = malloc((size_t)ss->n * sizeof *ss->gpts)))
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
-        for (int k = 0; k < ss->n; k++) {
-            int q = (int)g->items[k];
-            const sss_point *pt = &ss->pts[q];
-            gather_pt *o = &ss->gpts[k];
-            *o = (gather_pt){pt->p.x, pt->p.y, pt->p.z, pt->n.x, pt->n.y, pt->n.z,
-                             pt->a / ss->a_pix, ss->rmap[q], {g->coord[3 * q], g->coord[3 * q + 1],
-                                                             g->coord[3 * q + 2]}};
-        }
-    }
-    return OP_OK;
+    return op_sss_gather_build(ss, err);
 }
 
 /* The hierarchical sum's structures of a laid shape: the tree over its points and the
@@ -861,18 +524,14 @@ static op_status tree_pass(build_job *job, const op_sss_build_options *opt, op_e
     return st;
 }
 
-/* The scattering stage: M at the receivers of every shape. Its progress report (job->prog) and
- * per-thread kernel rows (job->rows) live for exactly the duration of this call, whatever it
- * returns; on an error or cancellation the receivers' M is incomplete and the caller drops the
- * cache. */
+/* The scattering stage: M at the receivers of every shape. Its progress report (job->prog)
+ * lives for exactly the duration of this call, whatever it returns; on an error or cancellation
+ * the receivers' M is incomplete and the caller drops the cache. */
 static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
 {
     op_sss_cache *c = job->cache;
-    int threads = op_parallel_threads(opt->threads);
-    if (!(job->rows = calloc((size_t)threads, sizeof *job->rows)))
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_status st = OP_OK;
-    uint64_t npts = 0; /* scatter_task runs over all the points of the shapes it scatters */
+    uint64_t npts = 0; /* the scatter runs over all the points of the shapes it scatters */
     for (int s = 0; s < c->n; s++)
         if (c->shapes[s].nrecv > 0)
             npts += (uint64_t)c->shapes[s].n;
@@ -881,57 +540,12 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
         sss_shape *ss = &c->shapes[s];
         if (ss->nrecv == 0)
             continue;
-        if (ss->hier) {
-            job->scatter_shape = s;
-            st = tree_pass(job, opt, err);
-            continue;
-        }
-        int K = ss->kernel;
-        for (int i = 0; i < threads && st == OP_OK; i++) {
-            free(job->rows[i]);
-            if (!(job->rows[i] = malloc((size_t)ss->channels * K * K * sizeof(float))))
-                st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        }
-        /* the chunks are fixed ranges of the whole layout, whatever the camera needs, so a
-         * receiver's sum runs in the same order as in the full computation (chunk_range) */
-        int nf = ss->nfull;
-        ss->nchunks = (nf + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
-        int most = (int)fmin(MAX_CHUNKS, fmax(1.0, MAX_ACC_BYTES / (12.0 * nf)));
-        if (ss->nchunks > most)
-            ss->nchunks = most;
-        job->chunk = (nf + ss->nchunks - 1) / ss->nchunks;
-        ss->nchunks = (nf + job->chunk - 1) / job->chunk;
-        if (st == OP_OK &&
-            !(ss->acc = calloc((size_t)ss->nchunks * 3 * (size_t)ss->nrecv, sizeof(float))))
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface pass");
         job->scatter_shape = s;
-        if (st == OP_OK)
-            st = op_parallel_for(opt->threads, ss->nchunks, ss->centred ? centred_task : scatter_task,
-                                 job, opt->cancel, err);
-        if (st == OP_OK && atomic_load(&job->nomem))
-            st = op_error_set(err, OP_ERR_NOMEM, "out of memory in the subsurface pass");
-        if (st == OP_OK) {
-            float k = ss->centred ? 1.0f : ss->a_i / ss->a_pix;
-            for (int j = 0; j < ss->n; j++) {
-                int rj = ss->rmap[j];
-                if (rj < 0)
-                    continue;
-                double m[3] = {0, 0, 0};
-                for (int ch = 0; ch < ss->nchunks; ch++)
-                    for (int q = 0; q < 3; q++)
-                        m[q] += ss->acc[((size_t)ch * ss->nrecv + (size_t)rj) * 3 + q];
-                ss->pts[j].m = v3((float)m[0] * k, (float)m[1] * k, (float)m[2] * k);
-            }
-        }
-        free(ss->acc);
-        ss->acc = NULL;
+        st = ss->hier ? tree_pass(job, opt, err)
+                      : op_sss_scatter(ss, opt->threads, opt->cancel, job->prog, err);
     }
     op_progress_end(job->prog);
     job->prog = NULL;
-    for (int i = 0; i < threads; i++)
-        free(job->rows[i]);
-    free(job->rows);
-    job->rows = NULL;
     return st;
 }
 
@@ -1240,8 +854,7 @@ void op_sss_cache_free(op_sss_cache *c)
         free(ss->recv);
         free(ss->rmap);
         free(ss->src);
-        free(ss->acc);
-        free(ss->gpts);
+        op_sss_gather_free(ss);
         grid_free(&ss->gather);
         grid_free(&ss->interp);
     }

@@ -467,6 +467,46 @@ static void hostile_kcta_nmf(void **state)
     expect_format_error(n5, 5, &err);
 }
 
+/* The svd reconstruction Rd = A (e^x - 1) + A (1 - B) is computed in single precision: over
+ * x from -83 to 83 (what the range check lets through) and for tiny |x|, within 3 ulp of the
+ * value in double, and eval_row gives eval's bits. */
+static void svd_reconstruction_precision(void **state)
+{
+    (void)state;
+    enum { N = 4000 };
+    static const char meta[] = "method=svd\nwidth=4000\nheight=1\nkernel=1\nchannels=1\n"
+                               "size_x_cm=1\nsize_y_cm=1\nterms=1\nshifted=0\nlog_a=100\n"
+                               "log_b=1\n";
+    static float u[N];
+    float v[1] = {1.0f};
+    for (int i = 0; i < N; i++) { /* magnitudes 1e-8 .. 83, both signs */
+        double mag = 1e-8 * pow(83.0 / 1e-8, (double)(i / 2) / (N / 2 - 1));
+        u[i] = (float)(i % 2 ? -mag : mag);
+    }
+    sec s[3] = {{"META", meta, strlen(meta)}, {"U.Y", u, sizeof u}, {"V.Y", v, sizeof v}};
+    blob b = build(s, 3);
+    op_material *m;
+    op_error err = {0};
+    OP_ASSERT_OK(op_material_open(save(&b, b.n), &m, &err), err);
+    double worst = 0.0;
+    for (int i = 0; i < N; i++) {
+        float got = op_material_eval(m, 0, i, 0, 0, 0), row;
+        op_material_eval_row(m, 0, i, 0, &row);
+        assert_memory_equal(&got, &row, sizeof got);
+        double want = 100.0 * expm1((double)u[i]);
+        if (want <= 0.0) { /* clamped at 0 */
+            assert_true(got == 0.0f);
+            continue;
+        }
+        double ulp = ldexp(1.0, ilogb(want) - 23), e = fabs((double)got - want) / ulp;
+        worst = e > worst ? e : worst;
+    }
+    printf("svd reconstruction: worst %.2f ulp of single precision over %d values\n", worst, N / 2);
+    assert_true(worst <= 3.0);
+    op_material_close(m);
+    free(b.p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -478,6 +518,7 @@ int main(void)
         cmocka_unit_test(wrong_meta),
         cmocka_unit_test(hostile_values),
         cmocka_unit_test(hostile_kcta_nmf),
+        cmocka_unit_test(svd_reconstruction_precision),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
