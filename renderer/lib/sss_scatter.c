@@ -9,12 +9,9 @@
  * both have the vector extension; each lane's arithmetic is what the scalar code would do. */
 typedef float v4f __attribute__((vector_size(16)));
 
-/* The points as the scatter reads them: as arrays, ordered by gather cell (z, then y, then x:
- * the cells of a row along x are contiguous) and within a cell by ascending point index; the
- * cells found by their exact coordinates. */
+/* The points as the scatter reads them: as arrays, in the order of the gather grid's items (by
+ * cell, then by index; sss_grid.h). */
 struct gather_set {
-    cell_set cells;   /* the occupied gather cells */
-    uint32_t *start, *end; /* per slot of cells: its points are [start[slot], end[slot]) */
     float *x, *y, *z, *nx, *ny, *nz;
     float *a;         /* centred: the point's area over the pixel's */
     int32_t *rj;      /* its index among the computed receivers, or -1 */
@@ -76,7 +73,7 @@ static int row_interval(double b, double d, double w, double *first, double *las
 int op_sss_gather_cells(const sss_shape *ss, const sss_point *s,
                         int32_t cells[OP_SSS_GATHER_CELLS][3])
 {
-    const sss_grid *g = &ss->gather;
+    const sss_cells *g = &ss->gather.cells;
     op_v3 gu, gv;
     source_frame(ss, s, &gu, &gv);
     float r = ss->radius, w = (float)(ss->kernel / 2) + 1.0f + 0.01f;
@@ -124,9 +121,6 @@ void op_sss_gather_free(sss_shape *ss)
     struct gather_set *gs = ss->gset;
     if (!gs)
         return;
-    free(gs->cells.tab);
-    free(gs->start);
-    free(gs->end);
     free(gs->x);
     free(gs->y);
     free(gs->z);
@@ -139,34 +133,13 @@ void op_sss_gather_free(sss_shape *ss)
     ss->gset = NULL;
 }
 
-/* qsort's order of occupied slots: their cells by z, y, x */
-static const int32_t *sort_tab;
-static int cell_order(const void *a, const void *b)
-{
-    const int32_t *p = sort_tab + 3 * (size_t)*(const uint32_t *)a,
-                  *q = sort_tab + 3 * (size_t)*(const uint32_t *)b;
-    for (int k = 2; k >= 0; k--)
-        if (p[k] != q[k])
-            return p[k] < q[k] ? -1 : 1;
-    return 0;
-}
-
 op_status op_sss_gather_build(sss_shape *ss, op_error *err)
 {
     op_sss_gather_free(ss);
     struct gather_set *gs = calloc(1, sizeof *gs);
-    const int32_t *coord = ss->gather.coord;
-    size_t n = (size_t)ss->n;
-    int ok = gs != NULL;
-    ss->gset = gs;
-    for (size_t j = 0; j < n && ok; j++)
-        ok = cell_set_add(&gs->cells, coord + 3 * j);
-    uint32_t *order = NULL;
+    size_t n = (size_t)ss->n, m = n ? n : 1;
+    int ok = (ss->gset = gs) != NULL;
     if (ok) {
-        size_t m = n ? n : 1, slots = gs->cells.size ? gs->cells.size : 1;
-        gs->start = calloc(slots, sizeof *gs->start);
-        gs->end = calloc(slots, sizeof *gs->end);
-        order = malloc(slots * sizeof *order);
         gs->x = malloc(m * sizeof *gs->x);
         gs->y = malloc(m * sizeof *gs->y);
         gs->z = malloc(m * sizeof *gs->z);
@@ -175,33 +148,14 @@ op_status op_sss_gather_build(sss_shape *ss, op_error *err)
         gs->nz = malloc(m * sizeof *gs->nz);
         gs->a = malloc(m * sizeof *gs->a);
         gs->rj = malloc(m * sizeof *gs->rj);
-        ok = gs->start && gs->end && order && gs->x && gs->y && gs->z && gs->nx && gs->ny &&
-             gs->nz && gs->a && gs->rj;
+        ok = gs->x && gs->y && gs->z && gs->nx && gs->ny && gs->nz && gs->a && gs->rj;
     }
     if (!ok) {
-        free(order);
         op_sss_gather_free(ss);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
     }
-    /* the occupied slots in cell order, each given its room (end counts its points first) */
-    uint32_t cells = 0;
-    for (uint32_t b = 0; b < gs->cells.size; b++)
-        if (gs->cells.tab[3 * (size_t)b] != INT32_MIN)
-            order[cells++] = b;
-    sort_tab = gs->cells.tab; /* set before any thread runs: the pre-pass builds serially */
-    qsort(order, cells, sizeof *order, cell_order);
-    for (size_t j = 0; j < n; j++)
-        gs->end[cell_slot(&gs->cells, coord + 3 * j)]++;
-    uint32_t at = 0;
-    for (uint32_t k = 0; k < cells; k++) {
-        uint32_t b = order[k];
-        gs->start[b] = at;
-        at += gs->end[b];
-        gs->end[b] = gs->start[b];
-    }
-    free(order);
-    for (size_t j = 0; j < n; j++) { /* in ascending point index; end counts up to its place */
-        uint32_t k = gs->end[cell_slot(&gs->cells, coord + 3 * j)]++;
+    for (size_t k = 0; k < n; k++) {
+        uint32_t j = ss->gather.items[k];
         const sss_point *q = &ss->pts[j];
         gs->x[k] = q->p.x;
         gs->y[k] = q->p.y;
@@ -385,8 +339,7 @@ static size_t keep_in(const struct gather_set *gs, int centred, uint32_t k0, scr
 static long gather_in(const sss_shape *ss, const sss_point *s, scratch *t)
 {
     const struct gather_set *gs = ss->gset;
-    if (gs->cells.size == 0)
-        return 0;
+    const sss_grid *g = &ss->gather;
     int32_t cells[OP_SSS_GATHER_CELLS][3];
     int ncells = op_sss_gather_cells(ss, s, cells);
     /* runs of listed cells along one row (x) whose points are contiguous */
@@ -394,17 +347,17 @@ static long gather_in(const sss_shape *ss, const sss_point *s, scratch *t)
     int nruns = 0, row = -1; /* row: the listed cell that began the last run */
     size_t total = 0;
     for (int ci = 0; ci < ncells; ci++) {
-        uint32_t b = cell_slot(&gs->cells, cells[ci]);
-        if (gs->cells.tab[3 * (size_t)b] == INT32_MIN)
+        uint32_t k0, k1;
+        if (!grid_cell(g, cells[ci], &k0, &k1))
             continue;
-        total += gs->end[b] - gs->start[b];
+        total += k1 - k0;
         if (nruns > 0 && cells[row][1] == cells[ci][1] && cells[row][2] == cells[ci][2] &&
-            hi[nruns - 1] == gs->start[b]) {
-            hi[nruns - 1] = gs->end[b];
+            hi[nruns - 1] == k0) {
+            hi[nruns - 1] = k1;
         } else {
             row = ci;
-            lo[nruns] = gs->start[b];
-            hi[nruns++] = gs->end[b];
+            lo[nruns] = k0;
+            hi[nruns++] = k1;
         }
     }
     if (!scratch_reserve(t, total))

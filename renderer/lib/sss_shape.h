@@ -1,6 +1,6 @@
 /* sss_shape.h - what the subsurface pre-pass (subsurface.c) and the layout of its irradiance
- * points (sss_layout.c) share: a translucent shape's points and pre-pass state, the hashed
- * grids and cell sets over space, and the camera segments' hits. Private to those modules. */
+ * points (sss_layout.c) share: a translucent shape's points and pre-pass state (its grids:
+ * sss_grid.h), and the camera segments' hits. Private to those modules. */
 #ifndef OP_SSS_SHAPE_H
 #define OP_SSS_SHAPE_H
 
@@ -11,6 +11,7 @@
 
 #include "render_scene.h"
 #include "sss_dipole.h"
+#include "sss_grid.h"
 #include "sss_tree.h"
 
 typedef struct sss_point {
@@ -24,15 +25,12 @@ typedef struct sss_point {
                          gu), dot(d, gv) material pixels at the material's physical size) */
 } sss_point;
 
-/* A uniform grid hashed into buckets, stored compressed (bucket starts + point indices). */
-typedef struct sss_grid {
-    float cell;
-    op_v3 origin;
-    uint32_t mask;
-    uint32_t *start; /* mask + 2 entries */
-    uint32_t *items;
-    int32_t *coord;  /* 3 per point: its cell */
-} sss_grid;
+/* A point as the exitance lookups read it. */
+typedef struct look_pt {
+    float x, y, z, nx, ny, nz;
+    op_v3 m;     /* exitance */
+    int32_t recv; /* 1: the view needs its exitance (m is computed) */
+} look_pt;
 
 typedef struct sss_shape {
     const op_sss_desc *desc;
@@ -48,6 +46,8 @@ typedef struct sss_shape {
     sss_grid ballg;     /* hier: the grid of the points, of the profile's ball as cell */
     int n;
     sss_point *pts;
+    look_pt *lpts;  /* after the pre-pass: the points of the lookup grid (look with rep, else
+                       interp) in its items' order */
     int nfull;    /* the points of the whole layout (n unless windowed) */
     int *gid;     /* windowed (n points of a layout of nfull, those near the view): per
                      point its index in the whole layout (ascending for a measured layout, in
@@ -84,18 +84,6 @@ static inline int point_index(const sss_shape *ss, int i)
     return ss->gid ? ss->gid[i] : i;
 }
 
-static inline uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask)
-{
-    return ((uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)z * 83492791u) & mask;
-}
-
-static inline void cell_of(const sss_grid *g, op_v3 p, int32_t c[3])
-{
-    c[0] = (int32_t)floorf((p.x - g->origin.x) / g->cell);
-    c[1] = (int32_t)floorf((p.y - g->origin.y) / g->cell);
-    c[2] = (int32_t)floorf((p.z - g->origin.z) / g->cell);
-}
-
 /* One translucent hit of a camera segment: the shape, the point, and the length one radian of
  * ray angle spans there (path length / |cos|). */
 typedef struct cam_hit {
@@ -108,55 +96,5 @@ typedef struct cam_row {
     cam_hit *h;
     int n, cap;
 } cam_row;
-
-/* A set of grid cells, by exact coordinates (open addressing): a windowed shape's window. */
-typedef struct cell_set {
-    sss_grid cells; /* only cell and origin */
-    uint32_t size, count; /* size a power of 2, or 0 */
-    int32_t *tab;   /* 3 per slot; INT32_MIN in x: empty */
-    op_v3 lo, hi;   /* hit_window: the bounds of its cells */
-} cell_set;
-
-static inline uint32_t cell_slot(const cell_set *cs, const int32_t c[3])
-{
-    uint32_t b = cell_hash(c[0], c[1], c[2], cs->size - 1);
-    while (cs->tab[3 * (size_t)b] != INT32_MIN &&
-           (cs->tab[3 * (size_t)b] != c[0] || cs->tab[3 * (size_t)b + 1] != c[1] ||
-            cs->tab[3 * (size_t)b + 2] != c[2]))
-        b = (b + 1) & (cs->size - 1);
-    return b;
-}
-
-static inline int cell_set_has(const cell_set *cs, const int32_t c[3])
-{
-    return cs->size && cs->tab[3 * (size_t)cell_slot(cs, c)] != INT32_MIN;
-}
-
-/* Adds cell c; 0 when out of memory. */
-static inline int cell_set_add(cell_set *cs, const int32_t c[3])
-{
-    if (2 * (cs->count + 1) > cs->size) {
-        uint32_t size = cs->size ? 2 * cs->size : 1024;
-        cell_set old = *cs;
-        if (size > (1u << 30) || !(cs->tab = malloc(3 * (size_t)size * sizeof *cs->tab))) {
-            cs->tab = old.tab;
-            return 0;
-        }
-        cs->size = size;
-        for (uint32_t b = 0; b < size; b++)
-            cs->tab[3 * (size_t)b] = INT32_MIN;
-        for (uint32_t b = 0; b < old.size; b++)
-            if (old.tab[3 * (size_t)b] != INT32_MIN)
-                memcpy(cs->tab + 3 * (size_t)cell_slot(cs, old.tab + 3 * (size_t)b),
-                       old.tab + 3 * (size_t)b, 3 * sizeof *cs->tab);
-        free(old.tab);
-    }
-    uint32_t b = cell_slot(cs, c);
-    if (cs->tab[3 * (size_t)b] == INT32_MIN) {
-        memcpy(cs->tab + 3 * (size_t)b, c, 3 * sizeof *c);
-        cs->count++;
-    }
-    return 1;
-}
 
 #endif

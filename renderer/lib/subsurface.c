@@ -9,77 +9,19 @@
 #include "sss_tree.h"
 
 #include <float.h>
+#include <stddef.h>
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
 
-/* The grid of the points i < n with only[i] set (every point when only is NULL). */
-static op_status grid_build(sss_grid *g, const sss_point *pts, int n, const unsigned char *only,
+/* The grid of the points i < ss->n with only[i] set (every point when only is NULL). */
+static op_status point_grid(sss_grid *g, const sss_shape *ss, const unsigned char *only,
                             op_v3 origin, float cell, op_error *err)
 {
-    memset(g, 0, sizeof *g);
-    g->cell = cell;
-    g->origin = origin;
-    uint32_t buckets = 1, count = 0;
-    for (int i = 0; i < n; i++)
-        count += !only || only[i];
-    while (buckets < 2u * count && buckets < (1u << 30))
-        buckets <<= 1;
-    g->mask = buckets - 1;
-    g->start = calloc((size_t)buckets + 1, sizeof *g->start);
-    g->items = malloc((size_t)(count ? count : 1) * sizeof *g->items);
-    g->coord = malloc(3 * (size_t)n * sizeof *g->coord);
-    uint32_t *fill = calloc((size_t)buckets, sizeof *fill);
-    if (!g->start || !g->items || !g->coord || !fill) {
-        free(fill);
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for the subsurface grid");
-    }
-    for (int i = 0; i < n; i++) {
-        cell_of(g, pts[i].p, g->coord + 3 * i);
-        if (only && !only[i])
-            continue;
-        g->start[cell_hash(g->coord[3 * i], g->coord[3 * i + 1], g->coord[3 * i + 2], g->mask) + 1]++;
-    }
-    for (uint32_t b = 0; b < buckets; b++)
-        g->start[b + 1] += g->start[b];
-    for (int i = 0; i < n; i++) {
-        if (only && !only[i])
-            continue;
-        uint32_t b = cell_hash(g->coord[3 * i], g->coord[3 * i + 1], g->coord[3 * i + 2], g->mask);
-        g->items[g->start[b] + fill[b]++] = (uint32_t)i;
-    }
-    free(fill);
-    return OP_OK;
+    const char *p = ss->pts ? (const char *)ss->pts + offsetof(sss_point, p) : NULL;
+    return op_sss_grid_build(g, p, sizeof *ss->pts, ss->pts ? ss->n : 0, only, origin, cell, err);
 }
-
-static void grid_free(sss_grid *g)
-{
-    free(g->start);
-    free(g->items);
-    free(g->coord);
-}
-
-/* Runs the statements after i for every point i whose cell lies within radius r of p (a
- * superset of the points within r), in a fixed order; `continue` skips to the next point. */
-#define GRID_FOR_EACH(g, p, r, i, ...)                                                            \
-    do {                                                                                           \
-        int32_t lo_[3], hi_[3];                                                                    \
-        cell_of((g), v3_sub((p), v3s(r)), lo_);                                                    \
-        cell_of((g), v3_add((p), v3s(r)), hi_);                                                    \
-        for (int32_t cz_ = lo_[2]; cz_ <= hi_[2]; cz_++)                                           \
-            for (int32_t cy_ = lo_[1]; cy_ <= hi_[1]; cy_++)                                       \
-                for (int32_t cx_ = lo_[0]; cx_ <= hi_[0]; cx_++) {                                 \
-                    uint32_t b_ = cell_hash(cx_, cy_, cz_, (g)->mask);                             \
-                    for (uint32_t k_ = (g)->start[b_]; k_ < (g)->start[b_ + 1]; k_++) {            \
-                        int i = (int)(g)->items[k_];                                               \
-                        const int32_t *c_ = (g)->coord + 3 * i;                                    \
-                        if (c_[0] != cx_ || c_[1] != cy_ || c_[2] != cz_)                          \
-                            continue;                                                              \
-                        __VA_ARGS__                                                                \
-                    }                                                                              \
-                }                                                                                  \
-    } while (0)
 
 struct op_sss_cache {
     sss_shape *shapes;
@@ -220,7 +162,7 @@ static op_status thin_receivers(sss_shape *ss, op_v3 origin, float sr, op_error 
     }
     for (uint32_t b = 0; b < size; b++)
         tab[4 * (size_t)b + 3] = -1;
-    sss_grid cells = {.cell = sr, .origin = origin};
+    sss_cells cells = {sr, origin};
     for (int i = 0; i < ss->n; i++) {
         int32_t c[4];
         cell_of(&cells, ss->pts[i].p, c);
@@ -242,7 +184,7 @@ static op_status thin_receivers(sss_shape *ss, op_v3 origin, float sr, op_error 
     }
     free(tab);
     ss->hr = 2.0f * sqrtf(3.0f) * sr;
-    return grid_build(&ss->look, ss->pts, ss->n, ss->rep, origin, ss->hr, err);
+    return point_grid(&ss->look, ss, ss->rep, origin, ss->hr, err);
 }
 
 /* From the receivers marked in recv and what sv (NULL: nothing) already holds: the receivers
@@ -329,7 +271,7 @@ static op_status tree_prepare(sss_shape *ss, op_v3 origin, op_error *err)
         st = op_sss_dipole_kernel_init(&ss->dk, &ss->desc->dipole, ss->a_i, ss->spacing, err);
     /* the normalization's neighbourhoods (within the ball) in a few cells each */
     if (st == OP_OK)
-        st = grid_build(&ss->ballg, ss->pts, ss->n, NULL, origin, ss->dk.radial.ball, err);
+        st = point_grid(&ss->ballg, ss, NULL, origin, ss->dk.radial.ball, err);
     return st;
 }
 
@@ -549,6 +491,26 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
     return st;
 }
 
+/* The lookups' copy of the points of ss's lookup grid, in its items' order, once their
+ * exitance is known. */
+static op_status lookup_prepare(sss_shape *ss, op_error *err)
+{
+    const sss_grid *g = ss->rep ? &ss->look : &ss->interp;
+    size_t n = 0;
+    for (int i = 0; ss->pts && i < ss->n; i++)
+        n += !ss->rep || ss->rep[i];
+    free(ss->lpts);
+    if (!(ss->lpts = malloc((n ? n : 1) * sizeof *ss->lpts)))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    for (size_t k = 0; k < n; k++) {
+        uint32_t i = g->items[k];
+        const sss_point *q = &ss->pts[i];
+        ss->lpts[k] = (look_pt){q->p.x, q->p.y, q->p.z, q->n.x, q->n.y, q->n.z, q->m,
+                                ss->recv && ss->recv[i]};
+    }
+    return OP_OK;
+}
+
 /* Makes the store's entry for subsurface index sss ready for a layout of n points: allocated
  * (empty) when it has none or holds the other layout of a windowed shape (d). Entries of the
  * same key always have the layout's point count; one that does not is refused (a damaged file
@@ -664,12 +626,12 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
          * its frame's axes */
         ss->radius = ss->centred ? ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py)
                                  : ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
-        st = grid_build(&ss->gather, ss->pts, ss->n, NULL, scene->bmin, 0.5f * ss->radius, err);
+        st = point_grid(&ss->gather, ss, NULL, scene->bmin, 0.5f * ss->radius, err);
     } else {
         st = tree_prepare(ss, scene->bmin, err);
     }
     if (st == OP_OK)
-        st = grid_build(&ss->interp, ss->pts, ss->n, NULL, scene->bmin, ss->h, err);
+        st = point_grid(&ss->interp, ss, NULL, scene->bmin, ss->h, err);
     if (st == OP_OK && !(ss->recv = calloc((size_t)ss->n, 1)))
         st = op_error_set(err, OP_ERR_NOMEM, "out of memory");
     ss->hr = ss->h;
@@ -821,6 +783,10 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
         st = scatter_pass(&job, opt, err);
     free(job.task_shape);
     free(job.task_first);
+    for (int s = 0; st == OP_OK && s < c->n; s++) {
+        op_sss_gather_free(&c->shapes[s]); /* the scatter's only */
+        st = lookup_prepare(&c->shapes[s], err);
+    }
     double te = op_monotonic_seconds();
     c->seconds = te - t0;
     if (st == OP_OK && c->n > 0)
@@ -844,19 +810,20 @@ void op_sss_cache_free(op_sss_cache *c)
     for (int i = 0; i < c->n; i++) {
         sss_shape *ss = &c->shapes[i];
         free(ss->pts);
+        free(ss->lpts);
         free(ss->gid);
         op_sss_tree_free(&ss->tree);
         free(ss->near_recv);
         free(ss->rep);
-        grid_free(&ss->look);
-        grid_free(&ss->ballg);
+        op_sss_grid_free(&ss->look);
+        op_sss_grid_free(&ss->ballg);
         op_sss_dipole_kernel_free(&ss->dk);
         free(ss->recv);
         free(ss->rmap);
         free(ss->src);
         op_sss_gather_free(ss);
-        grid_free(&ss->gather);
-        grid_free(&ss->interp);
+        op_sss_grid_free(&ss->gather);
+        op_sss_grid_free(&ss->interp);
     }
     free(c->shapes);
     free(c);
@@ -887,28 +854,38 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
  * (the material pixel's exitance at its centre), smooth between. */
 static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *out, float *wsum)
 {
+    const sss_grid *g = ss->rep ? &ss->look : &ss->interp;
     float h2 = h * h;
     op_v3 m = v3s(0.0f);
     int ok = 1;
     *wsum = 0.0f;
-    GRID_FOR_EACH(ss->rep ? &ss->look : &ss->interp, p, h, i, {
-        const sss_point *q = &ss->pts[i];
-        op_v3 d = v3_sub(q->p, p);
-        float w = 1.0f - v3_dot(d, d) / h2;
-        if (w <= 0.0f || v3_dot(q->n, n) <= 0.0f)
-            continue;
-        if (ss->centred) {
-            float r = sqrtf(1.0f - w);
-            w = (1.0f - r) / (r + 1e-4f);
-            w *= w;
-        } else if (ss->rep) { /* thinned receivers: the nearest count most (a narrower blur) */
-            w *= w * w * w;
-        }
-        if (!ss->recv[i])
-            ok = 0;
-        *wsum += w;
-        m = v3_add(m, v3_scale(q->m, w));
-    });
+    int32_t lo[3], hi[3], c[3];
+    cell_of(&g->cells, v3_sub(p, v3s(h)), lo);
+    cell_of(&g->cells, v3_add(p, v3s(h)), hi);
+    for (c[2] = lo[2]; c[2] <= hi[2]; c[2]++)
+        for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++)
+            for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++) {
+                uint32_t k0, k1;
+                grid_cell(g, c, &k0, &k1);
+                for (uint32_t k = k0; k < k1; k++) {
+                    const look_pt *q = &ss->lpts[k];
+                    op_v3 d = v3(q->x - p.x, q->y - p.y, q->z - p.z);
+                    float w = 1.0f - v3_dot(d, d) / h2;
+                    if (w <= 0.0f || q->nx * n.x + q->ny * n.y + q->nz * n.z <= 0.0f)
+                        continue;
+                    if (ss->centred) {
+                        float r = sqrtf(1.0f - w);
+                        w = (1.0f - r) / (r + 1e-4f);
+                        w *= w;
+                    } else if (ss->rep) { /* thinned receivers: the nearest count most (a
+                                             narrower blur) */
+                        w *= w * w * w;
+                    }
+                    ok &= q->recv;
+                    *wsum += w;
+                    m = v3_add(m, v3_scale(q->m, w));
+                }
+            }
     *out = *wsum > 0.0f ? v3_scale(m, 1.0f / *wsum) : v3s(0.0f);
     return ok;
 }
