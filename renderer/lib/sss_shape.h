@@ -32,6 +32,15 @@ typedef struct look_pt {
     int32_t recv; /* 1: the view needs its exitance (m is computed) */
 } look_pt;
 
+/* The exitance lookups' view of a shape, made once its exitance is known: the points of its
+ * lookup grid in the grid's items' order, and per occupied cell the runs of those points in the
+ * 3 x 3 x 3 cells around it (by z, then y, then x; neighbouring cells' points merged). */
+typedef struct look_set {
+    look_pt *pts;
+    uint32_t *at;   /* per slot of the grid's cells: its first run and how many */
+    uint32_t *runs; /* 2 per run: [first, last) items */
+} look_set;
+
 typedef struct sss_shape {
     const op_sss_desc *desc;
     int width, height, kernel, channels;
@@ -46,8 +55,8 @@ typedef struct sss_shape {
     sss_grid ballg;     /* hier: the grid of the points, of the profile's ball as cell */
     int n;
     sss_point *pts;
-    look_pt *lpts;  /* after the pre-pass: the points of the lookup grid (look with rep, else
-                       interp) in its items' order */
+    look_set lk;    /* after the pre-pass: the lookups' (of the grid look with rep, else
+                       interp) */
     int nfull;    /* the points of the whole layout (n unless windowed) */
     int *gid;     /* windowed (n points of a layout of nfull, those near the view): per
                      point its index in the whole layout (ascending for a measured layout, in

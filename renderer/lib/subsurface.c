@@ -491,22 +491,60 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
     return st;
 }
 
-/* The lookups' copy of the points of ss's lookup grid, in its items' order, once their
- * exitance is known. */
+static void look_free(look_set *lk)
+{
+    free(lk->pts);
+    free(lk->at);
+    free(lk->runs);
+    memset(lk, 0, sizeof *lk);
+}
+
+/* Makes ss->lk, once the points' exitance is known. */
 static op_status lookup_prepare(sss_shape *ss, op_error *err)
 {
     const sss_grid *g = ss->rep ? &ss->look : &ss->interp;
-    size_t n = 0;
+    look_set *lk = &ss->lk;
+    size_t n = 0, slots = g->occ.size, nruns = 0;
     for (int i = 0; ss->pts && i < ss->n; i++)
         n += !ss->rep || ss->rep[i];
-    free(ss->lpts);
-    if (!(ss->lpts = malloc((n ? n : 1) * sizeof *ss->lpts)))
+    look_free(lk);
+    lk->pts = malloc((n ? n : 1) * sizeof *lk->pts);
+    lk->at = malloc(2 * (slots ? slots : 1) * sizeof *lk->at);
+    lk->runs = malloc(2 * 9 * (g->occ.count ? g->occ.count : 1) * sizeof *lk->runs);
+    if (!lk->pts || !lk->at || !lk->runs) {
+        look_free(lk);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    }
     for (size_t k = 0; k < n; k++) {
         uint32_t i = g->items[k];
         const sss_point *q = &ss->pts[i];
-        ss->lpts[k] = (look_pt){q->p.x, q->p.y, q->p.z, q->n.x, q->n.y, q->n.z, q->m,
-                                ss->recv && ss->recv[i]};
+        lk->pts[k] = (look_pt){q->p.x, q->p.y, q->p.z, q->n.x, q->n.y, q->n.z, q->m,
+                               ss->recv && ss->recv[i]};
+    }
+    for (size_t b = 0; b < slots; b++) {
+        const int32_t *c = g->occ.tab + 3 * b;
+        lk->at[2 * b] = (uint32_t)nruns;
+        lk->at[2 * b + 1] = 0;
+        if (c[0] == INT32_MIN)
+            continue;
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++) {
+                int row = 0; /* the row's points so far make a run */
+                for (int dx = -1; dx <= 1; dx++) {
+                    int32_t nc[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+                    uint32_t k0, k1;
+                    if (!grid_cell(g, nc, &k0, &k1))
+                        continue;
+                    if (row && lk->runs[2 * nruns - 1] == k0) {
+                        lk->runs[2 * nruns - 1] = k1;
+                        continue;
+                    }
+                    lk->runs[2 * nruns] = k0;
+                    lk->runs[2 * nruns++ + 1] = k1;
+                    lk->at[2 * b + 1]++;
+                    row = 1;
+                }
+            }
     }
     return OP_OK;
 }
@@ -810,7 +848,7 @@ void op_sss_cache_free(op_sss_cache *c)
     for (int i = 0; i < c->n; i++) {
         sss_shape *ss = &c->shapes[i];
         free(ss->pts);
-        free(ss->lpts);
+        look_free(&ss->lk);
         free(ss->gid);
         op_sss_tree_free(&ss->tree);
         free(ss->near_recv);
@@ -848,44 +886,61 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
     st->seconds = c->seconds;
 }
 
+/* Adds point q's share to a lookup at p (normal n, radius h: h2 = h^2) of shape ss: weights
+ * 1 - r^2/h^2, or for the centred layout Franke and Little's ((h - r) / r)^2 (each point's own
+ * value at its position, the material pixel's exitance at its centre, smooth between). */
+static inline void look_add(const sss_shape *ss, const look_pt *q, op_v3 p, op_v3 n, float h2,
+                            op_v3 *m, float *wsum, int *ok)
+{
+    op_v3 d = v3(q->x - p.x, q->y - p.y, q->z - p.z);
+    float w = 1.0f - v3_dot(d, d) / h2;
+    if (w <= 0.0f || q->nx * n.x + q->ny * n.y + q->nz * n.z <= 0.0f)
+        return;
+    if (ss->centred) {
+        float r = sqrtf(1.0f - w);
+        w = (1.0f - r) / (r + 1e-4f);
+        w *= w;
+    } else if (ss->rep) { /* thinned receivers: the nearest count most (a narrower blur) */
+        w *= w * w * w;
+    }
+    *ok &= q->recv;
+    *wsum += w;
+    *m = v3_add(*m, v3_scale(q->m, w));
+}
+
 /* The weighted mean of the exitance of the points within h of p (same-side normals) into *out
- * (0 where none); returns 0 when one of them is not a receiver (*out is then meaningless). Weights 1 - r^2/h^2, or for the
- * centred layout Franke and Little's ((h - r) / r)^2: each point's own value at its position
- * (the material pixel's exitance at its centre), smooth between. */
+ * (0 where none), summed in the lookup grid's order (by cell, then index), *wsum the weights'
+ * sum; returns 0 when one of them is not a receiver (*out is then meaningless). */
 static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *out, float *wsum)
 {
     const sss_grid *g = ss->rep ? &ss->look : &ss->interp;
+    const look_set *lk = &ss->lk;
     float h2 = h * h;
     op_v3 m = v3s(0.0f);
     int ok = 1;
     *wsum = 0.0f;
-    int32_t lo[3], hi[3], c[3];
-    cell_of(&g->cells, v3_sub(p, v3s(h)), lo);
-    cell_of(&g->cells, v3_add(p, v3s(h)), hi);
-    for (c[2] = lo[2]; c[2] <= hi[2]; c[2]++)
-        for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++)
-            for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++) {
-                uint32_t k0, k1;
-                grid_cell(g, c, &k0, &k1);
-                for (uint32_t k = k0; k < k1; k++) {
-                    const look_pt *q = &ss->lpts[k];
-                    op_v3 d = v3(q->x - p.x, q->y - p.y, q->z - p.z);
-                    float w = 1.0f - v3_dot(d, d) / h2;
-                    if (w <= 0.0f || q->nx * n.x + q->ny * n.y + q->nz * n.z <= 0.0f)
-                        continue;
-                    if (ss->centred) {
-                        float r = sqrtf(1.0f - w);
-                        w = (1.0f - r) / (r + 1e-4f);
-                        w *= w;
-                    } else if (ss->rep) { /* thinned receivers: the nearest count most (a
-                                             narrower blur) */
-                        w *= w * w * w;
-                    }
-                    ok &= q->recv;
-                    *wsum += w;
-                    m = v3_add(m, v3_scale(q->m, w));
+    int32_t c[3];
+    cell_of(&g->cells, p, c);
+    uint32_t b = g->occ.size ? cell_slot(&g->occ, c) : 0;
+    if (h <= g->cells.cell && g->occ.size && g->occ.tab[3 * (size_t)b] != INT32_MIN) {
+        /* the 3 x 3 x 3 cells around p's hold every point within h, in the grid's order */
+        const uint32_t *run = lk->runs + 2 * (size_t)lk->at[2 * b];
+        for (uint32_t r = 0; r < lk->at[2 * b + 1]; r++)
+            for (uint32_t k = run[2 * r]; k < run[2 * r + 1]; k++)
+                look_add(ss, &lk->pts[k], p, n, h2, &m, wsum, &ok);
+    } else {
+        int32_t lo[3], hi[3];
+        cell_of(&g->cells, v3_sub(p, v3s(h)), lo);
+        cell_of(&g->cells, v3_add(p, v3s(h)), hi);
+        for (c[2] = lo[2]; c[2] <= hi[2]; c[2]++)
+            for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++)
+                for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++) {
+                    uint32_t k0, k1;
+                    grid_cell(g, c, &k0, &k1);
+                    for (uint32_t k = k0; k < k1; k++)
+                        look_add(ss, &lk->pts[k], p, n, h2, &m, wsum, &ok);
                 }
-            }
+    }
     *out = *wsum > 0.0f ? v3_scale(m, 1.0f / *wsum) : v3s(0.0f);
     return ok;
 }
