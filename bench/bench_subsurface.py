@@ -24,7 +24,9 @@ interpolated in log(spp)-log(noise) between the two counts that bracket it (extr
 the last two when none reaches it: below 16 x SPP the target is often not bracketed), and its
 time read from a straight-line fit of wall time against spp over the runs (fixed loading and
 pre-pass, linear camera pass), its CPU time (user + system of the render process, steadier on
-a shared machine) from the same fit of CPU time. The subsurface pre-pass is deterministic and does not depend
+a shared machine) from the same fit of CPU time. With --peer BUILD, BUILD's renderer renders
+each svd convergence scene right after ours (REPEAT times, alternating) and its time at the same
+sample count is printed beside ours and in the verdict: a before/after under the same load. The subsurface pre-pass is deterministic and does not depend
 on the camera's sample count, so this is the camera pass's noise; the pre-pass's own error
 (irradiance noise, interpolation) is a bias shared with the reference and shows in the RMSE
 against raw instead. The times are whole-process times (loading, pre-pass, camera pass,
@@ -71,6 +73,9 @@ def args():
     p.add_argument("--no-converge", action="store_true")
     p.add_argument("--mesh", required=True)
     p.add_argument("--sampler", default="sobol", choices=["sobol", "independent"])
+    p.add_argument("--peer", default=None,
+                   help="another build folder: its opaline-render renders the svd convergence "
+                        "runs too, interleaved with ours (the machine's load shows in both)")
     a = p.parse_args()
     a.presets = a.presets or os.path.join(a.build, "presets")
     a.out = a.out or os.path.join(a.build, "bench-subsurface")
@@ -85,7 +90,7 @@ def args():
 
 
 A = None
-RENDER = FACTOR = None
+RENDER = FACTOR = PEER = None
 
 
 def log(msg):
@@ -133,27 +138,34 @@ def factor(board, method, terms):
         return label, path, float(f.read())
 
 
-def render(label, method, material, spp, repeat):
-    """Renders `repeat` times; returns the image path and the median figures."""
+def render(label, method, material, spp, repeat, peer=False):
+    """Renders `repeat` times; returns the image path and the median figures. With peer (and
+    --peer given), each run is followed by one of the peer build's renderer on the same scene,
+    and the peer's median figures are returned too: (image, figures, peer figures)."""
     xml = os.path.join(A.out, "scenes", "%s_s%d.xml" % (label, spp))
     with open(xml, "w") as f:
         f.write(scene_xml(method, material, spp, A.res, A.mesh, sampler=A.sampler))
     img = os.path.join(A.out, "images", "%s_s%d.pfm" % (label, spp))
-    runs = []
+    peer_img = os.path.join(A.out, "images", "%s_s%d_peer.pfm" % (label, spp))
+    renderers = [(RENDER, img)] + ([(PEER, peer_img)] if peer and PEER else [])
+    runs = [[] for _ in renderers]
     for _ in range(repeat):
-        try:
-            r = render_once(RENDER, xml, [img], A.threads, prefix=["/usr/bin/time", "-v"])
-        except RuntimeError as e:
-            sys.exit("bench_subsurface: %s" % e)
-        for line in sorted({l for l in r["stderr"].splitlines() if "warn" in l.lower()})[:3]:
-            sys.stderr.write(line + "\n")
-        wall, rss = parse_time_v(r["stderr"])
-        runs.append({"prepass_s": r["prepass_s"], "render_s": r["render_s"], "total_s": wall,
-                     "cpu_s": r["cpu_s"],
-                     "peak_MiB": rss})
-    med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
-    med["runs"] = runs
-    return img, med
+        for (binary, out), got in zip(renderers, runs):
+            try:
+                r = render_once(binary, xml, [out], A.threads, prefix=["/usr/bin/time", "-v"])
+            except RuntimeError as e:
+                sys.exit("bench_subsurface: %s" % e)
+            for line in sorted({l for l in r["stderr"].splitlines() if "warn" in l.lower()})[:3]:
+                sys.stderr.write(line + "\n")
+            wall, rss = parse_time_v(r["stderr"])
+            got.append({"prepass_s": r["prepass_s"], "render_s": r["render_s"],
+                        "total_s": wall, "cpu_s": r["cpu_s"], "peak_MiB": rss})
+    meds = []
+    for got in runs:
+        med = {k: statistics.median(r[k] for r in got) for k in got[0]}
+        med["runs"] = got
+        meds.append(med)
+    return (img, meds[0], meds[1]) if len(meds) > 1 else (img, meds[0])
 
 
 def crossing(runs, target, key="total_s"):
@@ -181,32 +193,50 @@ def converge(board, label, method, material):
     ref = pfm(ref_img)
     mean = sum(ref) / len(ref)
     target = 0.01 * mean
-    runs, spp = [], max(1, A.spp // 8)
+    runs, peer_runs, spp = [], [], max(1, A.spp // 8)
+    with_peer = PEER is not None and method == "svd"
     while spp < ref_spp:
-        img, f = render(label, method, material, spp, A.repeat)
+        got = render(label, method, material, spp, A.repeat, peer=with_peer)
+        img, f = got[0], got[1]
         e = compare(pfm(img), ref)[0]
         f.update(board=board, label=label, spp=spp, rmse_vs_reference=e,
                  noise=e / math.sqrt(1.0 - spp / ref_spp))
         runs.append(f)
-        log("  %-22s %5d spp %8.2f s (%.2f CPU s)  noise %.3g%% of the mean" %
-            (label, spp, f["total_s"], f["cpu_s"], 100 * f["noise"] / mean))
+        peer_note = ""
+        if with_peer:
+            p = got[2]
+            p.update(spp=spp, noise=f["noise"])
+            peer_runs.append(p)
+            peer_note = "   peer %.2f s (%.2f CPU s)" % (p["total_s"], p["cpu_s"])
+        log("  %-22s %5d spp %8.2f s (%.2f CPU s)  noise %.3g%% of the mean%s" %
+            (label, spp, f["total_s"], f["cpu_s"], 100 * f["noise"] / mean, peer_note))
         if f["noise"] <= target and len(runs) >= 2:
             break
         spp *= 2
     n, secs, per_spp = crossing(runs, target)
     _, cpu, cpu_per_spp = crossing(runs, target, "cpu_s")
+    peer = None
+    if with_peer:  # the peer renders the same method: its noise at each count is ours
+        _, psecs, _ = crossing(peer_runs, target)
+        _, pcpu, _ = crossing(peer_runs, target, "cpu_s")
+        peer = {"build": A.peer, "seconds_to_1pct": psecs, "cpu_seconds_to_1pct": pcpu,
+                "runs": [{k: v for k, v in r.items() if k != "runs"} for r in peer_runs]}
     return {"board": board, "label": label, "method": method, "reference_spp": ref_spp,
             "reference_total_s": ref_f["total_s"], "mean": mean, "target_rmse": target,
             "target_reached": runs[-1]["noise"] <= target, "spp_to_1pct": n,
             "seconds_per_spp": per_spp, "seconds_to_1pct": secs,
-            "cpu_seconds_per_spp": cpu_per_spp, "cpu_seconds_to_1pct": cpu,
+            "cpu_seconds_per_spp": cpu_per_spp, "cpu_seconds_to_1pct": cpu, "peer": peer,
             "runs": [{k: v for k, v in r.items() if k != "runs"} for r in runs]}
 
 
 def main():
-    global A, RENDER, FACTOR
+    global A, RENDER, FACTOR, PEER
     A = args()
     RENDER = os.path.join(A.build, "bin", "opaline-render")
+    if A.peer:
+        PEER = os.path.join(A.peer, "bin", "opaline-render")
+        if not os.access(PEER, os.X_OK):
+            sys.exit("bench_subsurface: --peer %s: no bin/opaline-render there" % A.peer)
     FACTOR = os.path.join(A.build, "bin", "opaline-factor")
     for d in ("datasets", "materials", "scenes", "images"):
         os.makedirs(os.path.join(A.out, d), exist_ok=True)
@@ -259,6 +289,10 @@ def main():
                                   c["cpu_seconds_to_1pct"],
                                   "bracketed" if c["target_reached"] else "extrapolated",
                                   c["seconds_per_spp"], c["cpu_seconds_per_spp"]))
+                if c["peer"]:
+                    log("  %-22s peer %s, same runs interleaved: %.2f s, %.2f CPU s at that "
+                        "count" % (lab, A.peer, c["peer"]["seconds_to_1pct"],
+                                   c["peer"]["cpu_seconds_to_1pct"]))
 
     keys = ["board", "method", "T", "P", "spp", "res", "label", "factor_s", "prepass_s",
             "render_s", "total_s", "peak_MiB", "material_MiB", "rmse", "rel_rmse", "psnr_db"]
@@ -289,6 +323,9 @@ def main():
                        GOAL_SECONDS,
                        "ok" if ok_t else "MISSED", psnr, GOAL_PSNR, "ok" if ok_p else "MISSED",
                        "" if A.res == 512 else " [the goal is stated for 512x512]"))
+        if cv["peer"]:
+            verdict += "; the peer build in the same run: %.1f s, %.1f CPU s" % (
+                cv["peer"]["seconds_to_1pct"], cv["peer"]["cpu_seconds_to_1pct"])
     else:
         verdict = "verdict: not measured (needs svd T=%d in the terms and the convergence runs)" \
             % GOAL_T

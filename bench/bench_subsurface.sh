@@ -13,7 +13,9 @@
 #   there are reused by later runs), RES (image side, default 512), REPEAT (runs per render,
 #   median; default 1), TERMS (default "1 2 5 10 20 40"), BOARDS (default "chess4x4 chess8x8"),
 #   CONVERGE=0 (skip the time-to-1 % runs), OPALINE_SHARED_DIR (where meshes/spot.obj is),
-#   SAMPLER (sobol, the default, or independent).
+#   SAMPLER (sobol, the default, or independent), PEER (another build folder, e.g. of an earlier
+#   commit: its renderer runs the svd convergence renders too, each right after ours, and its
+#   time to 1 % is printed beside ours: the same machine load for both).
 set -euo pipefail
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$(cd "${1:-$SRC/build}" && pwd)
@@ -31,6 +33,7 @@ done
 [ -x /usr/bin/time ] || { echo "error: /usr/bin/time (GNU time) is needed for the peak memory"; exit 1; }
 conv=()
 [ "${CONVERGE:-1}" = 0 ] && conv=(--no-converge)
+[ -n "${PEER:-}" ] && conv+=(--peer "$(cd "$PEER" && pwd)")
 exec python3 "$SRC/bench/bench_subsurface.py" --build "$BUILD" --threads "$THREADS" --spp "$SPP" \
     --presets "$PRESETS" --out "${OUT:-$BUILD/bench-subsurface}" --res "${RES:-512}" \
     --repeat "${REPEAT:-1}" --terms "${TERMS:-1 2 5 10 20 40}" \

@@ -131,16 +131,66 @@ static void camera_task(void *user, int task, int thread)
     }
 }
 
-/* Marks as receivers the points that may be (rep) within r of p (exactly: a hashed cell mark
- * would also catch the far cells that share its bucket). */
-static void mark_near(sss_shape *ss, op_v3 p, float r)
+/* Sets mark[i] for the points that may be receivers (rep) within r of p (exactly: a hashed
+ * cell mark would also catch the far cells that share its bucket). */
+static void mark_near(const sss_shape *ss, unsigned char *mark, op_v3 p, float r)
 {
     float r2 = r * r;
     GRID_FOR_EACH(ss->rep ? &ss->look : &ss->interp, p, r, i, {
         op_v3 d = v3_sub(ss->pts[i].p, p);
         if (v3_dot(d, d) <= r2)
-            ss->recv[i] = 1;
+            mark[i] = 1;
     });
+}
+
+/* The receivers' marking of one shape: per thread its marks (thread 0's: ss->recv), per task
+ * NEAR_ROWS rows of camera hits. */
+enum { NEAR_ROWS = 8 };
+typedef struct near_job {
+    const sss_shape *ss;
+    const cam_row *rows;
+    int gh, sss;
+    float pix;
+    unsigned char **marks;
+} near_job;
+
+static void near_task(void *user, int task, int thread)
+{
+    near_job *job = user;
+    int last = (task + 1) * NEAR_ROWS < job->gh ? (task + 1) * NEAR_ROWS : job->gh;
+    for (int r = task * NEAR_ROWS; r < last; r++)
+        for (int k = 0; k < job->rows[r].n; k++) {
+            const cam_hit *hh = &job->rows[r].h[k];
+            /* a sample lies within one grid spacing (pix * span) of a traced hit; the points
+             * its interpolation uses lie within hr of the sample */
+            if (hh->sss == job->sss)
+                mark_near(job->ss, job->marks[thread], hh->p, job->ss->hr + job->pix * hh->span);
+        }
+}
+
+/* Sets ss->recv (allocated, zero) for the points near the camera's hits on shape sss. */
+static op_status mark_receivers(sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
+                                const op_sss_build_options *opt, op_error *err)
+{
+    int threads = op_parallel_threads(opt->threads);
+    near_job job = {ss, cam->rows, gh, sss, pix, calloc((size_t)threads, sizeof(unsigned char *))};
+    op_status st = OP_OK;
+    if (!job.marks)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    job.marks[0] = ss->recv;
+    for (int t = 1; st == OP_OK && t < threads; t++)
+        if (!(job.marks[t] = calloc((size_t)ss->n, 1)))
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    if (st == OP_OK)
+        st = op_parallel_for(opt->threads, (gh + NEAR_ROWS - 1) / NEAR_ROWS, near_task, &job,
+                             opt->cancel, err);
+    for (int t = 1; t < threads; t++) {
+        for (int i = 0; st == OP_OK && i < ss->n; i++)
+            ss->recv[i] |= job.marks[t][i];
+        free(job.marks[t]);
+    }
+    free(job.marks);
+    return st;
 }
 
 /* The receivers' thinning of a hierarchical shape whose camera needs its exitance no finer
@@ -222,33 +272,51 @@ static void add_source(sss_shape *ss, const op_sss_saved *sv, int i)
     }
 }
 
+/* Sets need[i] for the points i of one task whose gather cells hold a marked cell. */
+typedef struct need_job {
+    const sss_shape *ss;
+    cell_set marked; /* the gather cells that hold a computed receiver */
+    unsigned char *need;
+} need_job;
+
+static void need_task(void *user, int task, int thread)
+{
+    (void)thread;
+    need_job *job = user;
+    int last = (task + 1) * POINTS_PER_TASK < job->ss->n ? (task + 1) * POINTS_PER_TASK : job->ss->n;
+    for (int i = task * POINTS_PER_TASK; i < last; i++) {
+        int32_t cells[OP_SSS_GATHER_CELLS][3];
+        int ncells = op_sss_gather_cells(job->ss, &job->ss->pts[i], cells);
+        for (int ci = 0; ci < ncells && !job->need[i]; ci++)
+            job->need[i] = (unsigned char)cell_set_has(&job->marked, cells[ci]);
+    }
+}
+
 /* The scatter's selection (select_receivers, then): the sources, the points whose gather cells
  * (op_sss_gather_cells, those the scatter visits) hold a computed receiver. */
-static op_status select_points(sss_shape *ss, const op_sss_saved *sv, op_error *err)
+static op_status select_points(sss_shape *ss, const op_sss_saved *sv,
+                               const op_sss_build_options *opt, op_error *err)
 {
     const sss_grid *g = &ss->gather;
     op_status st = select_receivers(ss, sv, err);
     if (st)
         return st;
-    cell_set marked; /* the gather cells that hold a computed receiver */
-    memset(&marked, 0, sizeof marked);
-    int ok = 1;
+    need_job job = {.ss = ss, .need = calloc((size_t)ss->n + 1, 1)};
+    int ok = job.need != NULL;
     for (int j = 0; j < ss->n && ok; j++)
         if (ss->rmap[j] >= 0)
-            ok = cell_set_add(&marked, g->coord + 3 * j);
-    for (int i = 0; i < ss->n && ok; i++) {
-        const sss_point *q = &ss->pts[i];
-        int32_t cells[OP_SSS_GATHER_CELLS][3];
-        int ncells = op_sss_gather_cells(ss, q, cells), need = 0;
-        for (int ci = 0; ci < ncells && !need; ci++)
-            need = cell_set_has(&marked, cells[ci]);
-        if (need)
-            add_source(ss, sv, i);
-    }
-    free(marked.tab);
+            ok = cell_set_add(&job.marked, g->coord + 3 * j);
     if (!ok)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
-    return op_sss_gather_build(ss, err);
+        st = op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
+    if (st == OP_OK && job.marked.count > 0)
+        st = op_parallel_for(opt->threads, (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK,
+                             need_task, &job, opt->cancel, err);
+    for (int i = 0; st == OP_OK && i < ss->n; i++)
+        if (job.need[i])
+            add_source(ss, sv, i);
+    free(job.marked.tab);
+    free(job.need);
+    return st ? st : op_sss_gather_build(ss, err);
 }
 
 /* The hierarchical sum's structures of a laid shape: the tree over its points and the
@@ -689,14 +757,9 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     if (opt->everywhere) {
         memset(ss->recv, 1, (size_t)ss->n);
     } else {
-        /* a sample lies within one grid spacing (pix * span) of a traced hit; the points its
-         * interpolation uses lie within h of the sample */
-        for (int r = 0; r < gh; r++)
-            for (int k = 0; k < cam->rows[r].n; k++) {
-                const cam_hit *hh = &cam->rows[r].h[k];
-                if (hh->sss == sh->sss)
-                    mark_near(ss, hh->p, ss->hr + pix * hh->span);
-            }
+        st = mark_receivers(ss, sh->sss, cam, gh, pix, opt, err);
+        if (st)
+            return st;
     }
     op_sss_saved *sv = NULL;
     /* the store holds 25 bytes per point of the whole layout: a windowed shape of more than
@@ -712,7 +775,7 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
             return st;
         sv = &opt->store->shapes[sh->sss];
     }
-    st = ss->hier ? select_tree(ss, sv, opt, err) : select_points(ss, sv, err);
+    st = ss->hier ? select_tree(ss, sv, opt, err) : select_points(ss, sv, opt, err);
     if (st)
         return st;
     op_log(OP_LOG_INFO, "%s: %d irradiance points laid of %d (%.3g per material pixel), %d x %d "
