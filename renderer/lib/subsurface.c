@@ -949,26 +949,57 @@ void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
     st->seconds = c->seconds;
 }
 
-/* Adds point q's share to a lookup at p (normal n, radius h: h2 = h^2) of shape ss: weights
- * 1 - r^2/h^2, or for the centred layout Franke and Little's ((h - r) / r)^2 (each point's own
- * value at its position, the material pixel's exitance at its centre, smooth between). */
-static inline void look_add(const sss_shape *ss, const look_pt *q, op_v3 p, op_v3 n, float h2,
-                            op_v3 *m, float *wsum, int *ok)
+/* A lookup's running sum (lookup_within): the exitance at p (normal n) from the points within
+ * h (h2 = h^2). The points are screened by distance in batches, without data-dependent branches,
+ * and those within h then summed in the order they came. */
+enum { LOOK_BATCH = 64 };
+typedef struct look_sum {
+    const sss_shape *ss;
+    op_v3 p, n, m;
+    float h2, wsum;
+    int ok, nb;
+    uint32_t k[LOOK_BATCH]; /* the screened points */
+    float w[LOOK_BATCH];    /* and their 1 - r^2/h^2 */
+} look_sum;
+
+/* Sums the screened points: weights 1 - r^2/h^2, or for the centred layout Franke and Little's
+ * ((h - r) / r)^2 (each point's own value at its position, the material pixel's exitance at its
+ * centre, smooth between); same-side normals only. */
+static void look_flush(look_sum *ls)
 {
-    op_v3 d = v3(q->x - p.x, q->y - p.y, q->z - p.z);
-    float w = 1.0f - v3_dot(d, d) / h2;
-    if (w <= 0.0f || q->nx * n.x + q->ny * n.y + q->nz * n.z <= 0.0f)
-        return;
-    if (ss->centred) {
-        float r = sqrtf(1.0f - w);
-        w = (1.0f - r) / (r + 1e-4f);
-        w *= w;
-    } else if (ss->rep) { /* thinned receivers: the nearest count most (a narrower blur) */
-        w *= w * w * w;
+    const sss_shape *ss = ls->ss;
+    for (int b = 0; b < ls->nb; b++) {
+        const look_pt *q = &ss->lk.pts[ls->k[b]];
+        float w = ls->w[b];
+        if (q->nx * ls->n.x + q->ny * ls->n.y + q->nz * ls->n.z <= 0.0f)
+            continue;
+        if (ss->centred) {
+            float r = sqrtf(1.0f - w);
+            w = (1.0f - r) / (r + 1e-4f);
+            w *= w;
+        } else if (ss->rep) { /* thinned receivers: the nearest count most (a narrower blur) */
+            w *= w * w * w;
+        }
+        ls->ok &= q->recv;
+        ls->wsum += w;
+        ls->m = v3_add(ls->m, v3_scale(q->m, w));
     }
-    *ok &= q->recv;
-    *wsum += w;
-    *m = v3_add(*m, v3_scale(q->m, w));
+    ls->nb = 0;
+}
+
+/* Screens the points [k0, k1) of the lookup's copy. */
+static void look_scan(look_sum *ls, uint32_t k0, uint32_t k1)
+{
+    const look_pt *pts = ls->ss->lk.pts;
+    for (uint32_t k = k0; k < k1; k++) {
+        op_v3 d = v3(pts[k].x - ls->p.x, pts[k].y - ls->p.y, pts[k].z - ls->p.z);
+        float w = 1.0f - v3_dot(d, d) / ls->h2;
+        ls->k[ls->nb] = k;
+        ls->w[ls->nb] = w;
+        ls->nb += w > 0.0f;
+        if (ls->nb == LOOK_BATCH)
+            look_flush(ls);
+    }
 }
 
 /* The weighted mean of the exitance of the points within h of p (same-side normals) into *out
@@ -978,10 +1009,15 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
 {
     const sss_grid *g = ss->rep ? &ss->look : &ss->interp;
     const look_set *lk = &ss->lk;
-    float h2 = h * h;
-    op_v3 m = v3s(0.0f);
-    int ok = 1;
-    *wsum = 0.0f;
+    look_sum ls; /* not zeroed whole: its batch is written before it is read */
+    ls.ss = ss;
+    ls.p = p;
+    ls.n = n;
+    ls.m = v3s(0.0f);
+    ls.h2 = h * h;
+    ls.wsum = 0.0f;
+    ls.ok = 1;
+    ls.nb = 0;
     int32_t c[3];
     cell_of(&g->cells, p, c);
     uint32_t b = g->occ.size ? cell_slot(&g->occ, c) : 0;
@@ -989,8 +1025,7 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
         /* the 3 x 3 x 3 cells around p's hold every point within h, in the grid's order */
         const uint32_t *run = lk->runs + 2 * (size_t)lk->at[2 * b];
         for (uint32_t r = 0; r < lk->at[2 * b + 1]; r++)
-            for (uint32_t k = run[2 * r]; k < run[2 * r + 1]; k++)
-                look_add(ss, &lk->pts[k], p, n, h2, &m, wsum, &ok);
+            look_scan(&ls, run[2 * r], run[2 * r + 1]);
     } else {
         int32_t lo[3], hi[3];
         cell_of(&g->cells, v3_sub(p, v3s(h)), lo);
@@ -999,13 +1034,14 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
             for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++)
                 for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++) {
                     uint32_t k0, k1;
-                    grid_cell(g, c, &k0, &k1);
-                    for (uint32_t k = k0; k < k1; k++)
-                        look_add(ss, &lk->pts[k], p, n, h2, &m, wsum, &ok);
+                    if (grid_cell(g, c, &k0, &k1))
+                        look_scan(&ls, k0, k1);
                 }
     }
-    *out = *wsum > 0.0f ? v3_scale(m, 1.0f / *wsum) : v3s(0.0f);
-    return ok;
+    look_flush(&ls);
+    *wsum = ls.wsum;
+    *out = ls.wsum > 0.0f ? v3_scale(ls.m, 1.0f / ls.wsum) : v3s(0.0f);
+    return ls.ok;
 }
 
 int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
