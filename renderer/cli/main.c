@@ -61,7 +61,7 @@ static void usage(FILE *f)
             "                 crop) matches; FILE is (re)written when anything new was\n"
             "                 computed. A FILE that is not such a cache is refused (exit 2)\n"
             "  --sss-cache-only  with --sss-cache: the pre-pass for the whole film only (no\n"
-            "                 image, no -o), to be reused by later --crop tile renders"
+            "                 image, no -o), to be reused by later --crop tile renders\n"
             "  --stream       write the tile stream to stdout; the render stops (exit 130)\n"
             "                 when the parent process goes away\n"
             "  --stream-log   with --stream, every log line also goes into the stream\n"

@@ -202,31 +202,18 @@ static int scratch_reserve(scratch *t, size_t n)
     size_t cap = t->cap ? t->cap : 1024;
     while (cap < n)
         cap *= 2;
-    float *u = realloc(t->u, cap * sizeof *u);
-    if (u)
-        t->u = u;
-    float *v = realloc(t->v, cap * sizeof *v);
-    if (v)
-        t->v = v;
-    int32_t *in = realloc(t->in, cap * sizeof *in);
-    if (in)
-        t->in = in;
-    int32_t *rj = realloc(t->rj, cap * sizeof *rj);
-    if (rj)
-        t->rj = rj;
-    float *a = realloc(t->a, cap * sizeof *a);
-    if (a)
-        t->a = a;
-    int32_t *rec = realloc(t->rec, cap * sizeof *rec);
-    if (rec)
-        t->rec = rec;
-    v4f *val = aligned_alloc(sizeof(v4f), cap * sizeof *val);
-    if (val) {
-        free(t->val);
-        t->val = val;
-    }
-    if (!u || !v || !in || !rj || !a || !rec || !val)
+    void *q;
+    /* an array of t reallocated to cap entries, kept as it was when out of memory */
+#define GROW(p) ((q = realloc((p), cap * sizeof *(p))) != NULL && ((p) = q, 1))
+    int ok = GROW(t->u) && GROW(t->v) && GROW(t->in) && GROW(t->rj) && GROW(t->a) &&
+             GROW(t->rec);
+#undef GROW
+    v4f *val = ok ? aligned_alloc(sizeof(v4f), cap * sizeof *val) : NULL; /* realloc does not
+                                                                            keep alignment */
+    if (!val)
         return 0;
+    free(t->val);
+    t->val = val;
     t->cap = cap;
     return 1;
 }
