@@ -25,17 +25,19 @@ typedef struct sss_point {
                          gu), dot(d, gv) material pixels at the material's physical size) */
 } sss_point;
 
-/* A point as the exitance lookups read it. */
+/* A point as the exitance lookups read it once it is within reach (its position is apart). */
 typedef struct look_pt {
-    float x, y, z, nx, ny, nz;
+    float nx, ny, nz;
     op_v3 m;     /* exitance */
     int32_t recv; /* 1: the view needs its exitance (m is computed) */
 } look_pt;
 
 /* The exitance lookups' view of a shape, made once its exitance is known: the points of its
- * lookup grid in the grid's items' order, and per occupied cell the runs of those points in the
- * 3 x 3 x 3 cells around it (by z, then y, then x; neighbouring cells' points merged). */
+ * lookup grid in the grid's items' order (positions, which every lookup screens, apart from the
+ * rest), and per occupied cell the runs of those points in the 3 x 3 x 3 cells around it (by z,
+ * then y, then x; neighbouring cells' points merged). */
 typedef struct look_set {
+    op_v3 *pos;
     look_pt *pts;
     uint32_t *at;   /* per slot of the grid's cells: its first run and how many */
     uint32_t *runs; /* 2 per run: [first, last) items */

@@ -561,6 +561,7 @@ static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, o
 
 static void look_free(look_set *lk)
 {
+    free(lk->pos);
     free(lk->pts);
     free(lk->at);
     free(lk->runs);
@@ -576,17 +577,19 @@ static op_status lookup_prepare(sss_shape *ss, op_error *err)
     for (int i = 0; ss->pts && i < ss->n; i++)
         n += !ss->rep || ss->rep[i];
     look_free(lk);
+    lk->pos = malloc((n ? n : 1) * sizeof *lk->pos);
     lk->pts = malloc((n ? n : 1) * sizeof *lk->pts);
     lk->at = malloc(2 * (slots ? slots : 1) * sizeof *lk->at);
     lk->runs = malloc(2 * 9 * (g->occ.count ? g->occ.count : 1) * sizeof *lk->runs);
-    if (!lk->pts || !lk->at || !lk->runs) {
+    if (!lk->pos || !lk->pts || !lk->at || !lk->runs) {
         look_free(lk);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", ss->n);
     }
     for (size_t k = 0; k < n; k++) {
         uint32_t i = g->items[k];
         const sss_point *q = &ss->pts[i];
-        lk->pts[k] = (look_pt){q->p.x, q->p.y, q->p.z, q->n.x, q->n.y, q->n.z, q->m,
+        lk->pos[k] = q->p;
+        lk->pts[k] = (look_pt){q->n.x, q->n.y, q->n.z, q->m,
                                ss->recv && ss->recv[i]};
     }
     for (size_t b = 0; b < slots; b++) {
@@ -990,9 +993,9 @@ static void look_flush(look_sum *ls)
 /* Screens the points [k0, k1) of the lookup's copy. */
 static void look_scan(look_sum *ls, uint32_t k0, uint32_t k1)
 {
-    const look_pt *pts = ls->ss->lk.pts;
+    const op_v3 *pos = ls->ss->lk.pos;
     for (uint32_t k = k0; k < k1; k++) {
-        op_v3 d = v3(pts[k].x - ls->p.x, pts[k].y - ls->p.y, pts[k].z - ls->p.z);
+        op_v3 d = v3(pos[k].x - ls->p.x, pos[k].y - ls->p.y, pos[k].z - ls->p.z);
         float w = 1.0f - v3_dot(d, d) / ls->h2;
         ls->k[ls->nb] = k;
         ls->w[ls->nb] = w;
