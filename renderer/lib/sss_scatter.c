@@ -1,7 +1,6 @@
 /* sss_scatter.c - a measured material's exitance, pair by pair (see sss_scatter.h). */
 #include "sss_scatter.h"
 
-#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -33,7 +32,7 @@ typedef struct scratch {
     int32_t *rj;  /* its receiver index, or -1 */
     float *a;     /* centred: its area over the pixel's */
     int32_t *rec; /* the source's receivers */
-    v4f *val;     /* and their kernel values (scattering only) */
+    v4f *val;     /* and their kernel values */
 } scratch;
 
 typedef struct scatter_job {
@@ -273,7 +272,7 @@ static void window_test(const struct gather_set *restrict gs, uint32_t k0, uint3
 }
 
 /* The centred layout's candidates k0 <= k < k1 of a source at p with normal n, tangents gu, gv,
- * and position in its pixel fr (fractions plus BIAS): their kernel column in the bordered
+ * and position in its pixel fr (fractions plus 1024): their kernel column in the bordered
  * rows (u, as a float) and whether they count (in): on the source's side, within reach2 of it
  * (a windowed shape's reach, window_build), at a whole-pixel offset inside the kernel. */
 OP_VECTOR_CLONES
@@ -290,7 +289,7 @@ static void centred_test(const struct gather_set *restrict gs, uint32_t k0, uint
         float ux = dx * gu[0] + dy * gu[1] + dz * gu[2];
         float uy = dx * gv[0] + dy * gv[1] + dz * gv[2];
         int ok = (c > 0.0f) & (d2 <= reach2) & (fabsf(ux) < 512.0f) & (fabsf(uy) < 512.0f);
-        /* a pixel index is (int)(v + BIAS) - BIAS for |v| < BIAS, without floorf's cost */
+        /* a pixel index is (int)(v + 1024) - 1024 for |v| < 1024, without floorf's cost */
         int ox = ok ? (int)(fr[0] + ux) - 1024 : 0, oy = ok ? (int)(fr[1] + uy) - 1024 : 0;
         ok &= (ox >= -half) & (ox <= half) & (oy >= -half) & (oy <= half);
         u[k - k0] = (float)((oy + half + 1) * P + (ox + half + 1));
@@ -298,24 +297,26 @@ static void centred_test(const struct gather_set *restrict gs, uint32_t k0, uint
     }
 }
 
-/* Keeps the m candidates of t from `from` on that are in, moved down to `to` on, with their
- * receiver index (and centred, area; else offset v); returns the new count. */
+/* Keeps, in place, those of the m candidates of t from `at` on (one run of cells, its first
+ * point k0) that are in, with their receiver index (and centred, area; else offset v); returns
+ * the list's new length. */
 static size_t keep_in(const struct gather_set *gs, int centred, uint32_t k0, scratch *t,
-                      size_t to, size_t from, size_t m)
+                      size_t at, size_t m)
 {
+    size_t to = at;
     if (centred)
         for (size_t q = 0; q < m; q++) {
-            t->u[to] = t->u[from + q];
+            t->u[to] = t->u[at + q];
             t->rj[to] = gs->rj[k0 + q];
             t->a[to] = gs->a[k0 + q];
-            to += (size_t)t->in[from + q];
+            to += (size_t)t->in[at + q];
         }
     else
         for (size_t q = 0; q < m; q++) {
-            t->u[to] = t->u[from + q];
-            t->v[to] = t->v[from + q];
+            t->u[to] = t->u[at + q];
+            t->v[to] = t->v[at + q];
             t->rj[to] = gs->rj[k0 + q];
-            to += (size_t)t->in[from + q];
+            to += (size_t)t->in[at + q];
         }
     return to;
 }
@@ -364,7 +365,7 @@ static long gather_in(const sss_shape *ss, const sss_point *s, scratch *t)
         else
             window_test(gs, lo[ci], hi[ci], p, n, fu, fv, (float)half + 1.0f, t->u + m,
                         t->v + m, t->in + m);
-        m = keep_in(gs, ss->centred, lo[ci], t, m, m, hi[ci] - lo[ci]);
+        m = keep_in(gs, ss->centred, lo[ci], t, m, hi[ci] - lo[ci]);
     }
     return (long)m;
 }
@@ -398,7 +399,8 @@ static inline size_t keep_receiver(scratch *t, long q, v4f val, size_t nrec)
     return nrec + (t->rj[q] >= 0);
 }
 
-/* The clamped normalization of a source: how much of its row's sum `want` its receivers got. */
+/* A source's normalization: its row's sum `want` over what its receivers got, clamped to
+ * [1/2, 2]. */
 static float norm_gain(double want, double got)
 {
     double q = got > 0.0 ? want / got : 1.0;
