@@ -502,6 +502,15 @@ int op_cmd_factor(int argc, char **argv)
         usage(stderr);
         return fail(st, &err);
     }
+    /* Every output writable and none of them another or the dataset, before any work. */
+    const char *outputs[3] = {a.output}, *inputs[1] = {a.input};
+    int noutputs = 1;
+    if (a.report)
+        outputs[noutputs++] = a.report;
+    if (a.albedo_png)
+        outputs[noutputs++] = a.albedo_png;
+    if ((st = op_output_check(outputs, noutputs, inputs, 1, &err)) != OP_OK)
+        return fail(st, &err);
     double t0 = op_monotonic_seconds(), t = t0;
     op_factor_report rep = {0};
     dataset ds = {0};
