@@ -616,6 +616,8 @@ int op_cmd_factor(int argc, char **argv)
                           strerror(errno ? errno : EIO));
         goto done;
     }
+    /* The png, the report and the material are put in place together, or none of them. */
+    op_output_group_begin();
     if (a.report && (st = op_report_write_json(&rep, a.report, &report, &err)) != OP_OK)
         goto done;
     if (a.albedo_png && (st = write_albedo_png(a.albedo_png, &ds, albedo, &err)) != OP_OK)
@@ -628,8 +630,11 @@ int op_cmd_factor(int argc, char **argv)
     }
     st = op_material_writer_commit(writer, &err);
     writer = NULL;
+    if (st == OP_OK)
+        st = op_output_group_commit(&err);
 
 done:
+    op_output_group_abort(); /* what a failure left pending; nothing after a commit */
     op_output_abort(report);
     op_material_writer_abort(writer);
     free(albedo);

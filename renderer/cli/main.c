@@ -41,7 +41,8 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: opaline-render [options] SCENE.xml\n"
-            "  -o FILE        output image (.exr .png .pfm .hdr by extension); repeatable\n"
+            "  -o FILE        output image (.exr .png .pfm .hdr by extension; the film's\n"
+            "                 format without one, as /dev/stdout); repeatable\n"
             "  -t N           worker threads (default: all cores)\n"
             "  -s N           samples per pixel (overrides the scene's sampler)\n"
             "  -D name=value  overrides <default name=...>; repeatable\n"

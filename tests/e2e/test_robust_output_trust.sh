@@ -115,6 +115,12 @@ if mknod "$T/full" c 1 7 2>/dev/null; then FULL=$T/full; else FULL=/dev/full; fi
 sed 's/value="2"/value="3"/' scene.xml >scene3.xml
 expect 1 "render -o ref.png -o FULL" "$R" -q scene3.xml -o ref.png -o "$FULL"
 cmp -s keep ref.png || fail "one output was replaced while another failed"
+echo old >alb.png
+echo old >m.opm
+expect 1 "factor --report FULL" "$F" factor data.opm --method svd -T 4 -t 2 -o m.opm \
+  --report "$FULL" --albedo-png alb.png
+[ "$(cat alb.png)$(cat m.opm)" = oldold ] || fail "factor replaced its png or material while its report failed"
+rm -f m.opm
 no_temps "unwritable outputs"
 
 # ---- ACLs and extended attributes kept
