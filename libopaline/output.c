@@ -445,11 +445,16 @@ static op_status examine(op_output *o, struct stat *st, op_error *err)
         op_status status = resolve_destination(o->path, &o->dest, st, err);
         if (status)
             return status;
-        /* stat follows links as open does (also /proc's: a link to a pipe is a FIFO). */
-        if (stat(o->dest, &ts) != 0)
-            ts.st_mode = st->st_mode;
-        if (st->st_mode && !S_ISREG(st->st_mode))
-            o->place = PLACE_COPY_PATH; /* written through at commit */
+        /* stat follows links as open does (also /proc's magic links: one to a pipe is a FIFO) */
+        if (stat(o->path, &ts) != 0)
+            ts.st_mode = 0;
+        if (ts.st_mode && !S_ISREG(ts.st_mode)) { /* written through at commit, as opened */
+            free(o->dest);
+            if (!(o->dest = strdup(o->path)))
+                return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", o->path);
+            o->place = PLACE_COPY_PATH;
+            memset(st, 0, sizeof *st);
+        }
     }
     const char *kind = S_ISDIR(ts.st_mode)    ? "a directory"
                        : S_ISBLK(ts.st_mode)  ? "a block device"

@@ -181,4 +181,33 @@ pid=
 [ "$rc" -eq 0 ] || fail "SIGHUP ignored at the start: exit $rc, expected 0"
 cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIGHUP ignored at the start: a different image"
 
-echo "ok: $interrupted interrupted runs ($in_prepass in the pre-pass, $in_tiles between tiles)"
+# The partial image's name is predictable: a link another user planted there in a sticky
+# world-writable folder is not written through (as root, which can give a link away).
+planted=skipped
+if [ "$(id -u)" = 0 ] && id nobody >/dev/null 2>&1; then
+  mkdir -m 1777 "$T/shared"
+  echo precious >"$T/precious"
+  ln -s "$T/precious" "$T/shared/out.partial.pfm"
+  chown -h nobody "$T/shared/out.partial.pfm"
+  for try in 1 2 3; do
+    : >"$T/err"
+    "${DFL[@]}" "$R" -t 2 -o "$T/shared/out.pfm" "$T/scene.xml" 2>"$T/err" &
+    pid=$!
+    until grep -q "subsurface pre-pass:" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
+    sleep "$(python3 -c "print(0.45 * $t_tiles)")"
+    kill -s INT "$pid" 2>/dev/null
+    wait "$pid"
+    rc=$?
+    pid=
+    grep -q "of 12 tiles" "$T/err" || continue # interrupted before or after the tiles: again
+    [ "$rc" -eq 1 ] || fail "a planted partial link: exit $rc, expected 1 (the partial refused)"
+    grep -q "protected_symlinks" "$T/err" || fail "a planted partial link: no refusal"
+    [ "$(cat "$T/precious")" = precious ] || fail "the partial image went through a planted link"
+    planted="refused"
+    break
+  done
+  [ "$planted" = refused ] || fail "no run was interrupted between tiles for the planted link"
+fi
+
+echo "ok: $interrupted interrupted runs ($in_prepass in the pre-pass, $in_tiles between tiles);" \
+  "a planted partial link: $planted"
