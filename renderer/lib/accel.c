@@ -46,6 +46,7 @@ struct op_accel {
     const op_placement **place; /* per shape: its placement, or NULL */
     atomic_llong bytes;         /* Embree's allocations minus its frees */
     char error[512]; /* the device's last error, written by the error callback during builds */
+    enum RTCError code; /* and its code */
 };
 
 /* Embree reports its errors here; during a build only the building thread calls it. */
@@ -53,6 +54,7 @@ static void device_error(void *user, enum RTCError code, const char *str)
 {
     op_accel *a = user;
     snprintf(a->error, sizeof a->error, "Embree error %d: %s", (int)code, str ? str : "");
+    a->code = code;
     op_log(OP_LOG_ERROR, "%s", a->error);
 }
 
@@ -95,10 +97,13 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
     }
     a->device = rtcNewDevice("verbose=0");
     if (!a->device) {
+        enum RTCError code = rtcGetDeviceError(NULL);
         free(proto_mesh);
         op_accel_free(a);
+        if (code == RTC_ERROR_OUT_OF_MEMORY)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory (Embree cannot create a device)");
         return op_error_set(err, OP_ERR_INTERNAL, "Embree: cannot create a device (error %d)",
-                            (int)rtcGetDeviceError(NULL));
+                            (int)code);
     }
     rtcSetDeviceErrorFunction(a->device, device_error, a);
     rtcSetDeviceMemoryMonitorFunction(a->device, memory_monitor, a);
@@ -142,9 +147,11 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
     free(proto_mesh);
     rtcCommitScene(a->scene);
     if (a->error[0]) {
-        op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
+        op_status st = a->code == RTC_ERROR_OUT_OF_MEMORY
+                           ? op_error_set(err, OP_ERR_NOMEM, "out of memory (%s)", a->error)
+                           : op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
         op_accel_free(a);
-        return OP_ERR_INTERNAL;
+        return st;
     }
     *out = a;
     return OP_OK;
