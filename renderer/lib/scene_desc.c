@@ -3,6 +3,7 @@
 #include "scene_desc_internal.h"
 
 #include <limits.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -33,6 +34,17 @@ static char *dup_or_null(const char *s, int *fail)
     if (!d)
         *fail = 1;
     return d;
+}
+
+int op_scan_double(const char *s, char **end, double *out)
+{
+    /* strtod sets ERANGE for a result below DBL_MIN too, yet returns the denormal (or zero)
+     * nearest the text: only an infinite result (overflow, or "inf") is refused */
+    double v = strtod(s, end);
+    if (*end == s || !isfinite(v))
+        return 0;
+    *out = v;
+    return 1;
 }
 
 /* Grows *arr (of elem-sized items) so that index n fits; returns 0 when out of memory. */

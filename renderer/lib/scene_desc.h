@@ -14,7 +14,8 @@
 #define OP_SCENE_DESC_H
 
 #include "opaline.h"
-#include "transform.h" /* op_matrix4 */
+#include "opaline_render.h" /* op_scene_limits */
+#include "transform.h"      /* op_matrix4 */
 
 typedef enum op_prop_kind {
     OP_PROP_FLOAT,
@@ -67,9 +68,14 @@ typedef struct op_define {
 } op_define;
 
 /* Parses path (following <include>, resolving <ref>, substituting $name from defines and
- * <default>). Errors are OP_ERR_INPUT with "file:line: element: what is wrong". */
+ * <default>) within limits' include-bytes, include-count and attribute-bytes (NULL: the
+ * defaults). Errors are OP_ERR_INPUT with "file:line: element: what is wrong". */
 op_status op_desc_parse(const char *path, const op_define *defines, int ndefines,
-                        op_node **root, op_error *err);
+                        const op_scene_limits *limits, op_node **root, op_error *err);
+
+/* strtod for numbers in scene text: 1 and *out when s starts with a finite number (a denormal
+ * or one that underflows to zero is accepted as strtod rounds it), *end after it; 0 otherwise. */
+int op_scan_double(const char *s, char **end, double *out);
 void op_desc_free(op_node *root);
 
 /* Property getters. Each marks the property used and returns def when it is absent. A present
