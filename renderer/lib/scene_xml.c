@@ -942,6 +942,7 @@ static op_status process_children(xml_ctx *c, xmlNode *xparent, op_node *parent)
 /* The first libxml2 error of a parse, captured instead of printed. */
 typedef struct xml_capture {
     int have;
+    int nomem; /* libxml2 could not allocate: out of memory, not bad input */
     int line;
     char message[512];
 } xml_capture;
@@ -954,6 +955,8 @@ static void on_xml_error(void *data, xmlErrorPtr e)
 {
     xmlParserCtxtPtr p = data;
     xml_capture *cap = p ? p->_private : NULL;
+    if (cap && e && e->code == XML_ERR_NO_MEMORY)
+        cap->nomem = 1;
     if (!cap || cap->have || !e || e->level < XML_ERR_ERROR)
         return;
     cap->have = 1;
@@ -1077,7 +1080,9 @@ static op_status parse_file(xml_ctx *c, const char *path, xmlNode *from, op_node
     doc = xmlCtxtReadMemory(px, buf, (int)len, path, NULL,
                             XML_PARSE_NONET | XML_PARSE_BIG_LINES | XML_PARSE_NOWARNING);
     if (!doc || !px->wellFormed || cap.have) {
-        if (cap.have)
+        if (cap.nomem)
+            st = nomem(c);
+        else if (cap.have)
             st = op_error_set(c->err, OP_ERR_INPUT, "%s:%d: malformed XML: %s", path, cap.line,
                               cap.message);
         else
