@@ -570,6 +570,33 @@ static void triangles_limit(void **state)
     assert_int_equal(op_scene_limits_set(&lim, "triangles=3e9", &err), OP_ERR_INPUT);
 }
 
+/* The load-memory estimate: 144 bytes per stored triangle, an image's floats. */
+static void load_memory_limit(void **state)
+{
+    (void)state;
+    write_png(in_dir("lm.png"), 64, 32);
+    const char *xml = HEAD SENSOR LOOK "</sensor>\n"
+        "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "
+        "name=\"reflectance\"><string name=\"filename\" value=\"lm.png\"/></texture></bsdf>"
+        "</shape>\n</scene>\n";
+    op_scene_limits lim;
+    op_scene_limits_init(&lim);
+    op_error err = {0};
+    char set[64];
+    snprintf(set, sizeof set, "load-memory=%d", 16128 * 144 - 1);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_refused("lm.xml", xml, &lim, 7, "<shape type=\"sphere\">: with its triangles (2322432 "
+                   "bytes) the scene is estimated to take 2322432 bytes to load, more than the "
+                   "limit of 2322431 bytes (load-memory; raise it with --limit "
+                   "load-memory=VALUE)");
+    snprintf(set, sizeof set, "load-memory=%d", 16128 * 144 + 64 * 32 * 3 * 4 - 1);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_refused("lm.xml", xml, &lim, 7, "<shape type=\"sphere\">: with its images (");
+    snprintf(set, sizeof set, "load-memory=%d", 16128 * 144 + 64 * 32 * 4 * 4);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_loads("lm.xml", xml, &lim);
+}
+
 /* A film larger than an image can hold (40000 x 40000 = 1.6e9 pixels) is refused while the
  * scene loads, so --check and --estimate refuse it as the render does. */
 static void film_too_large(void **state)
@@ -636,6 +663,7 @@ int main(void)
         cmocka_unit_test(many_defaults),
         cmocka_unit_test(spheres_share_one_mesh),
         cmocka_unit_test(triangles_limit),
+        cmocka_unit_test(load_memory_limit),
         cmocka_unit_test(film_too_large),
         cmocka_unit_test(denormal_numbers),
         cmocka_unit_test(lookat_up),

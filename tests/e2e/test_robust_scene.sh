@@ -197,6 +197,7 @@ else
 fi
 "$R" -q "$T/spheres.xml" --estimate > "$T/est" || fail "2,500 spheres: --estimate failed"
 expect 2 "<shape type=\"sphere\">: with its 16128 triangles the scene holds more than the limit of 1000 triangles (triangles; raise it with --limit triangles=VALUE)" -- "$T/spheres.xml" --check --limit triangles=1000
+expect 2 "<shape type=\"sphere\">: with its triangles (2322432 bytes) the scene is estimated to take 2322432 bytes to load, more than the limit of 1000000 bytes (load-memory; raise it with --limit load-memory=VALUE)" -- "$T/spheres.xml" --estimate --limit load-memory=1e6
 
 # a 40000 x 40000 film: the render could never hold the image; --check and --estimate refuse it
 cat > "$T/film.xml" <<'XML'
