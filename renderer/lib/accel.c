@@ -87,18 +87,15 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     atomic_init(&a->bytes, 0);
     a->place = calloc((size_t)(n > 0 ? n : 1), sizeof *a->place);
-    /* the distinct instanced meshes: at most n */
-    const op_trimesh **proto_mesh = calloc((size_t)(n > 0 ? n : 1), sizeof *proto_mesh);
+    /* the distinct instanced meshes: at most n, by their number */
     a->protos = calloc((size_t)(n > 0 ? n : 1), sizeof *a->protos);
-    if (!a->place || !proto_mesh || !a->protos) {
-        free(proto_mesh);
+    if (!a->place || !a->protos) {
         op_accel_free(a);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
     a->device = rtcNewDevice("verbose=0");
     if (!a->device) {
         enum RTCError code = rtcGetDeviceError(NULL);
-        free(proto_mesh);
         op_accel_free(a);
         if (code == RTC_ERROR_OUT_OF_MEMORY)
             return op_error_set(err, OP_ERR_NOMEM, "out of memory (Embree cannot create a device)");
@@ -114,10 +111,10 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         const op_trimesh *m = shapes[i].mesh;
         RTCGeometry g;
         if (shapes[i].place) {
-            int k = 0;
-            while (k < a->nprotos && proto_mesh[k] != m)
-                k++;
-            if (k == a->nprotos) {
+            int k = shapes[i].proto;
+            if (k >= a->nprotos)
+                a->nprotos = k + 1;
+            if (!a->protos[k]) {
                 RTCScene ps = rtcNewScene(a->device);
                 rtcSetSceneFlags(ps, RTC_SCENE_FLAG_ROBUST);
                 rtcSetSceneBuildQuality(ps, RTC_BUILD_QUALITY_HIGH);
@@ -125,8 +122,7 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
                 rtcAttachGeometryByID(ps, tg, 0);
                 rtcReleaseGeometry(tg);
                 rtcCommitScene(ps);
-                proto_mesh[k] = m;
-                a->protos[a->nprotos++] = ps;
+                a->protos[k] = ps;
             }
             const float *xf = shapes[i].place->m;
             float cm[12]; /* column-major 3 x 4 */
@@ -144,7 +140,6 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         rtcAttachGeometryByID(a->scene, g, (unsigned)i);
         rtcReleaseGeometry(g);
     }
-    free(proto_mesh);
     rtcCommitScene(a->scene);
     if (a->error[0]) {
         op_status st = a->code == RTC_ERROR_OUT_OF_MEMORY
@@ -169,7 +164,8 @@ void op_accel_free(op_accel *a)
     if (a->scene)
         rtcReleaseScene(a->scene);
     for (int i = 0; i < a->nprotos; i++)
-        rtcReleaseScene(a->protos[i]);
+        if (a->protos[i])
+            rtcReleaseScene(a->protos[i]);
     free(a->protos);
     free(a->place);
     if (a->device)

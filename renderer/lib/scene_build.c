@@ -36,12 +36,13 @@ typedef struct builder {
     const op_scene_limits *lim;
     char dir[4096];
     int cap_shapes, cap_bsdfs, cap_emitters, cap_sss, cap_mats;
-    const op_node **bsdf_nodes; /* node of each bsdf, to share referenced ones */
+    op_strmap bsdf_index;       /* a built bsdf node's address ("%p") -> its index, to share
+                                   referenced ones */
     char **mat_paths;           /* resolved path of each opened material */
     op_mesh_cache *meshes;
     /* mesh files that plain shapes (no emitter, no subsurface) use, found before building:
      * those used by two or more become shared prototypes, the shapes their instances */
-    char **file_keys;
+    op_strmap file_keys;         /* shared_mesh's key -> its index k in the arrays below */
     int *file_uses, *file_proto; /* file_proto: index into s->protos, or -1 */
     int nfiles, cap_files;
     long long triangles;  /* stored so far (a prototype once), against lim->triangles */
@@ -226,20 +227,24 @@ op_status op_resolve_material(const char *name, const char *scene_dir, char *out
 static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
 {
     op_scene *s = b->s;
-    for (int i = 0; i < s->nbsdfs; i++)
-        if (node && b->bsdf_nodes[i] == node) {
-            *index = i;
-            return OP_OK;
-        }
-    int cap = b->cap_bsdfs;
-    if (!op_array_grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs) ||
-        !op_array_grow((void **)&b->bsdf_nodes, &cap, s->nbsdfs, sizeof *b->bsdf_nodes))
+    char key[32];
+    snprintf(key, sizeof key, "%p", (const void *)node);
+    const op_strmap_entry *known = node ? op_strmap_find(&b->bsdf_index, key, strlen(key)) : NULL;
+    if (known) {
+        *index = known->index;
+        return OP_OK;
+    }
+    if (!op_array_grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     if (node)
         GET_OR_FAIL(op_bsdf_build(node, s->textures, &s->bsdfs[s->nbsdfs], err));
     else
         op_bsdf_default(&s->bsdfs[s->nbsdfs]);
-    b->bsdf_nodes[s->nbsdfs] = node;
+    op_strmap_entry *e = node ? op_strmap_add(&b->bsdf_index, key) : NULL;
+    if (node && !e)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    if (e)
+        e->index = s->nbsdfs;
     *index = s->nbsdfs++;
     return OP_OK;
 }
@@ -573,24 +578,19 @@ static op_status count_file_uses(builder *b, op_node *root, op_error *err)
         op_error scratch;
         if (shared_mesh(b, c, path, sizeof path, &face, &fliptex, key, sizeof key, &scratch))
             continue;
-        int k = 0;
-        while (k < b->nfiles && strcmp(b->file_keys[k], key) != 0)
-            k++;
-        if (k == b->nfiles) {
-            int cap = b->cap_files, cap2 = b->cap_files;
-            if (!op_array_grow((void **)&b->file_keys, &b->cap_files, b->nfiles,
-                               sizeof *b->file_keys) ||
-                !op_array_grow((void **)&b->file_uses, &cap, b->nfiles, sizeof *b->file_uses) ||
-                !op_array_grow((void **)&b->file_proto, &cap2, b->nfiles, sizeof *b->file_proto))
+        op_strmap_entry *e = op_strmap_find(&b->file_keys, key, strlen(key));
+        if (!e) {
+            int k = b->nfiles, cap = b->cap_files;
+            if (!op_array_grow((void **)&b->file_uses, &b->cap_files, k, sizeof *b->file_uses) ||
+                !op_array_grow((void **)&b->file_proto, &cap, k, sizeof *b->file_proto) ||
+                !(e = op_strmap_add(&b->file_keys, key)))
                 return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-            b->file_keys[k] = strdup(key);
-            if (!b->file_keys[k])
-                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            e->index = k;
             b->file_uses[k] = 0;
             b->file_proto[k] = -1;
             b->nfiles++;
         }
-        b->file_uses[k]++;
+        b->file_uses[e->index]++;
     }
     return OP_OK;
 }
@@ -661,10 +661,9 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     char path[4096] = "", key[4200] = "";
     if (file || may_instance(node))
         GET_OR_FAIL(shared_mesh(b, node, path, sizeof path, &face, &fliptex, key, sizeof key, err));
-    int k = 0;
-    while (k < b->nfiles && strcmp(b->file_keys[k], key) != 0)
-        k++;
-    if (may_instance(node) && k < b->nfiles && b->file_uses[k] >= 2) {
+    const op_strmap_entry *e = op_strmap_find(&b->file_keys, key, strlen(key));
+    int k = e ? e->index : -1;
+    if (may_instance(node) && k >= 0 && b->file_uses[k] >= 2) {
         int p = 0;
         st = file_prototype(b, k, path, t, face, fliptex, &p, err);
         if (st == OP_OK)
@@ -674,6 +673,7 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
                                    node->line, t);
         *m = b->s->protos[p]; /* borrowed */
         sh->instanced = 1;
+        sh->proto = p;
         op_v3 lo, hi;
         op_placement_bounds(&sh->place, m, &lo, &hi);
         if ((st = check_position(b, node, "a corner of its bounds", lo, err)) == OP_OK)
@@ -950,11 +950,11 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         const op_shape_rec *sh = &s->shapes[i];
         shapes[i].mesh = &sh->mesh;
         shapes[i].place = NULL;
-        for (int k = 0; sh->instanced && k < s->nprotos; k++)
-            if (s->protos[k].pos == sh->mesh.pos) { /* its prototype: instances share its BVH */
-                shapes[i].mesh = &s->protos[k];
-                shapes[i].place = &sh->place;
-            }
+        if (sh->instanced) { /* its prototype: instances share its BVH */
+            shapes[i].mesh = &s->protos[sh->proto];
+            shapes[i].place = &sh->place;
+            shapes[i].proto = sh->proto;
+        }
     }
     op_status st = op_accel_build(shapes, s->nshapes, &s->accel, err);
     free(shapes);
@@ -982,12 +982,10 @@ op_status op_scene_build(op_node *root, const char *path, const op_scene_limits 
     free(tmp);
     op_status st = build_all(&b, root, err);
     s->material_paths = b.mat_paths; /* the pre-pass cache's key reads them */
-    for (int i = 0; i < b.nfiles; i++)
-        free(b.file_keys[i]);
-    free(b.file_keys);
+    op_strmap_free(&b.file_keys);
     free(b.file_uses);
     free(b.file_proto);
-    free(b.bsdf_nodes);
+    op_strmap_free(&b.bsdf_index);
     op_mesh_cache_free(b.meshes);
     if (st == OP_OK)
         op_desc_report_unused(root);

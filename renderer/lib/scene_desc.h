@@ -141,4 +141,28 @@ int op_desc_report_unused(const op_node *root);
  * arrays all go through it. */
 int op_array_grow(void **arr, int *cap, int n, size_t elem);
 
+/* A table of strings (open addressing, never more than half full): the scene reader's
+ * parameters and ids and the builder's shared meshes, each looked up in constant time. An
+ * entry's key and value are owned by the table; the other fields are the caller's. */
+typedef struct op_strmap_entry {
+    char *key;
+    char *value;      /* a parameter's value, or NULL */
+    void *ptr;        /* an id's object */
+    const char *file; /* where the key was defined */
+    int line;
+    int index;        /* the caller's number for the key */
+} op_strmap_entry;
+typedef struct op_strmap {
+    op_strmap_entry *slots;
+    size_t n, cap;
+} op_strmap;
+
+/* The entry whose key is the len bytes at key, or NULL. */
+op_strmap_entry *op_strmap_find(const op_strmap *m, const char *key, size_t len);
+/* A new entry for key (not yet in m: callers check with op_strmap_find), its key copied and
+ * the rest zero; NULL when out of memory. Entries move when the table grows. */
+op_strmap_entry *op_strmap_add(op_strmap *m, const char *key);
+/* Frees the keys, the values and the table (m may be all zero). */
+void op_strmap_free(op_strmap *m);
+
 #endif

@@ -31,21 +31,6 @@
 #define MAX_INCLUDE_DEPTH 32
 #define MAX_SCENE_BYTES ((size_t)1 << 30)
 
-/* An entry of a string-keyed table: a parameter (key = name, value) or an id (key = id, node
- * defined at file:line). */
-typedef struct entry {
-    char *key;
-    char *value;
-    op_node *node;
-    const char *file;
-    int line;
-} entry;
-
-/* Open addressing, power-of-two capacity, never more than half full. */
-typedef struct table {
-    entry *slots;
-    size_t n, cap;
-} table;
 
 typedef struct pending {
     op_node *parent; /* ref: where the placeholder child is */
@@ -60,7 +45,7 @@ typedef struct xml_ctx {
     op_desc_tree *tree;
     op_error *err;
     const op_scene_limits *lim;
-    table params, ids;
+    op_strmap params, ids; /* parameters: key = name, value; ids: key = id, ptr = its node */
     long long include_bytes, includes, attribute_bytes; /* counted against lim */
     pending *refs, *aliases;
     int nrefs, cap_refs, naliases, cap_aliases;
@@ -122,73 +107,11 @@ static op_status elem_error(xml_ctx *c, xmlNode *e, const char *fmt, ...)
     return op_error_set(c->err, OP_ERR_INPUT, "%s:%ld: %s: %s", c->file, xmlGetLineNo(e), desc, msg);
 }
 
-/* ---------------------------------------------------------------- tables */
-
-static uint64_t hash_str(const char *s, size_t len)
-{
-    uint64_t h = 1469598103934665603ull;
-    for (size_t i = 0; i < len; i++)
-        h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
-    return h;
-}
-
-/* The entry whose key is the len bytes at key, or NULL. */
-static entry *table_find(const table *t, const char *key, size_t len)
-{
-    if (!t->cap)
-        return NULL;
-    for (size_t i = hash_str(key, len) & (t->cap - 1);; i = (i + 1) & (t->cap - 1)) {
-        const char *k = t->slots[i].key;
-        if (!k)
-            return NULL;
-        if (strncmp(k, key, len) == 0 && k[len] == '\0')
-            return &t->slots[i];
-    }
-}
-
-/* A new entry for key (not yet in t: callers check with table_find), its key copied and the
- * rest zero; NULL when out of memory. */
-static entry *table_add(table *t, const char *key)
-{
-    if ((t->n + 1) * 2 > t->cap) {
-        size_t nc = t->cap ? t->cap * 2 : 64;
-        entry *grown = calloc(nc, sizeof *grown);
-        if (!grown)
-            return NULL;
-        for (size_t i = 0; i < t->cap; i++)
-            if (t->slots[i].key) {
-                size_t j = hash_str(t->slots[i].key, strlen(t->slots[i].key)) & (nc - 1);
-                while (grown[j].key)
-                    j = (j + 1) & (nc - 1);
-                grown[j] = t->slots[i];
-            }
-        free(t->slots);
-        t->slots = grown;
-        t->cap = nc;
-    }
-    size_t j = hash_str(key, strlen(key)) & (t->cap - 1);
-    while (t->slots[j].key)
-        j = (j + 1) & (t->cap - 1);
-    if (!(t->slots[j].key = strdup(key)))
-        return NULL;
-    t->n++;
-    return &t->slots[j];
-}
-
-static void table_free(table *t)
-{
-    for (size_t i = 0; i < t->cap; i++) {
-        free(t->slots[i].key);
-        free(t->slots[i].value);
-    }
-    free(t->slots);
-}
-
 /* ---------------------------------------------------------------- parameters */
 
 static const char *param_get(xml_ctx *c, const char *name, size_t len)
 {
-    entry *p = table_find(&c->params, name, len);
+    op_strmap_entry *p = op_strmap_find(&c->params, name, len);
     return p ? p->value : NULL;
 }
 
@@ -198,7 +121,7 @@ static op_status param_add(xml_ctx *c, const char *name, const char *value)
     if (param_get(c, name, strlen(name)))
         return OP_OK;
     char *v = strdup(value);
-    entry *p = v ? table_add(&c->params, name) : NULL;
+    op_strmap_entry *p = v ? op_strmap_add(&c->params, name) : NULL;
     if (!p) {
         free(v);
         return nomem(c);
@@ -417,18 +340,18 @@ static op_status attr_xyz(xml_ctx *c, xmlNode *e, double def, double out[3], int
 
 /* ---------------------------------------------------------------- ids */
 
-static entry *id_find(xml_ctx *c, const char *id)
+static op_strmap_entry *id_find(xml_ctx *c, const char *id)
 {
-    return table_find(&c->ids, id, strlen(id));
+    return op_strmap_find(&c->ids, id, strlen(id));
 }
 
 /* Registers id (not yet taken: callers check with id_find) for node defined at file:line. */
 static op_status id_insert(xml_ctx *c, const char *id, op_node *node, const char *file, int line)
 {
-    entry *e = table_add(&c->ids, id);
+    op_strmap_entry *e = op_strmap_add(&c->ids, id);
     if (!e)
         return nomem(c);
-    e->node = node;
+    e->ptr = node;
     e->file = file;
     e->line = line;
     return OP_OK;
@@ -816,7 +739,7 @@ static op_status object_element(xml_ctx *c, xmlNode *e, op_node *parent)
         else if (id && !*id)
             st = elem_error(c, e, "empty id");
     }
-    entry *old = st == OP_OK && id ? id_find(c, id) : NULL;
+    op_strmap_entry *old = st == OP_OK && id ? id_find(c, id) : NULL;
     if (old)
         st = elem_error(c, e, "duplicate id '%s' (first defined at %s:%d)", id, old->file, old->line);
     op_node *n = NULL;
@@ -1137,26 +1060,26 @@ static op_status resolve(xml_ctx *c)
 {
     for (int i = 0; i < c->naliases; i++) {
         pending *a = &c->aliases[i];
-        entry *t = id_find(c, a->id);
+        op_strmap_entry *t = id_find(c, a->id);
         if (!t)
             return op_error_set(c->err, OP_ERR_INPUT, "%s:%d: <alias id=\"%s\" as=\"%s\">: unknown id '%s'",
                                 a->file, a->line, a->id, a->as, a->id);
-        entry *old = id_find(c, a->as);
+        op_strmap_entry *old = id_find(c, a->as);
         if (old)
             return op_error_set(c->err, OP_ERR_INPUT,
                                 "%s:%d: <alias id=\"%s\" as=\"%s\">: duplicate id '%s' (first defined at %s:%d)",
                                 a->file, a->line, a->id, a->as, a->as, old->file, old->line);
-        op_status st = id_insert(c, a->as, t->node, a->file, a->line);
+        op_status st = id_insert(c, a->as, t->ptr, a->file, a->line);
         if (st != OP_OK)
             return st;
     }
     for (int i = 0; i < c->nrefs; i++) {
         pending *r = &c->refs[i];
-        entry *t = id_find(c, r->id);
+        op_strmap_entry *t = id_find(c, r->id);
         if (!t)
             return op_error_set(c->err, OP_ERR_INPUT, "%s:%d: <ref id=\"%s\">: unknown id '%s'",
                                 r->file, r->line, r->id, r->id);
-        r->parent->children[r->index] = t->node;
+        r->parent->children[r->index] = t->ptr;
     }
     op_node *cyc = op_desc_tree_find_cycle(c->tree);
     if (cyc)
@@ -1190,8 +1113,8 @@ op_status op_desc_parse(const char *path, const op_define *defines, int ndefines
     if (st == OP_OK)
         st = resolve(&c);
 
-    table_free(&c.params);
-    table_free(&c.ids);
+    op_strmap_free(&c.params);
+    op_strmap_free(&c.ids);
     for (int i = 0; i < c.nrefs; i++)
         free(c.refs[i].id);
     free(c.refs);

@@ -641,6 +641,9 @@ static void lookat_up(void **state)
     expect_refused("uppar.xml", xml, NULL, 7, "degenerate look-at");
     snprintf(xml, sizeof xml, fmt, " up=\"-1e-3,-2e-3,-3e-3\"");
     expect_refused("upanti.xml", xml, NULL, 7, "degenerate look-at");
+    /* 1e-13 radians off: the frame would come from the rounding of up x dir */
+    snprintf(xml, sizeof xml, fmt, " up=\"1,2,3.0000000000005\"");
+    expect_refused("upnear.xml", xml, NULL, 7, "degenerate look-at");
     snprintf(xml, sizeof xml, fmt, "");
     expect_loads("upnone.xml", xml, NULL);
     snprintf(xml, sizeof xml, fmt, " up=\"0,1e-300,0\"");

@@ -211,7 +211,7 @@ for mode in --check --estimate; do
 done
 
 # a zero up, and one parallel to the view
-for up in "0,0,0" "2,4,6"; do
+for up in "0,0,0" "2,4,6" "1,2,3.0000000000005"; do
 cat > "$T/up.xml" <<XML
 <scene version="0.6.0">
 <sensor type="perspective"><transform name="toWorld"><lookat origin="0,0,0" target="1,2,3" up="$up"/></transform></sensor>
