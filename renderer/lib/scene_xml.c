@@ -31,7 +31,6 @@
 #define MAX_INCLUDE_DEPTH 32
 #define MAX_SCENE_BYTES ((size_t)1 << 30)
 
-
 typedef struct pending {
     op_node *parent; /* ref: where the placeholder child is */
     int index;
