@@ -62,6 +62,11 @@ static int teardown(void **state)
     "<sampler type=\"independent\"><integer name=\"sampleCount\" value=\"1\"/></sampler>"
 #define LOOK "<transform name=\"toWorld\"><lookat origin=\"0,0,-4\" target=\"0,0,0\"/></transform>"
 #define SPHERE "<shape type=\"sphere\"/>\n"
+/* A sphere textured with tex.png (a line break inside: one line). */
+#define TEX_SPHERE                                                                                 \
+    "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "                    \
+    "name=\"reflectance\">\n<string name=\"filename\" value=\"tex.png\"/></texture></bsdf>"       \
+    "</shape>\n"
 
 /* Loads xml (written to the test folder as name) within lim (NULL: the defaults). */
 static op_status load(const char *name, const char *xml, const op_scene_limits *lim,
@@ -229,10 +234,7 @@ static void image_pixels_limit(void **state)
 {
     (void)state;
     write_png(in_dir("tex.png"), 64, 32);
-    const char *tex = HEAD SENSOR LOOK "</sensor>\n"
-        "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "
-        "name=\"reflectance\">\n<string name=\"filename\" value=\"tex.png\"/></texture></bsdf>"
-        "</shape>\n</scene>\n";
+    const char *tex = HEAD SENSOR LOOK "</sensor>\n" TEX_SPHERE "</scene>\n";
     const char *env = HEAD SENSOR LOOK "</sensor>\n" SPHERE
         "<emitter type=\"envmap\"><string name=\"filename\" value=\"tex.png\"/></emitter>\n"
         "</scene>\n";
@@ -574,11 +576,8 @@ static void triangles_limit(void **state)
 static void load_memory_limit(void **state)
 {
     (void)state;
-    write_png(in_dir("lm.png"), 64, 32);
-    const char *xml = HEAD SENSOR LOOK "</sensor>\n"
-        "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "
-        "name=\"reflectance\"><string name=\"filename\" value=\"lm.png\"/></texture></bsdf>"
-        "</shape>\n</scene>\n";
+    write_png(in_dir("tex.png"), 64, 32);
+    const char *xml = HEAD SENSOR LOOK "</sensor>\n" TEX_SPHERE "</scene>\n";
     op_scene_limits lim;
     op_scene_limits_init(&lim);
     op_error err = {0};
