@@ -288,6 +288,14 @@ typedef struct op_image {
     float *pixels;
 } op_image;
 
+/* The largest image opaline holds: each side at most OP_IMAGE_MAX_SIDE, width x height at most
+ * OP_IMAGE_MAX_PIXELS (far above any render, far below overflow). A scene's film is refused
+ * beyond them when it loads. */
+#define OP_IMAGE_MAX_SIDE 65536
+#define OP_IMAGE_MAX_PIXELS ((size_t)1 << 30)
+
+/* A zeroed image; a size beyond the limits above or a channel count not 1, 3 or 4 is
+ * OP_ERR_INPUT. */
 op_status op_image_alloc(op_image *img, int width, int height, int channels, op_error *err);
 void op_image_free(op_image *img);
 /* 8-bit sRGB PNG after multiplying by 2^exposure_stops; values are clamped to [0, 1]. */

@@ -48,10 +48,22 @@ typedef struct op_scene_limits {
     int sss_max_points;     /* "sss-max-points": the maxPoints (irradiance points of one shape,
                                a quality cap that warns when reached) of every <subsurface>
                                that sets none */
+    long long include_bytes;   /* "include-bytes": the bytes of the scene file and of every file
+                                  it includes, counted at each <include> (nested ones too) */
+    long long include_count;   /* "include-count": the <include> elements read, nested ones
+                                  counted each time their file is read */
+    long long attribute_bytes; /* "attribute-bytes": the bytes of all attribute values after
+                                  $parameter expansion, <default> values included */
+    long long triangles;       /* "triangles": the triangles the scene stores (a mesh shared by
+                                  instances once), checked before the acceleration structure */
+    long long load_memory;     /* "load-memory": the bytes the scene is estimated to take once
+                                  loaded (its triangles, as stored and in Embree's structures,
+                                  and its images), checked as each mesh or image is read */
 } op_scene_limits;
 
 /* The defaults: coordinate 1e7, image-pixels 2^27 (16384 x 8192), kernel 255, sss-points 5e7,
- * sss-max-points 250000. */
+ * sss-max-points 250000, include-bytes 2^30, include-count 100000, attribute-bytes 2^28,
+ * triangles 1e8, load-memory 2^35 (32 GiB). */
 void op_scene_limits_init(op_scene_limits *lim);
 /* Sets one limit from "name=value" (a name above, a positive number within the limit's hard
  * range); anything else is OP_ERR_INPUT naming the known limits. */

@@ -12,10 +12,6 @@
 
 #include <openexr.h>
 
-/* Largest accepted side and pixel count: far above any render, far below overflow. */
-#define OP_IMAGE_MAX_SIDE 65536
-#define OP_IMAGE_MAX_PIXELS ((size_t)1 << 30)
-
 static int valid_channels(int c)
 {
     return c == 1 || c == 3 || c == 4;

@@ -46,6 +46,7 @@ struct op_accel {
     const op_placement **place; /* per shape: its placement, or NULL */
     atomic_llong bytes;         /* Embree's allocations minus its frees */
     char error[512]; /* the device's last error, written by the error callback during builds */
+    enum RTCError code; /* and its code */
 };
 
 /* Embree reports its errors here; during a build only the building thread calls it. */
@@ -53,6 +54,7 @@ static void device_error(void *user, enum RTCError code, const char *str)
 {
     op_accel *a = user;
     snprintf(a->error, sizeof a->error, "Embree error %d: %s", (int)code, str ? str : "");
+    a->code = code;
     op_log(OP_LOG_ERROR, "%s", a->error);
 }
 
@@ -85,20 +87,20 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     atomic_init(&a->bytes, 0);
     a->place = calloc((size_t)(n > 0 ? n : 1), sizeof *a->place);
-    /* the distinct instanced meshes: at most n */
-    const op_trimesh **proto_mesh = calloc((size_t)(n > 0 ? n : 1), sizeof *proto_mesh);
+    /* the distinct instanced meshes: at most n, by their number */
     a->protos = calloc((size_t)(n > 0 ? n : 1), sizeof *a->protos);
-    if (!a->place || !proto_mesh || !a->protos) {
-        free(proto_mesh);
+    if (!a->place || !a->protos) {
         op_accel_free(a);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
     a->device = rtcNewDevice("verbose=0");
     if (!a->device) {
-        free(proto_mesh);
+        enum RTCError code = rtcGetDeviceError(NULL);
         op_accel_free(a);
+        if (code == RTC_ERROR_OUT_OF_MEMORY)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory (Embree cannot create a device)");
         return op_error_set(err, OP_ERR_INTERNAL, "Embree: cannot create a device (error %d)",
-                            (int)rtcGetDeviceError(NULL));
+                            (int)code);
     }
     rtcSetDeviceErrorFunction(a->device, device_error, a);
     rtcSetDeviceMemoryMonitorFunction(a->device, memory_monitor, a);
@@ -109,10 +111,10 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         const op_trimesh *m = shapes[i].mesh;
         RTCGeometry g;
         if (shapes[i].place) {
-            int k = 0;
-            while (k < a->nprotos && proto_mesh[k] != m)
-                k++;
-            if (k == a->nprotos) {
+            int k = shapes[i].proto;
+            if (k >= a->nprotos)
+                a->nprotos = k + 1;
+            if (!a->protos[k]) {
                 RTCScene ps = rtcNewScene(a->device);
                 rtcSetSceneFlags(ps, RTC_SCENE_FLAG_ROBUST);
                 rtcSetSceneBuildQuality(ps, RTC_BUILD_QUALITY_HIGH);
@@ -120,8 +122,7 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
                 rtcAttachGeometryByID(ps, tg, 0);
                 rtcReleaseGeometry(tg);
                 rtcCommitScene(ps);
-                proto_mesh[k] = m;
-                a->protos[a->nprotos++] = ps;
+                a->protos[k] = ps;
             }
             const float *xf = shapes[i].place->m;
             float cm[12]; /* column-major 3 x 4 */
@@ -139,12 +140,13 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         rtcAttachGeometryByID(a->scene, g, (unsigned)i);
         rtcReleaseGeometry(g);
     }
-    free(proto_mesh);
     rtcCommitScene(a->scene);
     if (a->error[0]) {
-        op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
+        op_status st = a->code == RTC_ERROR_OUT_OF_MEMORY
+                           ? op_error_set(err, OP_ERR_NOMEM, "out of memory (%s)", a->error)
+                           : op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
         op_accel_free(a);
-        return OP_ERR_INTERNAL;
+        return st;
     }
     *out = a;
     return OP_OK;
@@ -162,7 +164,8 @@ void op_accel_free(op_accel *a)
     if (a->scene)
         rtcReleaseScene(a->scene);
     for (int i = 0; i < a->nprotos; i++)
-        rtcReleaseScene(a->protos[i]);
+        if (a->protos[i])
+            rtcReleaseScene(a->protos[i]);
     free(a->protos);
     free(a->place);
     if (a->device)

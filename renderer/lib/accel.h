@@ -23,9 +23,12 @@ typedef struct op_ray_hit {
 typedef struct op_accel_shape {
     const op_trimesh *mesh;
     const op_placement *place;
+    int proto; /* with place: mesh's number among the distinct placed meshes, 0 .. n - 1 (the
+                  same for every shape placing it) */
 } op_accel_shape;
 
-/* Builds over shapes[0..n); the meshes and placements must outlive the accel unchanged. */
+/* Builds over shapes[0..n); the meshes and placements must outlive the accel unchanged. Each
+ * placed mesh's structure is built once, for the first shape that places it. */
 op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op_error *err);
 void op_accel_free(op_accel *a);
 /* Bytes Embree holds for the built structure (its memory monitor's net count). */

@@ -76,9 +76,13 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
         long long w, h, cx, cy, cw, ch;
         GET_OR_FAIL(op_node_int(film, "width", 768, &w, err));
         GET_OR_FAIL(op_node_int(film, "height", 576, &h, err));
-        if (w < 1 || h < 1 || w > 65536 || h > 65536)
+        if (w < 1 || h < 1 || w > OP_IMAGE_MAX_SIDE || h > OP_IMAGE_MAX_SIDE)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: size %lldx%lld is not in "
-                                "1..65536", film->file, film->line, w, h);
+                                "1..%d", film->file, film->line, w, h, OP_IMAGE_MAX_SIDE);
+        if ((size_t)(w * h) > OP_IMAGE_MAX_PIXELS)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: size %lldx%lld = %lld pixels "
+                                "is more than the %zu pixels (2^30) an image can hold", film->file,
+                                film->line, w, h, w * h, OP_IMAGE_MAX_PIXELS);
         GET_OR_FAIL(op_node_int(film, "cropOffsetX", 0, &cx, err));
         GET_OR_FAIL(op_node_int(film, "cropOffsetY", 0, &cy, err));
         GET_OR_FAIL(op_node_int(film, "cropWidth", w, &cw, err));

@@ -35,7 +35,7 @@ op_status op_scene_load_limited(const char *path, const op_scene_define *defines
         defs[i].value = defines[i].value;
     }
     op_node *root = NULL;
-    op_status st = op_desc_parse(path, defs, ndefines, &root, err);
+    op_status st = op_desc_parse(path, defs, ndefines, limits, &root, err);
     free(defs);
     if (st)
         return st;

@@ -57,6 +57,7 @@ typedef struct op_shape_rec {
                         object space (never freed through the shape) */
     int instanced;   /* 1: mesh is a shared prototype placed by place (never an emitter or
                         translucent: those need their world-space triangles) */
+    int proto;       /* instanced: the prototype's index in the scene's protos */
     op_placement place;
     int bsdf;      /* index into bsdfs */
     int emitter;   /* index into emitters, or -1 */

@@ -6,7 +6,9 @@
 #include "subsurface.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <libgen.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,20 +24,31 @@
 /* The installed presets folder, relative to the prefix of the running program (bin/..). */
 #define OPALINE_INSTALLED_PRESETS_SUBDIR "share/opaline/presets"
 
+/* The longitude segments of a sphere's tessellation (half as many latitude bands). */
+#define SPHERE_SEGMENTS 128
+/* The load-memory estimate's bytes per stored triangle: the peak of --check on a PLY grid of
+ * 2 million triangles, 281 MB (the mapped file, the mesh as read and as placed, Embree's BVH). */
+#define LOAD_BYTES_PER_TRIANGLE 144
+
 /* Growing arrays and what the builder needs while it works. */
 typedef struct builder {
     op_scene *s;
     const op_scene_limits *lim;
     char dir[4096];
     int cap_shapes, cap_bsdfs, cap_emitters, cap_sss, cap_mats;
-    const op_node **bsdf_nodes; /* node of each bsdf, to share referenced ones */
+    op_strmap bsdf_index;       /* a built bsdf node's address ("%p") -> its index, to share
+                                   referenced ones */
     char **mat_paths;           /* resolved path of each opened material */
     op_mesh_cache *meshes;
     /* mesh files that plain shapes (no emitter, no subsurface) use, found before building:
      * those used by two or more become shared prototypes, the shapes their instances */
-    char **file_keys;
+    op_strmap file_keys;         /* shared_mesh's key -> its index k in the arrays below */
     int *file_uses, *file_proto; /* file_proto: index into s->protos, or -1 */
     int nfiles, cap_files;
+    long long triangles;  /* stored so far (a prototype once), against lim->triangles */
+    long long load_bytes; /* the estimated memory of what is loaded so far, against
+                             lim->load_memory */
+    int images_charged;   /* the texture cache's images counted in load_bytes */
 } builder;
 
 void op_scene_limits_init(op_scene_limits *lim)
@@ -45,43 +58,61 @@ void op_scene_limits_init(op_scene_limits *lim)
     lim->kernel = 255;
     lim->sss_points = 50000000;
     lim->sss_max_points = 250000; /* the quality cap per shape: a shape that needs more is coarser, with a warning */
+    lim->include_bytes = 1LL << 30;
+    lim->include_count = 100000;
+    lim->attribute_bytes = 1LL << 28;
+    lim->triangles = 100000000;
+    lim->load_memory = 1LL << 35;
 }
 
 op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_error *err)
 {
-    /* each limit's hard range: what the renderer's data types and single precision allow */
+    /* each limit's hard range: what the renderer's data types and single precision allow;
+     * kind: 'd' a double, 'i' an int, 'l' a long long field */
     static const struct {
         const char *name;
         double max;
-    } known[] = {{"coordinate", 1e15}, {"image-pixels", 1LL << 30}, {"kernel", 4095},
-                 {"sss-points", 1e9}, {"sss-max-points", 5e7}};
+        char kind;
+        size_t offset;
+    } known[] = {
+        {"coordinate", 1e15, 'd', offsetof(op_scene_limits, coordinate)},
+        {"image-pixels", 1LL << 30, 'l', offsetof(op_scene_limits, image_pixels)},
+        {"kernel", 4095, 'i', offsetof(op_scene_limits, kernel)},
+        {"sss-points", 1e9, 'l', offsetof(op_scene_limits, sss_points)},
+        {"sss-max-points", 5e7, 'i', offsetof(op_scene_limits, sss_max_points)},
+        {"include-bytes", 1LL << 40, 'l', offsetof(op_scene_limits, include_bytes)},
+        {"include-count", 1e9, 'l', offsetof(op_scene_limits, include_count)},
+        {"attribute-bytes", 1LL << 40, 'l', offsetof(op_scene_limits, attribute_bytes)},
+        {"triangles", INT_MAX, 'l', offsetof(op_scene_limits, triangles)},
+        {"load-memory", 1LL << 50, 'l', offsetof(op_scene_limits, load_memory)},
+    };
+    enum { NKNOWN = sizeof known / sizeof known[0] };
     const char *eq = strchr(assignment, '=');
     size_t n = eq ? (size_t)(eq - assignment) : strlen(assignment);
     int k = 0;
-    while (k < 5 && !(strlen(known[k].name) == n && strncmp(known[k].name, assignment, n) == 0))
+    while (k < NKNOWN && !(strlen(known[k].name) == n && strncmp(known[k].name, assignment, n) == 0))
         k++;
-    if (k == 5 || !eq)
+    if (k == NKNOWN || !eq)
         return op_error_set(err, OP_ERR_INPUT, "limit '%s': expected NAME=VALUE with NAME one of "
-                            "coordinate, image-pixels, kernel, sss-points, sss-max-points",
+                            "coordinate, image-pixels, kernel, sss-points, sss-max-points, "
+                            "include-bytes, include-count, attribute-bytes, triangles, load-memory",
                             assignment);
     char *end;
     errno = 0;
     double v = strtod(eq + 1, &end);
+    int whole = known[k].kind != 'd';
     if (end == eq + 1 || *end || errno == ERANGE || !(v > 0.0) || v > known[k].max ||
-        (k > 0 && v != floor(v)))
+        (whole && v != floor(v)))
         return op_error_set(err, OP_ERR_INPUT, "limit %s: '%s' is not a %s in (0, %g]",
-                            known[k].name, eq + 1, k > 0 ? "whole number" : "number",
+                            known[k].name, eq + 1, whole ? "whole number" : "number",
                             known[k].max);
-    if (k == 0)
-        lim->coordinate = v;
-    else if (k == 1)
-        lim->image_pixels = (long long)v;
-    else if (k == 2)
-        lim->kernel = (int)v;
-    else if (k == 3)
-        lim->sss_points = (long long)v;
+    char *field = (char *)lim + known[k].offset;
+    if (known[k].kind == 'd')
+        *(double *)field = v;
+    else if (known[k].kind == 'i')
+        *(int *)field = (int)v;
     else
-        lim->sss_max_points = (int)v;
+        *(long long *)field = (long long)v;
     return OP_OK;
 }
 
@@ -196,22 +227,70 @@ op_status op_resolve_material(const char *name, const char *scene_dir, char *out
 static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
 {
     op_scene *s = b->s;
-    for (int i = 0; i < s->nbsdfs; i++)
-        if (node && b->bsdf_nodes[i] == node) {
-            *index = i;
-            return OP_OK;
-        }
-    int cap = b->cap_bsdfs;
-    if (!op_array_grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs) ||
-        !op_array_grow((void **)&b->bsdf_nodes, &cap, s->nbsdfs, sizeof *b->bsdf_nodes))
+    char key[32];
+    snprintf(key, sizeof key, "%p", (const void *)node);
+    const op_strmap_entry *known = node ? op_strmap_find(&b->bsdf_index, key, strlen(key)) : NULL;
+    if (known) {
+        *index = known->index;
+        return OP_OK;
+    }
+    if (!op_array_grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     if (node)
         GET_OR_FAIL(op_bsdf_build(node, s->textures, &s->bsdfs[s->nbsdfs], err));
     else
         op_bsdf_default(&s->bsdfs[s->nbsdfs]);
-    b->bsdf_nodes[s->nbsdfs] = node;
+    op_strmap_entry *e = node ? op_strmap_add(&b->bsdf_index, key) : NULL;
+    if (node && !e)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    if (e)
+        e->index = s->nbsdfs;
     *index = s->nbsdfs++;
     return OP_OK;
+}
+
+/* Adds bytes, what the part the caller read (named by what) is estimated to take, to the
+ * scene's load-memory estimate and refuses it over the limit (callers name the element). */
+static op_status charge(builder *b, long long bytes, const char *what, op_error *err)
+{
+    b->load_bytes += bytes;
+    if (b->load_bytes <= b->lim->load_memory)
+        return OP_OK;
+    return op_error_set(err, OP_ERR_INPUT, "with %s (%lld bytes) the scene is estimated to take "
+                        "%lld bytes to load, more than the limit of %lld bytes (load-memory; "
+                        "raise it with --limit load-memory=VALUE)", what, bytes, b->load_bytes,
+                        b->lim->load_memory);
+}
+
+/* Counts the n triangles of a mesh just read against the triangles and load-memory limits
+ * (callers name the shape). */
+static op_status add_triangles(builder *b, long long n, op_error *err)
+{
+    b->triangles += n;
+    if (b->triangles > b->lim->triangles)
+        return op_error_set(err, OP_ERR_INPUT, "with its %lld triangles the scene holds more than "
+                            "the limit of %lld triangles (triangles; raise it with --limit "
+                            "triangles=VALUE)", n, b->lim->triangles);
+    return charge(b, n * LOAD_BYTES_PER_TRIANGLE, "its triangles", err);
+}
+
+/* Counts the images node's object read (the texture cache's new ones, and e's environment map
+ * when e is not NULL) against the load-memory limit. Each was bounded by image-pixels before
+ * it was decoded. */
+static op_status add_images(builder *b, const op_node *node, const op_emitter *e, op_error *err)
+{
+    long long bytes = 0;
+    for (; b->images_charged < op_tex_cache_count(b->s->textures); b->images_charged++) {
+        const op_image *im = op_tex_cache_image(b->s->textures, b->images_charged);
+        bytes += (long long)im->width * im->height * im->channels * (long long)sizeof(float);
+    }
+    if (e && e->env.pixels)
+        bytes += (long long)e->env.width * e->env.height * e->env.channels *
+                 (long long)sizeof(float);
+    if (bytes == 0 || charge(b, bytes, "its images", err) == OP_OK)
+        return OP_OK;
+    return op_error_prefix(err, "%s:%d: <%s type=\"%s\">: ", node->file, node->line, node->tag,
+                           node->type ? node->type : "");
 }
 
 static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, int shape,
@@ -236,8 +315,8 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
         }
         s->env = s->nemitters;
     }
-    *index = s->nemitters++;
-    return OP_OK;
+    *index = s->nemitters++; /* owned by the scene from here on */
+    return add_images(b, node, e, err);
 }
 
 static op_status open_material(builder *b, const char *path, op_material **out, op_error *err)
@@ -459,11 +538,12 @@ static op_status file_mesh(builder *b, op_node *node, char *path, size_t n, int 
     return OP_OK;
 }
 
-/* Whether a shape node may become an instance: a mesh file without an emitter or subsurface
- * (those need world-space triangles: area sampling, irradiance points). */
+/* Whether a shape node may become an instance: a mesh file or a sphere without an emitter or
+ * subsurface (those need world-space triangles: area sampling, irradiance points). */
 static int may_instance(const op_node *node)
 {
-    if (strcmp(node->type, "obj") != 0 && strcmp(node->type, "ply") != 0)
+    if (strcmp(node->type, "obj") != 0 && strcmp(node->type, "ply") != 0 &&
+        strcmp(node->type, "sphere") != 0)
         return 0;
     for (int i = 0; i < node->nchildren; i++)
         if (strcmp(node->children[i]->tag, "emitter") == 0 ||
@@ -472,7 +552,20 @@ static int may_instance(const op_node *node)
     return 1;
 }
 
-/* Counts the uses of each mesh file by shapes that may become instances. Nodes whose
+/* The mesh a shape node that may become an instance places: its file (file_mesh), or for a
+ * sphere the unit sphere, key "sphere" and path "". */
+static op_status shared_mesh(builder *b, op_node *node, char *path, size_t n, int *face,
+                             int *fliptex, char *key, size_t nk, op_error *err)
+{
+    if (strcmp(node->type, "sphere") != 0)
+        return file_mesh(b, node, path, n, face, fliptex, key, nk, err);
+    *face = *fliptex = 0;
+    snprintf(path, n, "%s", "");
+    snprintf(key, nk, "%s", "sphere");
+    return OP_OK;
+}
+
+/* Counts the uses of each shared mesh by shapes that may become instances. Nodes whose
  * parameters are bad are skipped here (building them reports the error). */
 static op_status count_file_uses(builder *b, op_node *root, op_error *err)
 {
@@ -483,31 +576,27 @@ static op_status count_file_uses(builder *b, op_node *root, op_error *err)
         char path[4096], key[4200];
         int face, fliptex;
         op_error scratch;
-        if (file_mesh(b, c, path, sizeof path, &face, &fliptex, key, sizeof key, &scratch))
+        if (shared_mesh(b, c, path, sizeof path, &face, &fliptex, key, sizeof key, &scratch))
             continue;
-        int k = 0;
-        while (k < b->nfiles && strcmp(b->file_keys[k], key) != 0)
-            k++;
-        if (k == b->nfiles) {
-            int cap = b->cap_files, cap2 = b->cap_files;
-            if (!op_array_grow((void **)&b->file_keys, &b->cap_files, b->nfiles,
-                               sizeof *b->file_keys) ||
-                !op_array_grow((void **)&b->file_uses, &cap, b->nfiles, sizeof *b->file_uses) ||
-                !op_array_grow((void **)&b->file_proto, &cap2, b->nfiles, sizeof *b->file_proto))
+        op_strmap_entry *e = op_strmap_find(&b->file_keys, key, strlen(key));
+        if (!e) {
+            int k = b->nfiles, cap = b->cap_files;
+            if (!op_array_grow((void **)&b->file_uses, &b->cap_files, k, sizeof *b->file_uses) ||
+                !op_array_grow((void **)&b->file_proto, &cap, k, sizeof *b->file_proto) ||
+                !(e = op_strmap_add(&b->file_keys, key)))
                 return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-            b->file_keys[k] = strdup(key);
-            if (!b->file_keys[k])
-                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            e->index = k;
             b->file_uses[k] = 0;
             b->file_proto[k] = -1;
             b->nfiles++;
         }
-        b->file_uses[k]++;
+        b->file_uses[e->index]++;
     }
     return OP_OK;
 }
 
-/* The object-space prototype of file entry k (loaded on first use) in *index. */
+/* The object-space prototype of entry k (loaded, or for a sphere tessellated, on first use)
+ * in *index. */
 static op_status file_prototype(builder *b, int k, const char *path, const char *kind, int face,
                                 int fliptex, int *index, op_error *err)
 {
@@ -521,9 +610,14 @@ static op_status file_prototype(builder *b, int k, const char *path, const char 
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     s->protos = grown;
     op_trimesh *m = &s->protos[s->nprotos];
-    GET_OR_FAIL(op_mesh_cache_get(b->meshes, path, kind, face, fliptex, m, err));
+    if (strcmp(kind, "sphere") == 0)
+        GET_OR_FAIL(op_shape_sphere(m, SPHERE_SEGMENTS, err));
+    else
+        GET_OR_FAIL(op_mesh_cache_get(b->meshes, path, kind, face, fliptex, m, err));
     op_matrix4 id = op_matrix4_identity();
-    op_status st = op_trimesh_finish(m, &id, 0, err);
+    op_status st = add_triangles(b, m->ntris, err);
+    if (st == OP_OK)
+        st = op_trimesh_finish(m, &id, 0, err);
     if (st) {
         op_trimesh_free(m);
         return st;
@@ -533,7 +627,8 @@ static op_status file_prototype(builder *b, int k, const char *path, const char 
 }
 
 /* Builds shape sh's geometry from its node: a world-space mesh, or an instance of a shared
- * prototype when the node may be one and its file is used by two or more such shapes. */
+ * prototype when the node may be one and its mesh (file, or the unit sphere) is used by two or
+ * more such shapes. */
 static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_error *err)
 {
     const char *t = node->type;
@@ -542,38 +637,14 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     int flip;
     GET_OR_FAIL(op_node_transform(node, "toWorld", &xf, err));
     GET_OR_FAIL(op_node_bool(node, "flipNormals", 0, &flip, err));
-    op_status st;
-    if (strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0) {
-        int face, fliptex;
-        char path[4096], key[4200];
-        GET_OR_FAIL(file_mesh(b, node, path, sizeof path, &face, &fliptex, key, sizeof key, err));
-        if (op_node_has(node, "maxSmoothAngle")) {
-            double a;
-            GET_OR_FAIL(op_node_float(node, "maxSmoothAngle", 0.0, &a, err));
-            op_log(OP_LOG_WARN, "%s:%d: <shape>: maxSmoothAngle is not supported; smooth normals "
-                   "are used", node->file, node->line);
-        }
-        int k = 0;
-        while (k < b->nfiles && strcmp(b->file_keys[k], key) != 0)
-            k++;
-        if (may_instance(node) && k < b->nfiles && b->file_uses[k] >= 2) {
-            int p = 0;
-            st = file_prototype(b, k, path, t, face, fliptex, &p, err);
-            if (st == OP_OK)
-                st = op_placement_make(&xf, flip, &sh->place, err);
-            if (st)
-                return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file,
-                                       node->line, t);
-            *m = b->s->protos[p]; /* borrowed */
-            sh->instanced = 1;
-            op_v3 lo, hi;
-            op_placement_bounds(&sh->place, m, &lo, &hi);
-            if ((st = check_position(b, node, "a corner of its bounds", lo, err)) == OP_OK)
-                st = check_position(b, node, "a corner of its bounds", hi, err);
-            return st;
-        }
-        st = op_mesh_cache_get(b->meshes, path, t, face, fliptex, m, err);
-    } else if (strcmp(t, "sphere") == 0) {
+    int file = strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0;
+    if (file && op_node_has(node, "maxSmoothAngle")) {
+        double a;
+        GET_OR_FAIL(op_node_float(node, "maxSmoothAngle", 0.0, &a, err));
+        op_log(OP_LOG_WARN, "%s:%d: <shape>: maxSmoothAngle is not supported; smooth normals "
+               "are used", node->file, node->line);
+    }
+    if (strcmp(t, "sphere") == 0) {
         double c[3], zero[3] = {0, 0, 0}, r;
         GET_OR_FAIL(op_node_vec3(node, "center", zero, c, err));
         GET_OR_FAIL(op_node_float(node, "radius", 1.0, &r, err));
@@ -584,7 +655,35 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
         op_matrix4 tr = op_matrix4_translate(c[0], c[1], c[2]), sc = op_matrix4_scale(r, r, r);
         op_matrix4 local = op_matrix4_mul(&tr, &sc);
         xf = op_matrix4_mul(&xf, &local);
-        st = op_shape_sphere(m, 128, err);
+    }
+    op_status st;
+    int face = 0, fliptex = 0;
+    char path[4096] = "", key[4200] = "";
+    if (file || may_instance(node))
+        GET_OR_FAIL(shared_mesh(b, node, path, sizeof path, &face, &fliptex, key, sizeof key, err));
+    const op_strmap_entry *e = op_strmap_find(&b->file_keys, key, strlen(key));
+    int k = e ? e->index : -1;
+    if (may_instance(node) && k >= 0 && b->file_uses[k] >= 2) {
+        int p = 0;
+        st = file_prototype(b, k, path, t, face, fliptex, &p, err);
+        if (st == OP_OK)
+            st = op_placement_make(&xf, flip, &sh->place, err);
+        if (st)
+            return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file,
+                                   node->line, t);
+        *m = b->s->protos[p]; /* borrowed */
+        sh->instanced = 1;
+        sh->proto = p;
+        op_v3 lo, hi;
+        op_placement_bounds(&sh->place, m, &lo, &hi);
+        if ((st = check_position(b, node, "a corner of its bounds", lo, err)) == OP_OK)
+            st = check_position(b, node, "a corner of its bounds", hi, err);
+        return st;
+    }
+    if (file) {
+        st = op_mesh_cache_get(b->meshes, path, t, face, fliptex, m, err);
+    } else if (strcmp(t, "sphere") == 0) {
+        st = op_shape_sphere(m, SPHERE_SEGMENTS, err);
     } else if (strcmp(t, "rectangle") == 0) {
         st = op_shape_rectangle(m, err);
     } else if (strcmp(t, "cube") == 0) {
@@ -595,6 +694,8 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
                             "(obj, ply, sphere, rectangle, cube, disk)", node->file, node->line, t);
     }
+    if (st == OP_OK)
+        st = add_triangles(b, m->ntris, err);
     if (st == OP_OK)
         st = op_trimesh_finish(m, &xf, flip, err);
     if (st) {
@@ -686,7 +787,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
         if (bsdf)
             GET_OR_FAIL(add_boundary(b, bsdf, &s->sss[si], err));
     }
-    return OP_OK;
+    return add_images(b, node, NULL, err);
 }
 
 static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
@@ -849,11 +950,11 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         const op_shape_rec *sh = &s->shapes[i];
         shapes[i].mesh = &sh->mesh;
         shapes[i].place = NULL;
-        for (int k = 0; sh->instanced && k < s->nprotos; k++)
-            if (s->protos[k].pos == sh->mesh.pos) { /* its prototype: instances share its BVH */
-                shapes[i].mesh = &s->protos[k];
-                shapes[i].place = &sh->place;
-            }
+        if (sh->instanced) { /* its prototype: instances share its BVH */
+            shapes[i].mesh = &s->protos[sh->proto];
+            shapes[i].place = &sh->place;
+            shapes[i].proto = sh->proto;
+        }
     }
     op_status st = op_accel_build(shapes, s->nshapes, &s->accel, err);
     free(shapes);
@@ -881,12 +982,10 @@ op_status op_scene_build(op_node *root, const char *path, const op_scene_limits 
     free(tmp);
     op_status st = build_all(&b, root, err);
     s->material_paths = b.mat_paths; /* the pre-pass cache's key reads them */
-    for (int i = 0; i < b.nfiles; i++)
-        free(b.file_keys[i]);
-    free(b.file_keys);
+    op_strmap_free(&b.file_keys);
     free(b.file_uses);
     free(b.file_proto);
-    free(b.bsdf_nodes);
+    op_strmap_free(&b.bsdf_index);
     op_mesh_cache_free(b.meshes);
     if (st == OP_OK)
         op_desc_report_unused(root);

@@ -2,9 +2,9 @@
  * multi-lobe Gaussian fit of Wyman, Sloan and Shirley (JCGT 2013), accurate to about 1 % of
  * the tabulated functions, which is far below what a scene's colours need. */
 #include "scene_color.h"
+#include "scene_desc.h" /* op_scan_double */
 
 #include <ctype.h>
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -140,22 +140,12 @@ op_status op_color_from_samples(const double *lambda_nm, const double *value, in
     return OP_OK;
 }
 
-static int parse_double(const char *s, char **end, double *out)
-{
-    errno = 0;
-    double v = strtod(s, end);
-    if (*end == s || errno == ERANGE || !isfinite(v))
-        return 0;
-    *out = v;
-    return 1;
-}
-
 op_status op_color_parse_spectrum(const char *text, double rgb[3], op_error *err)
 {
     if (!strchr(text, ':')) {
         char *end;
         double v;
-        if (!parse_double(text, &end, &v))
+        if (!op_scan_double(text, &end, &v))
             return op_error_set(err, OP_ERR_INPUT, "bad spectrum value '%s'", text);
         while (isspace((unsigned char)*end))
             end++;
@@ -183,7 +173,7 @@ op_status op_color_parse_spectrum(const char *text, double rgb[3], op_error *err
             st = op_error_set(err, OP_ERR_INPUT, "spectrum has more than %d samples", MAX_SAMPLES);
             break;
         }
-        if (!parse_double(p, &end, &l[n]) || *end != ':' || !parse_double(end + 1, &end, &v[n]) ||
+        if (!op_scan_double(p, &end, &l[n]) || *end != ':' || !op_scan_double(end + 1, &end, &v[n]) ||
             !(*end == '\0' || *end == ',' || isspace((unsigned char)*end))) {
             st = op_error_set(err, OP_ERR_INPUT,
                               "bad spectrum '%s': expected 'wavelength:value' pairs", text);
@@ -226,7 +216,7 @@ op_status op_color_read_spectrum_file(const char *path, double rgb[3], op_error 
             st = op_error_set(err, OP_ERR_INPUT, "%s: more than %d samples", path, MAX_SAMPLES);
             break;
         }
-        if (!parse_double(p, &end, &l[n]) || !parse_double(end, &end, &v[n])) {
+        if (!op_scan_double(p, &end, &l[n]) || !op_scan_double(end, &end, &v[n])) {
             st = op_error_set(err, OP_ERR_INPUT, "%s:%d: expected 'wavelength value'", path, lineno);
             break;
         }

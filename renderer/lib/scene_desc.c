@@ -3,6 +3,7 @@
 #include "scene_desc_internal.h"
 
 #include <limits.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -33,6 +34,17 @@ static char *dup_or_null(const char *s, int *fail)
     if (!d)
         *fail = 1;
     return d;
+}
+
+int op_scan_double(const char *s, char **end, double *out)
+{
+    /* strtod sets ERANGE for a result below DBL_MIN too, yet returns the denormal (or zero)
+     * nearest the text: only an infinite result (overflow, or "inf") is refused */
+    double v = strtod(s, end);
+    if (*end == s || !isfinite(v))
+        return 0;
+    *out = v;
+    return 1;
 }
 
 /* Grows *arr (of elem-sized items) so that index n fits; returns 0 when out of memory. */
@@ -488,4 +500,62 @@ int op_desc_report_unused(const op_node *root)
     int count = report_node(&t->root.n);
     clear_marks(t);
     return count;
+}
+
+static uint64_t hash_bytes(const char *s, size_t len)
+{
+    uint64_t h = 1469598103934665603ull; /* FNV-1a */
+    for (size_t i = 0; i < len; i++)
+        h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
+    return h;
+}
+
+op_strmap_entry *op_strmap_find(const op_strmap *m, const char *key, size_t len)
+{
+    if (!m->cap)
+        return NULL;
+    for (size_t i = hash_bytes(key, len) & (m->cap - 1);; i = (i + 1) & (m->cap - 1)) {
+        const char *k = m->slots[i].key;
+        if (!k)
+            return NULL;
+        if (strncmp(k, key, len) == 0 && k[len] == '\0')
+            return &m->slots[i];
+    }
+}
+
+op_strmap_entry *op_strmap_add(op_strmap *m, const char *key)
+{
+    if ((m->n + 1) * 2 > m->cap) {
+        size_t nc = m->cap ? m->cap * 2 : 64;
+        op_strmap_entry *grown = calloc(nc, sizeof *grown);
+        if (!grown)
+            return NULL;
+        for (size_t i = 0; i < m->cap; i++)
+            if (m->slots[i].key) {
+                size_t j = hash_bytes(m->slots[i].key, strlen(m->slots[i].key)) & (nc - 1);
+                while (grown[j].key)
+                    j = (j + 1) & (nc - 1);
+                grown[j] = m->slots[i];
+            }
+        free(m->slots);
+        m->slots = grown;
+        m->cap = nc;
+    }
+    size_t j = hash_bytes(key, strlen(key)) & (m->cap - 1);
+    while (m->slots[j].key)
+        j = (j + 1) & (m->cap - 1);
+    if (!(m->slots[j].key = strdup(key)))
+        return NULL;
+    m->n++;
+    return &m->slots[j];
+}
+
+void op_strmap_free(op_strmap *m)
+{
+    for (size_t i = 0; i < m->cap; i++) {
+        free(m->slots[i].key);
+        free(m->slots[i].value);
+    }
+    free(m->slots);
+    memset(m, 0, sizeof *m);
 }

@@ -14,7 +14,8 @@
 #define OP_SCENE_DESC_H
 
 #include "opaline.h"
-#include "transform.h" /* op_matrix4 */
+#include "opaline_render.h" /* op_scene_limits */
+#include "transform.h"      /* op_matrix4 */
 
 typedef enum op_prop_kind {
     OP_PROP_FLOAT,
@@ -67,9 +68,14 @@ typedef struct op_define {
 } op_define;
 
 /* Parses path (following <include>, resolving <ref>, substituting $name from defines and
- * <default>). Errors are OP_ERR_INPUT with "file:line: element: what is wrong". */
+ * <default>) within limits' include-bytes, include-count and attribute-bytes (NULL: the
+ * defaults). Errors are OP_ERR_INPUT with "file:line: element: what is wrong". */
 op_status op_desc_parse(const char *path, const op_define *defines, int ndefines,
-                        op_node **root, op_error *err);
+                        const op_scene_limits *limits, op_node **root, op_error *err);
+
+/* strtod for numbers in scene text: 1 and *out when s starts with a finite number (a denormal
+ * or one that underflows to zero is accepted as strtod rounds it), *end after it; 0 otherwise. */
+int op_scan_double(const char *s, char **end, double *out);
 void op_desc_free(op_node *root);
 
 /* Property getters. Each marks the property used and returns def when it is absent. A present
@@ -134,5 +140,29 @@ int op_desc_report_unused(const op_node *root);
  * when the new size would overflow an int count or a size_t byte size. The scene reader's and builder's growing
  * arrays all go through it. */
 int op_array_grow(void **arr, int *cap, int n, size_t elem);
+
+/* A table of strings (open addressing, never more than half full): the scene reader's
+ * parameters and ids and the builder's shared meshes, each looked up in constant time. An
+ * entry's key and value are owned by the table; the other fields are the caller's. */
+typedef struct op_strmap_entry {
+    char *key;
+    char *value;      /* a parameter's value, or NULL */
+    void *ptr;        /* an id's object */
+    const char *file; /* where the key was defined */
+    int line;
+    int index;        /* the caller's number for the key */
+} op_strmap_entry;
+typedef struct op_strmap {
+    op_strmap_entry *slots;
+    size_t n, cap;
+} op_strmap;
+
+/* The entry whose key is the len bytes at key, or NULL. */
+op_strmap_entry *op_strmap_find(const op_strmap *m, const char *key, size_t len);
+/* A new entry for key (not yet in m: callers check with op_strmap_find), its key copied and
+ * the rest zero; NULL when out of memory. Entries move when the table grows. */
+op_strmap_entry *op_strmap_add(op_strmap *m, const char *key);
+/* Frees the keys, the values and the table (m may be all zero). */
+void op_strmap_free(op_strmap *m);
 
 #endif

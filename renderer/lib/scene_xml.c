@@ -5,7 +5,10 @@
  * order: objects become nodes, values become typed properties, <include> splices another
  * file's <scene> children in place, and <ref>/<alias> are resolved once everything is read,
  * so a reference may point forwards. Parameters ($name) come from the -D defines first, then
- * from <default> elements. Every error names "file:line: <element ...>: what". */
+ * from <default> elements. The bytes read (include-bytes), the <include>s followed
+ * (include-count) and the attribute bytes after expansion (attribute-bytes) are counted as
+ * they come and refused past their limits before the work or memory. Every error names
+ * "file:line: <element ...>: what". */
 #include "scene_color.h"
 #include "scene_desc_internal.h"
 #include "transform.h"
@@ -19,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <libxml/parser.h>
 #include <libxml/tree.h>
@@ -26,17 +30,6 @@
 
 #define MAX_INCLUDE_DEPTH 32
 #define MAX_SCENE_BYTES ((size_t)1 << 30)
-
-typedef struct param {
-    char *name, *value;
-} param;
-
-typedef struct id_entry {
-    char *id;
-    op_node *node;
-    const char *file;
-    int line;
-} id_entry;
 
 typedef struct pending {
     op_node *parent; /* ref: where the placeholder child is */
@@ -50,10 +43,9 @@ typedef struct pending {
 typedef struct xml_ctx {
     op_desc_tree *tree;
     op_error *err;
-    param *params;
-    int nparams, cap_params;
-    id_entry *ids; /* open addressing, power-of-two capacity */
-    size_t nids, cap_ids;
+    const op_scene_limits *lim;
+    op_strmap params, ids; /* parameters: key = name, value; ids: key = id, ptr = its node */
+    long long include_bytes, includes, attribute_bytes; /* counted against lim */
     pending *refs, *aliases;
     int nrefs, cap_refs, naliases, cap_aliases;
     char *stack[MAX_INCLUDE_DEPTH]; /* canonical paths of the files being read */
@@ -118,10 +110,8 @@ static op_status elem_error(xml_ctx *c, xmlNode *e, const char *fmt, ...)
 
 static const char *param_get(xml_ctx *c, const char *name, size_t len)
 {
-    for (int i = 0; i < c->nparams; i++)
-        if (strlen(c->params[i].name) == len && strncmp(c->params[i].name, name, len) == 0)
-            return c->params[i].value;
-    return NULL;
+    op_strmap_entry *p = op_strmap_find(&c->params, name, len);
+    return p ? p->value : NULL;
 }
 
 /* Adds name=value unless name is already set (defines win over defaults, earlier over later). */
@@ -129,17 +119,13 @@ static op_status param_add(xml_ctx *c, const char *name, const char *value)
 {
     if (param_get(c, name, strlen(name)))
         return OP_OK;
-    if (!op_array_grow((void **)&c->params, &c->cap_params, c->nparams, sizeof *c->params))
-        return nomem(c);
-    param *p = &c->params[c->nparams];
-    p->name = strdup(name);
-    p->value = strdup(value);
-    if (!p->name || !p->value) {
-        free(p->name);
-        free(p->value);
+    char *v = strdup(value);
+    op_strmap_entry *p = v ? op_strmap_add(&c->params, name) : NULL;
+    if (!p) {
+        free(v);
         return nomem(c);
     }
-    c->nparams++;
+    p->value = v;
     return OP_OK;
 }
 
@@ -149,10 +135,11 @@ static int ident_char(int ch, int first)
 }
 
 /* Replaces every $name in value by the parameter's value (an undefined one is an error) and
- * every $$ by one $. */
+ * every $$ by one $, counting the result against attribute-bytes before it is grown. */
 static op_status substitute(xml_ctx *c, xmlNode *e, const char *attr, const char *value, char **out)
 {
     size_t cap = strlen(value) + 1, n = 0;
+    long long room = c->lim->attribute_bytes - c->attribute_bytes;
     char *buf = malloc(cap);
     if (!buf)
         return nomem(c);
@@ -178,6 +165,13 @@ static op_status substitute(xml_ctx *c, xmlNode *e, const char *attr, const char
         } else {
             p++;
         }
+        if ((long long)(n + len) > room) {
+            free(buf);
+            return elem_error(c, e, "attribute %s: the attribute values after $parameter "
+                              "expansion add up to more than the limit of %lld bytes "
+                              "(attribute-bytes; raise it with --limit attribute-bytes=VALUE)",
+                              attr, c->lim->attribute_bytes);
+        }
         if (n + len + 1 > cap) {
             while (n + len + 1 > cap)
                 cap *= 2;
@@ -192,6 +186,7 @@ static op_status substitute(xml_ctx *c, xmlNode *e, const char *attr, const char
         n += len;
     }
     buf[n] = '\0';
+    c->attribute_bytes += (long long)n;
     *out = buf;
     return OP_OK;
 }
@@ -239,9 +234,8 @@ static int parse_double(const char *s, double *out)
     char *end;
     while (isspace((unsigned char)*s))
         s++;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (end == s || errno == ERANGE || !isfinite(v))
+    double v;
+    if (!op_scan_double(s, &end, &v))
         return 0;
     while (isspace((unsigned char)*end))
         end++;
@@ -265,11 +259,9 @@ static int parse_list(const char *s, double *out, int max)
         if (n == max)
             return -1;
         char *end;
-        errno = 0;
-        double v = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v))
+        if (!op_scan_double(p, &end, &out[n]))
             return -1;
-        out[n++] = v;
+        n++;
         p = end;
         while (isspace((unsigned char)*p))
             p++;
@@ -347,54 +339,20 @@ static op_status attr_xyz(xml_ctx *c, xmlNode *e, double def, double out[3], int
 
 /* ---------------------------------------------------------------- ids */
 
-static uint64_t hash_str(const char *s)
+static op_strmap_entry *id_find(xml_ctx *c, const char *id)
 {
-    uint64_t h = 1469598103934665603ull;
-    for (; *s; s++)
-        h = (h ^ (unsigned char)*s) * 1099511628211ull;
-    return h;
-}
-
-static id_entry *id_find(xml_ctx *c, const char *id)
-{
-    if (!c->cap_ids)
-        return NULL;
-    for (size_t i = hash_str(id) & (c->cap_ids - 1);; i = (i + 1) & (c->cap_ids - 1)) {
-        if (!c->ids[i].id)
-            return NULL;
-        if (strcmp(c->ids[i].id, id) == 0)
-            return &c->ids[i];
-    }
+    return op_strmap_find(&c->ids, id, strlen(id));
 }
 
 /* Registers id (not yet taken: callers check with id_find) for node defined at file:line. */
 static op_status id_insert(xml_ctx *c, const char *id, op_node *node, const char *file, int line)
 {
-    if ((c->nids + 1) * 2 > c->cap_ids) {
-        size_t nc = c->cap_ids ? c->cap_ids * 2 : 64;
-        id_entry *t = calloc(nc, sizeof *t);
-        if (!t)
-            return nomem(c);
-        for (size_t i = 0; i < c->cap_ids; i++)
-            if (c->ids[i].id) {
-                size_t j = hash_str(c->ids[i].id) & (nc - 1);
-                while (t[j].id)
-                    j = (j + 1) & (nc - 1);
-                t[j] = c->ids[i];
-            }
-        free(c->ids);
-        c->ids = t;
-        c->cap_ids = nc;
-    }
-    size_t j = hash_str(id) & (c->cap_ids - 1);
-    while (c->ids[j].id)
-        j = (j + 1) & (c->cap_ids - 1);
-    if (!(c->ids[j].id = strdup(id)))
+    op_strmap_entry *e = op_strmap_add(&c->ids, id);
+    if (!e)
         return nomem(c);
-    c->ids[j].node = node;
-    c->ids[j].file = file;
-    c->ids[j].line = line;
-    c->nids++;
+    e->ptr = node;
+    e->file = file;
+    e->line = line;
     return OP_OK;
 }
 
@@ -565,14 +523,15 @@ static op_status transform_op(xml_ctx *c, xmlNode *e, op_matrix4 *m)
         static const char *const ok[] = {"origin", "target", "up", NULL};
         double o[3], t[3], u[3];
         static const double zero[3] = {0, 0, 0};
+        int has_up;
         if ((st = check_attrs(c, e, ok)) != OP_OK ||
             (st = attr_vec3(c, e, "origin", NULL, o, NULL)) != OP_OK ||
             (st = attr_vec3(c, e, "target", NULL, t, NULL)) != OP_OK ||
-            (st = attr_vec3(c, e, "up", zero, u, NULL)) != OP_OK)
+            (st = attr_vec3(c, e, "up", zero, u, &has_up)) != OP_OK)
             return st;
-        if (!op_matrix4_lookat(o, t, u, m))
-            return elem_error(c, e, "degenerate look-at: target equals origin, or up is parallel "
-                                    "to the viewing direction");
+        if (!op_matrix4_lookat(o, t, has_up ? u : NULL, m))
+            return elem_error(c, e, "degenerate look-at: target equals origin, or up is zero or "
+                                    "parallel to the viewing direction");
     }
     return OP_OK;
 }
@@ -779,7 +738,7 @@ static op_status object_element(xml_ctx *c, xmlNode *e, op_node *parent)
         else if (id && !*id)
             st = elem_error(c, e, "empty id");
     }
-    id_entry *old = st == OP_OK && id ? id_find(c, id) : NULL;
+    op_strmap_entry *old = st == OP_OK && id ? id_find(c, id) : NULL;
     if (old)
         st = elem_error(c, e, "duplicate id '%s' (first defined at %s:%d)", id, old->file, old->line);
     op_node *n = NULL;
@@ -849,6 +808,12 @@ static op_status process_element(xml_ctx *c, xmlNode *e, op_node *parent)
         if ((st = check_attrs(c, e, ok)) == OP_OK && (st = check_empty(c, e)) == OP_OK &&
             (st = get_attr(c, e, "filename", 1, &fname)) == OP_OK) {
             op_node where = {.file = c->file};
+            if (++c->includes > c->lim->include_count) {
+                free(fname);
+                return elem_error(c, e, "more than %lld <include> elements are read (include-count, "
+                                  "nested ones counted each time; raise it with --limit "
+                                  "include-count=VALUE)", c->lim->include_count);
+            }
             char *path = op_node_resolve(&where, fname);
             st = path ? parse_file(c, path, e, parent) : nomem(c);
             free(path);
@@ -899,6 +864,7 @@ static op_status process_children(xml_ctx *c, xmlNode *xparent, op_node *parent)
 /* The first libxml2 error of a parse, captured instead of printed. */
 typedef struct xml_capture {
     int have;
+    int nomem; /* libxml2 could not allocate: out of memory, not bad input */
     int line;
     char message[512];
 } xml_capture;
@@ -911,6 +877,8 @@ static void on_xml_error(void *data, xmlErrorPtr e)
 {
     xmlParserCtxtPtr p = data;
     xml_capture *cap = p ? p->_private : NULL;
+    if (cap && e && e->code == XML_ERR_NO_MEMORY)
+        cap->nomem = 1;
     if (!cap || cap->have || !e || e->level < XML_ERR_ERROR)
         return;
     cap->have = 1;
@@ -922,14 +890,32 @@ static void on_xml_error(void *data, xmlErrorPtr e)
 }
 
 /* Reads a scene or included file whole (op_file_read: regular files only, MAX_SCENE_BYTES at
- * most); a failure to read an include names the <include> element. */
+ * most), its size checked first against what include-bytes leaves; a failure to read an
+ * include names the <include> element. */
 static op_status read_whole(xml_ctx *c, const char *path, xmlNode *from, char **buf, size_t *len)
 {
-    op_status st = op_file_read(path, MAX_SCENE_BYTES, buf, len, c->err);
+    int fd;
+    uint64_t size = 0;
+    op_status st = op_file_open(path, &fd, &size, c->err);
+    if (st == OP_OK) {
+        close(fd);
+        if (size > (uint64_t)(c->lim->include_bytes - c->include_bytes)) {
+            char what[200];
+            snprintf(what, sizeof what, "with its %llu bytes the scene file and its includes "
+                     "add up to more than the limit of %lld bytes (include-bytes; raise it with "
+                     "--limit include-bytes=VALUE)", (unsigned long long)size,
+                     c->lim->include_bytes);
+            return from ? elem_error(c, from, "%s", what)
+                        : op_error_set(c->err, OP_ERR_INPUT, "%s: %s", path, what);
+        }
+        st = op_file_read(path, MAX_SCENE_BYTES, buf, len, c->err);
+    }
     if (st != OP_OK && from && c->err)
         elem_error(c, from, "cannot read included file: %s", c->err->message);
     if (st != OP_OK && c->err)
         c->err->status = st;
+    if (st == OP_OK)
+        c->include_bytes += (long long)*len;
     return st;
 }
 
@@ -1016,7 +1002,9 @@ static op_status parse_file(xml_ctx *c, const char *path, xmlNode *from, op_node
     doc = xmlCtxtReadMemory(px, buf, (int)len, path, NULL,
                             XML_PARSE_NONET | XML_PARSE_BIG_LINES | XML_PARSE_NOWARNING);
     if (!doc || !px->wellFormed || cap.have) {
-        if (cap.have)
+        if (cap.nomem)
+            st = nomem(c);
+        else if (cap.have)
             st = op_error_set(c->err, OP_ERR_INPUT, "%s:%d: malformed XML: %s", path, cap.line,
                               cap.message);
         else
@@ -1071,26 +1059,26 @@ static op_status resolve(xml_ctx *c)
 {
     for (int i = 0; i < c->naliases; i++) {
         pending *a = &c->aliases[i];
-        id_entry *t = id_find(c, a->id);
+        op_strmap_entry *t = id_find(c, a->id);
         if (!t)
             return op_error_set(c->err, OP_ERR_INPUT, "%s:%d: <alias id=\"%s\" as=\"%s\">: unknown id '%s'",
                                 a->file, a->line, a->id, a->as, a->id);
-        id_entry *old = id_find(c, a->as);
+        op_strmap_entry *old = id_find(c, a->as);
         if (old)
             return op_error_set(c->err, OP_ERR_INPUT,
                                 "%s:%d: <alias id=\"%s\" as=\"%s\">: duplicate id '%s' (first defined at %s:%d)",
                                 a->file, a->line, a->id, a->as, a->as, old->file, old->line);
-        op_status st = id_insert(c, a->as, t->node, a->file, a->line);
+        op_status st = id_insert(c, a->as, t->ptr, a->file, a->line);
         if (st != OP_OK)
             return st;
     }
     for (int i = 0; i < c->nrefs; i++) {
         pending *r = &c->refs[i];
-        id_entry *t = id_find(c, r->id);
+        op_strmap_entry *t = id_find(c, r->id);
         if (!t)
             return op_error_set(c->err, OP_ERR_INPUT, "%s:%d: <ref id=\"%s\">: unknown id '%s'",
                                 r->file, r->line, r->id, r->id);
-        r->parent->children[r->index] = t->node;
+        r->parent->children[r->index] = t->ptr;
     }
     op_node *cyc = op_desc_tree_find_cycle(c->tree);
     if (cyc)
@@ -1099,14 +1087,17 @@ static op_status resolve(xml_ctx *c)
     return OP_OK;
 }
 
-op_status op_desc_parse(const char *path, const op_define *defines, int ndefines, op_node **root,
-                        op_error *err)
+op_status op_desc_parse(const char *path, const op_define *defines, int ndefines,
+                        const op_scene_limits *limits, op_node **root, op_error *err)
 {
     *root = NULL;
     xmlInitParser(); /* idempotent; see libxml2's threading notes */
+    op_scene_limits defaults;
+    op_scene_limits_init(&defaults);
     xml_ctx c;
     memset(&c, 0, sizeof c);
     c.err = err;
+    c.lim = limits ? limits : &defaults;
     c.file = path;
     c.tree = op_desc_tree_new();
     op_status st = c.tree ? OP_OK : nomem(&c);
@@ -1121,14 +1112,8 @@ op_status op_desc_parse(const char *path, const op_define *defines, int ndefines
     if (st == OP_OK)
         st = resolve(&c);
 
-    for (int i = 0; i < c.nparams; i++) {
-        free(c.params[i].name);
-        free(c.params[i].value);
-    }
-    free(c.params);
-    for (size_t i = 0; i < c.cap_ids; i++)
-        free(c.ids[i].id);
-    free(c.ids);
+    op_strmap_free(&c.params);
+    op_strmap_free(&c.ids);
     for (int i = 0; i < c.nrefs; i++)
         free(c.refs[i].id);
     free(c.refs);

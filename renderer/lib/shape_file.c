@@ -1,10 +1,12 @@
 /* shape_file.c - mesh files for shapes, each file loaded once per option set; every
  * op_mesh_cache_get hands out a copy for op_trimesh_finish to place (in world space, or in
  * object space as the prototype instanced shapes share; see op_mesh_cache in shape.h). */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "mesh.h"
+#include "scene_desc.h" /* op_strmap */
 #include "shape.h"
 
 typedef struct cache_entry {
@@ -16,6 +18,7 @@ typedef struct cache_entry {
 struct op_mesh_cache {
     cache_entry *e;
     int n, cap;
+    op_strmap keys; /* "face flip path" -> index into e */
 };
 
 op_mesh_cache *op_mesh_cache_new(void)
@@ -32,18 +35,29 @@ void op_mesh_cache_free(op_mesh_cache *c)
         op_mesh_free(&c->e[i].mesh);
     }
     free(c->e);
+    op_strmap_free(&c->keys);
     free(c);
 }
 
 static op_status load_entry(op_mesh_cache *c, const char *path, const char *kind, int face_normals,
                             int flip_tex, const op_mesh **out, op_error *err)
 {
-    for (int i = 0; i < c->n; i++)
-        if (strcmp(c->e[i].path, path) == 0 && c->e[i].face_normals == face_normals &&
-            c->e[i].flip_tex == flip_tex) {
-            *out = &c->e[i].mesh;
-            return OP_OK;
-        }
+    size_t n = strlen(path) + 8;
+    char *key = malloc(n);
+    if (!key)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    snprintf(key, n, "%d %d %s", face_normals != 0, flip_tex != 0, path);
+    const op_strmap_entry *found = op_strmap_find(&c->keys, key, strlen(key));
+    if (found) {
+        free(key);
+        *out = &c->e[found->index].mesh;
+        return OP_OK;
+    }
+    op_strmap_entry *k = op_strmap_add(&c->keys, key);
+    free(key);
+    if (!k)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    k->index = c->n; /* a failed load leaves the key: the scene is refused anyway */
     if (c->n == c->cap) {
         int cap = c->cap ? 2 * c->cap : 8;
         cache_entry *e = realloc(c->e, (size_t)cap * sizeof *e);

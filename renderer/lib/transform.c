@@ -103,9 +103,17 @@ int op_matrix4_lookat(const double origin[3], const double target[3], const doub
     if (!normalize3(dir))
         return 0;
     double u[3] = {0, 0, 0};
-    if (up)
-        memcpy(u, up, sizeof u);
-    if (!(dot3(u, u) > 0.0)) {
+    if (up) {
+        /* scaled by a power of two (exactly) so that a tiny or huge up neither underflows nor
+         * overflows below */
+        double big = fmax(fabs(up[0]), fmax(fabs(up[1]), fabs(up[2])));
+        if (!(big > 0.0) || !isfinite(big))
+            return 0;
+        int e;
+        frexp(big, &e);
+        for (int i = 0; i < 3; i++)
+            u[i] = ldexp(up[i], -e);
+    } else {
         /* Mitsuba's coordinateSystem(dir, up, tmp): tmp is perpendicular to dir, up = tmp x dir. */
         double tmp[3];
         if (fabs(dir[0]) > fabs(dir[1])) {
@@ -119,7 +127,8 @@ int op_matrix4_lookat(const double origin[3], const double target[3], const doub
     }
     double left[3], newup[3];
     cross3(u, dir, left);
-    if (!normalize3(left))
+    /* |u x dir| = |u| sin(angle between them) */
+    if (!(dot3(left, left) > 1e-18 * dot3(u, u)) || !normalize3(left))
         return 0;
     cross3(dir, left, newup);
     for (int i = 0; i < 3; i++) {

@@ -18,9 +18,10 @@ op_matrix4 op_matrix4_scale(double x, double y, double z);
  * the identity). */
 op_matrix4 op_matrix4_rotate(const double axis[3], double angle_deg);
 /* The camera-to-world matrix of Mitsuba's lookAt: columns left = normalize(up x dir),
- * up' = dir x left, dir = normalize(target - origin), origin. With up NULL (or zero) an up
- * perpendicular to dir is chosen as Mitsuba's coordinateSystem() does. Returns 0 (and leaves
- * *out the identity) when target == origin or up is parallel to the viewing direction. */
+ * up' = dir x left, dir = normalize(target - origin), origin. With up NULL an up perpendicular
+ * to dir is chosen as Mitsuba's coordinateSystem() does. Returns 0 (and leaves *out the
+ * identity) when target == origin, or up is zero or parallel to the viewing direction (within
+ * 1e-9 radians: rounding would otherwise pick the frame). */
 int op_matrix4_lookat(const double origin[3], const double target[3], const double up[3],
                       op_matrix4 *out);
 /* General inverse by Gauss-Jordan elimination with partial pivoting. Returns 0 (and leaves

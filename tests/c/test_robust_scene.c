@@ -10,6 +10,7 @@
 
 #include <ftw.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -61,6 +62,11 @@ static int teardown(void **state)
     "<sampler type=\"independent\"><integer name=\"sampleCount\" value=\"1\"/></sampler>"
 #define LOOK "<transform name=\"toWorld\"><lookat origin=\"0,0,-4\" target=\"0,0,0\"/></transform>"
 #define SPHERE "<shape type=\"sphere\"/>\n"
+/* A sphere textured with tex.png (a line break inside: one line). */
+#define TEX_SPHERE                                                                                 \
+    "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "                    \
+    "name=\"reflectance\">\n<string name=\"filename\" value=\"tex.png\"/></texture></bsdf>"       \
+    "</shape>\n"
 
 /* Loads xml (written to the test folder as name) within lim (NULL: the defaults). */
 static op_status load(const char *name, const char *xml, const op_scene_limits *lim,
@@ -228,10 +234,7 @@ static void image_pixels_limit(void **state)
 {
     (void)state;
     write_png(in_dir("tex.png"), 64, 32);
-    const char *tex = HEAD SENSOR LOOK "</sensor>\n"
-        "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "
-        "name=\"reflectance\">\n<string name=\"filename\" value=\"tex.png\"/></texture></bsdf>"
-        "</shape>\n</scene>\n";
+    const char *tex = HEAD SENSOR LOOK "</sensor>\n" TEX_SPHERE "</scene>\n";
     const char *env = HEAD SENSOR LOOK "</sensor>\n" SPHERE
         "<emitter type=\"envmap\"><string name=\"filename\" value=\"tex.png\"/></emitter>\n"
         "</scene>\n";
@@ -387,6 +390,265 @@ static void missing_preset_is_input(void **state)
     assert_int_equal(op_scene_load(in_dir("far.xml"), NULL, 0, &scene, NULL), OP_ERR_INPUT);
 }
 
+/* A growing text buffer for the large scenes below. */
+typedef struct text {
+    char *s;
+    size_t n, cap;
+} text;
+
+static void put(text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static void put(text *t, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int k = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    assert_true(k >= 0);
+    if (t->n + (size_t)k + 1 > t->cap) {
+        t->cap = (t->n + (size_t)k + 1) * 2;
+        t->s = realloc(t->s, t->cap);
+        assert_non_null(t->s);
+    }
+    va_start(ap, fmt);
+    vsnprintf(t->s + t->n, t->cap - t->n, fmt, ap);
+    va_end(ap);
+    t->n += (size_t)k;
+}
+
+/* Include fan-out: five small files, each including the next 30 times, would read 837,930
+ * includes (k = 30 never finished): refused at the include-count limit, naming it; the
+ * include-bytes limit counts every inclusion of a file; both load when raised. */
+static void include_limits(void **state)
+{
+    (void)state;
+    for (int level = 1; level <= 4; level++) {
+        text t = {0};
+        put(&t, "<scene version=\"0.6.0\">\n");
+        for (int i = 0; i < 30 && level < 4; i++)
+            put(&t, "<include filename=\"fan%d.xml\"/>\n", level + 1);
+        if (level == 4)
+            put(&t, "<bsdf type=\"diffuse\"/>\n");
+        put(&t, "</scene>\n");
+        char name[32];
+        snprintf(name, sizeof name, "fan%d.xml", level);
+        op_test_write_text(in_dir(name), t.s);
+        free(t.s);
+    }
+    text t = {0};
+    put(&t, HEAD SENSOR LOOK "</sensor>\n" SPHERE);
+    for (int i = 0; i < 30; i++)
+        put(&t, "<include filename=\"fan1.xml\"/>\n");
+    put(&t, "</scene>\n");
+    expect_refused("fan.xml", t.s, NULL, 0, "more than 100000 <include> elements are read "
+                   "(include-count");
+    /* include-bytes: 30 inclusions of a 30-byte leaf are 900 bytes besides the main file */
+    op_test_write_text(in_dir("leaf.xml"), "<scene version=\"0.6.0\"></scene>\n");
+    text u = {0};
+    put(&u, HEAD SENSOR LOOK "</sensor>\n" SPHERE);
+    for (int i = 0; i < 30; i++)
+        put(&u, "<include filename=\"leaf.xml\"/>\n");
+    put(&u, "</scene>\n");
+    op_scene_limits lim;
+    op_scene_limits_init(&lim);
+    op_error err = {0};
+    char set[64];
+    snprintf(set, sizeof set, "include-bytes=%zu", u.n + 29 * 32);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_refused("leaves.xml", u.s, &lim, 37, "<include>: with its 32 "
+                   "bytes the scene file and its includes add up to more than the limit");
+    expect_refused("leaves.xml", u.s, &lim, 0, "--limit include-bytes=VALUE");
+    snprintf(set, sizeof set, "include-bytes=%zu", u.n + 30 * 32);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_loads("leaves.xml", u.s, &lim);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "include-count=29", &err), err);
+    expect_refused("leaves.xml", u.s, &lim, 37, "more than 29 <include> elements");
+    free(u.s);
+    free(t.s);
+}
+
+/* A <default> "billion laughs": d1 is d0 ten times, d2 is d1 ten times, ... d9 would be 10 GB
+ * from a file of a few hundred bytes. Refused at the attribute-bytes limit (d8's 1 GB) before
+ * it is allocated; a flat variant (one 64 KiB value used 300 times) under a lower limit. */
+static void default_bomb(void **state)
+{
+    (void)state;
+    text t = {0};
+    put(&t, HEAD "<default name=\"d0\" value=\"0123456789\"/>\n");
+    for (int i = 1; i <= 9; i++)
+        put(&t, "<default name=\"d%d\" value=\"$d%d$d%d$d%d$d%d$d%d$d%d$d%d$d%d$d%d$d%d\"/>\n", i,
+            i - 1, i - 1, i - 1, i - 1, i - 1, i - 1, i - 1, i - 1, i - 1, i - 1);
+    put(&t, SENSOR LOOK "</sensor>\n<shape type=\"sphere\" id=\"$d9\"/>\n</scene>\n");
+    expect_refused("laughs_default.xml", t.s, NULL, 14, "<default name=\"d8\">: attribute value: "
+                   "the attribute values after $parameter expansion add up to more than the "
+                   "limit of 268435456 bytes (attribute-bytes; raise it with --limit "
+                   "attribute-bytes=VALUE)");
+    free(t.s);
+    text f = {0};
+    put(&f, HEAD "<default name=\"big\" value=\"");
+    for (int i = 0; i < 1 << 16; i++)
+        put(&f, "x");
+    put(&f, "\"/>\n" SENSOR LOOK "</sensor>\n");
+    for (int i = 0; i < 300; i++)
+        put(&f, "<bsdf type=\"diffuse\" id=\"b%d$big\"/>\n", i);
+    put(&f, "</scene>\n");
+    op_scene_limits lim;
+    op_scene_limits_init(&lim);
+    op_error err = {0};
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "attribute-bytes=10000000", &err), err);
+    expect_refused("flat.xml", f.s, &lim, 0, "attribute id: the attribute values after "
+                   "$parameter expansion add up to more than the limit of 10000000 bytes");
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "attribute-bytes=60000", &err), err);
+    expect_refused("flat.xml", f.s, &lim, 6, "<default name=\"big\">: attribute value");
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "attribute-bytes=30000000", &err), err);
+    expect_loads("flat.xml", f.s, &lim);
+    free(f.s);
+}
+
+/* 200,000 <default>s, each used once: parameters are looked up in a hash table (a linear list
+ * made this quadratic: 6 minutes; the test's ctest timeout would stop it). */
+static void many_defaults(void **state)
+{
+    (void)state;
+    enum { N = 200000 };
+    text t = {0};
+    put(&t, HEAD);
+    for (int i = 0; i < N; i++)
+        put(&t, "<default name=\"p%d\" value=\"%d\"/>\n", i, i);
+    put(&t, SENSOR LOOK "</sensor>\n<shape type=\"sphere\"><bsdf type=\"diffuse\" "
+        "id=\"x-$p0-$p%d\"/></shape>\n</scene>\n", N - 1);
+    expect_loads("defaults.xml", t.s, NULL);
+    free(t.s);
+}
+
+/* Spheres share one tessellated unit sphere, placed as instances: 100 spheres hold one mesh
+ * (2,500 of them took 5 GB and 44 s for --check, each tessellated and put in the BVH). */
+static void spheres_share_one_mesh(void **state)
+{
+    (void)state;
+    text t = {0};
+    put(&t, HEAD SENSOR LOOK "</sensor>\n");
+    for (int i = 0; i < 100; i++)
+        put(&t, "<shape type=\"sphere\"><point name=\"center\" x=\"%d\" y=\"0\" z=\"5\"/>"
+            "<float name=\"radius\" value=\"0.4\"/></shape>\n", i - 50);
+    put(&t, "</scene>\n");
+    op_test_write_text(in_dir("spheres.xml"), t.s);
+    free(t.s);
+    op_scene *scene = NULL;
+    op_error err = {0};
+    OP_ASSERT_OK(op_scene_load(in_dir("spheres.xml"), NULL, 0, &scene, &err), err);
+    op_scene_info info;
+    op_scene_get_info(scene, &info);
+    assert_int_equal(info.shapes, 100);
+    assert_int_equal(info.instances, 100);
+    /* one sphere's mesh (16,128 triangles, about 1 MB) and its BVH, not a hundred */
+    if (info.geometry_bytes > 8 << 20)
+        fail_msg("100 spheres hold %lld bytes of geometry", info.geometry_bytes);
+    op_scene_free(scene);
+}
+
+/* The triangles limit counts what the scene stores: a mesh shared by instances once. */
+static void triangles_limit(void **state)
+{
+    (void)state;
+    const char *two = HEAD SENSOR LOOK "</sensor>\n" SPHERE
+        "<shape type=\"sphere\"><point name=\"center\" x=\"3\" y=\"0\" z=\"0\"/></shape>\n"
+        "</scene>\n";
+    const char *lit = HEAD SENSOR LOOK "</sensor>\n" SPHERE
+        "<shape type=\"sphere\"><emitter type=\"area\"/></shape>\n</scene>\n";
+    op_scene_limits lim;
+    op_scene_limits_init(&lim);
+    op_error err = {0};
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "triangles=16127", &err), err);
+    expect_refused("two.xml", two, &lim, 7, "<shape type=\"sphere\">: with its 16128 triangles "
+                   "the scene holds more than the limit of 16127 triangles (triangles; raise it "
+                   "with --limit triangles=VALUE)");
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "triangles=16128", &err), err);
+    expect_loads("two.xml", two, &lim);
+    /* an emitting sphere is not an instance: its own world-space triangles count */
+    expect_refused("lit.xml", lit, &lim, 8, "the limit of 16128 triangles");
+    OP_ASSERT_OK(op_scene_limits_set(&lim, "triangles=32256", &err), err);
+    expect_loads("lit.xml", lit, &lim);
+    assert_int_equal(op_scene_limits_set(&lim, "triangles=3e9", &err), OP_ERR_INPUT);
+}
+
+/* The load-memory estimate: 144 bytes per stored triangle, an image's floats. */
+static void load_memory_limit(void **state)
+{
+    (void)state;
+    write_png(in_dir("tex.png"), 64, 32);
+    const char *xml = HEAD SENSOR LOOK "</sensor>\n" TEX_SPHERE "</scene>\n";
+    op_scene_limits lim;
+    op_scene_limits_init(&lim);
+    op_error err = {0};
+    char set[64];
+    snprintf(set, sizeof set, "load-memory=%d", 16128 * 144 - 1);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_refused("lm.xml", xml, &lim, 7, "<shape type=\"sphere\">: with its triangles (2322432 "
+                   "bytes) the scene is estimated to take 2322432 bytes to load, more than the "
+                   "limit of 2322431 bytes (load-memory; raise it with --limit "
+                   "load-memory=VALUE)");
+    snprintf(set, sizeof set, "load-memory=%d", 16128 * 144 + 64 * 32 * 3 * 4 - 1);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_refused("lm.xml", xml, &lim, 7, "<shape type=\"sphere\">: with its images (");
+    snprintf(set, sizeof set, "load-memory=%d", 16128 * 144 + 64 * 32 * 4 * 4);
+    OP_ASSERT_OK(op_scene_limits_set(&lim, set, &err), err);
+    expect_loads("lm.xml", xml, &lim);
+}
+
+/* A film larger than an image can hold (40000 x 40000 = 1.6e9 pixels) is refused while the
+ * scene loads, so --check and --estimate refuse it as the render does. */
+static void film_too_large(void **state)
+{
+    (void)state;
+    expect_refused("film.xml", HEAD "<sensor type=\"perspective\"><film type=\"hdrfilm\">"
+                   "<integer name=\"width\" value=\"40000\"/><integer name=\"height\" "
+                   "value=\"40000\"/></film>\n" LOOK "</sensor>\n" SPHERE "</scene>\n", NULL, 6,
+                   "<film>: size 40000x40000 = 1600000000 pixels is more than the 1073741824 "
+                   "pixels (2^30) an image can hold");
+    expect_loads("film2.xml", HEAD "<sensor type=\"perspective\"><film type=\"hdrfilm\">"
+                 "<integer name=\"width\" value=\"32768\"/><integer name=\"height\" "
+                 "value=\"32768\"/><integer name=\"cropWidth\" value=\"4\"/><integer "
+                 "name=\"cropHeight\" value=\"4\"/></film>\n" LOOK "</sensor>\n" SPHERE
+                 "</scene>\n", NULL);
+}
+
+/* Denormal numbers are numbers: strtod's ERANGE for them no longer refuses them. */
+static void denormal_numbers(void **state)
+{
+    (void)state;
+    expect_loads("denormal.xml", HEAD SENSOR LOOK "</sensor>\n"
+                 "<shape type=\"sphere\"><transform name=\"toWorld\"><translate x=\"1e-310\"/>"
+                 "</transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\" "
+                 "value=\"0.5, 2.5e-320, 0.5\"/></bsdf></shape>\n"
+                 "<shape type=\"rectangle\"><bsdf type=\"diffuse\"><spectrum name=\"reflectance\" "
+                 "value=\"4e-315\"/></bsdf></shape>\n</scene>\n", NULL);
+}
+
+/* A look-at whose up is zero, or parallel to the viewing direction (up to rounding), is
+ * refused; without up Mitsuba's default frame is used. */
+static void lookat_up(void **state)
+{
+    (void)state;
+    const char *fmt = HEAD SENSOR "<transform name=\"toWorld\">\n<lookat origin=\"0,0,0\" "
+                      "target=\"1,2,3\"%s/></transform></sensor>\n" SPHERE "</scene>\n";
+    char xml[2048];
+    snprintf(xml, sizeof xml, fmt, " up=\"0,0,0\"");
+    expect_refused("up0.xml", xml, NULL, 7, "degenerate look-at: target equals origin, or up is "
+                   "zero or parallel to the viewing direction");
+    snprintf(xml, sizeof xml, fmt, " up=\"2,4,6\"");
+    expect_refused("uppar.xml", xml, NULL, 7, "degenerate look-at");
+    snprintf(xml, sizeof xml, fmt, " up=\"-1e-3,-2e-3,-3e-3\"");
+    expect_refused("upanti.xml", xml, NULL, 7, "degenerate look-at");
+    /* 1e-13 radians off: the frame would come from the rounding of up x dir */
+    snprintf(xml, sizeof xml, fmt, " up=\"1,2,3.0000000000005\"");
+    expect_refused("upnear.xml", xml, NULL, 7, "degenerate look-at");
+    snprintf(xml, sizeof xml, fmt, "");
+    expect_loads("upnone.xml", xml, NULL);
+    snprintf(xml, sizeof xml, fmt, " up=\"0,1e-300,0\"");
+    expect_loads("upsmall.xml", xml, NULL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -398,6 +660,15 @@ int main(void)
         cmocka_unit_test(rejected_shapes_free_their_meshes),
         cmocka_unit_test(dollar_escape),
         cmocka_unit_test(missing_preset_is_input),
+        cmocka_unit_test(include_limits),
+        cmocka_unit_test(default_bomb),
+        cmocka_unit_test(many_defaults),
+        cmocka_unit_test(spheres_share_one_mesh),
+        cmocka_unit_test(triangles_limit),
+        cmocka_unit_test(load_memory_limit),
+        cmocka_unit_test(film_too_large),
+        cmocka_unit_test(denormal_numbers),
+        cmocka_unit_test(lookat_up),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

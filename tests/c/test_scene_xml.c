@@ -31,7 +31,7 @@ static op_status parse_text(const char *xml, const op_define *defs, int ndefs, o
 {
     snprintf(path, 1024, "%s", op_test_tmp_path("scene.xml"));
     write_text(path, xml);
-    return op_desc_parse(path, defs, ndefs, root, err);
+    return op_desc_parse(path, defs, ndefs, NULL, root, err);
 }
 
 /* Parsing must fail with OP_ERR_INPUT, naming the file, the line and the given words. */
@@ -378,7 +378,7 @@ static void includes_refs_and_spaces(void **state)
                "</scene>\n");
     op_error err = {0};
     op_node *root;
-    OP_ASSERT_OK(op_desc_parse(main_path, NULL, 0, &root, &err), err);
+    OP_ASSERT_OK(op_desc_parse(main_path, NULL, 0, NULL, &root, &err), err);
     /* Scene children: the included bsdf, two shapes, the texture. */
     assert_int_equal(root->nchildren, 4);
     op_node *bsdf = root->children[0];
@@ -407,18 +407,18 @@ static void includes_refs_and_spaces(void **state)
     snprintf(b, sizeof b, "%s/b.xml", dir);
     write_text(a, HEAD "  <include filename=\"b.xml\"/>\n</scene>\n");
     write_text(b, HEAD "\n  <include filename=\"a.xml\"/>\n</scene>\n");
-    assert_int_equal(op_desc_parse(a, NULL, 0, &root, &err), OP_ERR_INPUT);
+    assert_int_equal(op_desc_parse(a, NULL, 0, NULL, &root, &err), OP_ERR_INPUT);
     char where[1300];
     snprintf(where, sizeof where, "%s:4: <include>: include cycle", b);
     assert_string_equal(strstr(err.message, where) == err.message ? where : err.message, where);
     write_text(a, HEAD "  <include filename=\"missing file.xml\"/>\n</scene>\n");
-    assert_int_equal(op_desc_parse(a, NULL, 0, &root, &err), OP_ERR_INPUT);
+    assert_int_equal(op_desc_parse(a, NULL, 0, NULL, &root, &err), OP_ERR_INPUT);
     snprintf(where, sizeof where, "%s:3: <include>: cannot read included file", a);
     assert_ptr_equal(strstr(err.message, where), err.message);
     assert_non_null(strstr(err.message, "missing file.xml"));
     /* A missing scene. */
     snprintf(a, sizeof a, "%s/absent.xml", dir);
-    assert_int_equal(op_desc_parse(a, NULL, 0, &root, &err), OP_ERR_INPUT);
+    assert_int_equal(op_desc_parse(a, NULL, 0, NULL, &root, &err), OP_ERR_INPUT);
     assert_non_null(strstr(err.message, "absent.xml"));
     assert_null(root);
     unlink(inc);

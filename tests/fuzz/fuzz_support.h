@@ -12,6 +12,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
  * ends in suffix, and returns its path (valid until the next call). Aborts if it cannot. */
 const char *op_fuzz_file(const uint8_t *data, size_t size, const char *suffix);
 
+/* Writes data to the file name (a plain name) in this process's scratch folder, made on first
+ * use and removed with its files at exit, and returns its path (valid until the next call):
+ * for inputs made of several files that name each other. Aborts if it cannot. */
+const char *op_fuzz_folder_file(const char *name, const uint8_t *data, size_t size);
+
 /* Aborts (a crash the fuzzer reports) with msg when cond is false: for contracts that a
  * successful read promises, such as finite, non-negative Rd values. */
 void op_fuzz_require(int cond, const char *msg);
