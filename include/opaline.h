@@ -220,6 +220,11 @@ op_status op_interrupt_install(op_interrupt_fn fn, void *user, op_error *err);
 /* Opens a regular file for reading (blocking, close-on-exec); *size (if not NULL) is its size
  * in bytes when opened. */
 op_status op_file_open(const char *path, int *fd, uint64_t *size, op_error *err);
+/* Called with the path of every file op_file_open opens (as given, from the opening thread),
+ * while set: how opaline-render lists the files a scene reads (--list-inputs). Set it (or NULL)
+ * only while no other thread opens files. */
+typedef void (*op_file_open_hook)(void *user, const char *path);
+void op_file_set_open_hook(op_file_open_hook fn, void *user);
 /* op_file_open as a stdio stream, positioned at the start. */
 op_status op_file_open_stream(const char *path, FILE **f, uint64_t *size, op_error *err);
 /* Reads the whole file into a malloc'ed buffer (*data, with a NUL byte after the *size bytes
@@ -265,6 +270,13 @@ op_status op_image_write_png(const char *path, const op_image *img, float exposu
                              op_error *err);
 /* OpenEXR (via its C API), half floats when half_float != 0, else 32-bit floats. */
 op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err);
+/* op_image_write_exr with one more header attribute, the string attr_name = attr_value. */
+op_status op_image_write_exr_attr(const char *path, const op_image *img, int half_float,
+                                  const char *attr_name, const char *attr_value, op_error *err);
+/* The string attribute name of an OpenEXR file's first part into out (n bytes, truncated),
+ * "" when it has none; OP_ERR_FORMAT when path is not a readable OpenEXR file. */
+op_status op_image_exr_attr(const char *path, const char *name, char *out, size_t n,
+                            op_error *err);
 /* Portable float map, little-endian. */
 op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
 /* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */

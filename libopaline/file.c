@@ -19,6 +19,15 @@
 
 /* ------------------------------------------------------------ opening */
 
+static op_file_open_hook g_open_hook; /* set by op_file_set_open_hook before threads start */
+static void *g_open_hook_user;
+
+void op_file_set_open_hook(op_file_open_hook fn, void *user)
+{
+    g_open_hook = fn;
+    g_open_hook_user = user;
+}
+
 static op_status refuse_type(const char *path, mode_t mode, op_error *err)
 {
     const char *what = S_ISDIR(mode)    ? "a directory"
@@ -81,6 +90,8 @@ op_status op_file_open(const char *path, int *fd, uint64_t *size, op_error *err)
     *fd = d;
     if (size)
         *size = (uint64_t)sb.st_size;
+    if (g_open_hook)
+        g_open_hook(g_open_hook_user, path);
     return OP_OK;
 }
 

@@ -1,0 +1,30 @@
+/* inputs.h - the files a scene reads, as the renderer resolves them (opaline-render
+ * --list-inputs), and the content key over them (--estimate's key=, the tiles' opalineTile
+ * attribute that --merge-tiles checks; docs/cluster.md). */
+#ifndef OP_INPUTS_H
+#define OP_INPUTS_H
+
+#include <stdio.h>
+
+#include "opaline_render.h"
+
+typedef struct op_inputs {
+    char **paths; /* absolute (links resolved where possible), in the order first opened */
+    int n, cap;
+    int nomem;    /* a path could not be recorded */
+} op_inputs;
+
+/* Starts recording every file opened (op_file_set_open_hook) into in. Before loading. */
+void op_inputs_begin(op_inputs *in);
+/* Stops recording and frees the list. */
+void op_inputs_free(op_inputs *in);
+/* Prints the paths, one a line. OP_ERR_INPUT for a name holding a line break, OP_ERR_IO when
+ * f cannot be written. */
+op_status op_inputs_print(const op_inputs *in, FILE *f, op_error *err);
+/* Stops recording, then hashes (XXH3-64) what the image of scene depends on: the renderer's
+ * version, the bytes of every file recorded, the -D values, the samples per pixel (spp, else
+ * the scene's) and the whole film's size (not a --crop). */
+op_status op_inputs_key(op_inputs *in, const op_scene *scene, const op_scene_define *defines,
+                        int ndefines, int spp, uint64_t *key, op_error *err);
+
+#endif
