@@ -20,6 +20,7 @@ file, 130 interrupted (SIGINT, SIGTERM, SIGHUP).
 """
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -224,10 +225,13 @@ def check_output(path, w=None, h=None, tag=None):
 
 
 def key_record(o):
-    """What OUTPUT's key record holds for the output as it is now: the key it was made with,
-    its size and modification time (another file put there does not inherit the key)."""
-    sb = os.stat(o["path"])
-    return {"key": o["key"], "size": sb.st_size, "mtime_ns": sb.st_mtime_ns}
+    """What output o's key record holds for it as it is now: the key it was made with and a hash
+    of its content (another file put there does not inherit the key; a copy or touch keeps it)."""
+    h = hashlib.sha256()
+    with open(o["path"], "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return {"key": o["key"], "sha256": h.hexdigest()}
 
 
 def check_key(o):
