@@ -30,6 +30,7 @@ import signal
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 import zlib
 
@@ -414,21 +415,17 @@ def load_state(out):
 
 
 def write_file(path, text, mode=0o644):
-    """Written whole or not at all: a new file in the same folder (never through a link planted
-    at its name), renamed over path (os.replace replaces a link at path, never writes through
-    it, as the kernel's protected_symlinks rule wants in a sticky world-writable folder)."""
-    tmp = "%s.tmp-%d" % (path, os.getpid())
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW
-    try:
-        fd = os.open(tmp, flags, mode)
-    except FileExistsError:  # a leftover of a killed run of ours with this pid, or a plant
-        os.unlink(tmp)
-        fd = os.open(tmp, flags, mode)
+    """Written whole or not at all: a new file of a random name in the same folder (never a
+    link planted there), renamed over path: os.replace replaces a link at path and never writes
+    through it, as the kernel's protected_symlinks rule wants in a sticky world-writable folder."""
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp",
+                               dir=os.path.dirname(path) or ".")
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
+        os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException:
         try:

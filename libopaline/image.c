@@ -260,6 +260,22 @@ static const char *exr_msg(const exr_io *io, exr_result_t rv)
     return io->message[0] ? io->message : exr_get_default_error_message(rv);
 }
 
+/* Starts reading the OpenEXR file open as fd (size bytes) through io. */
+static exr_result_t exr_open_read(const char *path, int fd, int64_t size, exr_io *io,
+                                  exr_context_t *ctx)
+{
+    memset(io, 0, sizeof *io);
+    io->fd = fd;
+    io->size = size;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = exr_error_cb;
+    init.user_data = io;
+    init.read_fn = exr_read_cb;
+    init.size_fn = exr_size_cb;
+    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
+    return exr_start_read(ctx, path, &init);
+}
+
 op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err)
 {
     return op_image_write_exr_attr(path, img, half_float, NULL, NULL, err);
@@ -360,18 +376,9 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
                           op_image *img, op_error *err)
 {
     exr_io io;
-    memset(&io, 0, sizeof io);
-    io.fd = fd;
-    io.size = size;
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = exr_error_cb;
-    init.user_data = &io;
-    init.read_fn = exr_read_cb;
-    init.size_fn = exr_size_cb;
-    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
     exr_context_t ctx = NULL;
     op_status st = OP_OK;
-    exr_result_t rv = exr_start_read(&ctx, path, &init);
+    exr_result_t rv = exr_open_read(path, fd, size, &io, &ctx);
     if (rv != EXR_ERR_SUCCESS) {
         if (ctx)
             exr_finish(&ctx);
@@ -663,17 +670,8 @@ op_status op_image_exr_attr(const char *path, const char *name, char *out, size_
     if (st != OP_OK)
         return st;
     exr_io io;
-    memset(&io, 0, sizeof io);
-    io.fd = fd;
-    io.size = (int64_t)size;
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = exr_error_cb;
-    init.user_data = &io;
-    init.read_fn = exr_read_cb;
-    init.size_fn = exr_size_cb;
-    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
     exr_context_t ctx = NULL;
-    exr_result_t rv = exr_start_read(&ctx, path, &init);
+    exr_result_t rv = exr_open_read(path, fd, (int64_t)size, &io, &ctx);
     if (rv != EXR_ERR_SUCCESS) {
         st = op_error_set(err, OP_ERR_FORMAT, "%s: not a readable OpenEXR file: %s", path,
                           exr_msg(&io, rv));
