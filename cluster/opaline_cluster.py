@@ -69,14 +69,18 @@ def on_signal(sig, _frame):
         pass
 
 
+def child_env():
+    """The renderer's environment: OPALINE_PARENT_PID is this process (never one inherited)."""
+    return dict(os.environ, OPALINE_PARENT_PID=str(os.getpid()))
+
+
 def spawn(argv, started=lambda pid: None):
     """Starts argv in a process group of its own (a terminal's Ctrl-C reaches us only, and we
     pass it on), with OPALINE_PARENT_PID: the renderer stops when this process dies, even by
     SIGKILL (docs/cluster.md); started(its pid) is called once it runs. Returns its exit code
     (negative: killed by that signal)."""
-    env = dict(os.environ, OPALINE_PARENT_PID=str(os.getpid()))
     try:
-        p = subprocess.Popen(argv, env=env, start_new_session=True)
+        p = subprocess.Popen(argv, env=child_env(), start_new_session=True)
     except OSError as e:
         raise Failed("%s: cannot run: %s" % (argv[0], e.strerror))
     _running["child"] = p
@@ -295,7 +299,7 @@ def find_renderer(given):
 def run_renderer(renderer, args, what):
     """stdout of `renderer args`; Bad (exit 2) or Failed with its message when it fails."""
     try:
-        r = subprocess.run([renderer] + args, capture_output=True, text=True)
+        r = subprocess.run([renderer] + args, capture_output=True, text=True, env=child_env())
     except OSError as e:
         raise Failed("%s: cannot run: %s" % (renderer, e.strerror))
     if r.returncode != 0:
@@ -358,7 +362,7 @@ def tile_grid(w, h, n):
     """n rectangles (x, y, w, h) cutting the w x h film: the cols x rows = n grid whose tiles
     are closest to square, sizes differing by at most one pixel, row by row from the top."""
     best = None
-    for cols in range(1, n + 1):
+    for cols in range(1, min(n, w) + 1):
         if n % cols:
             continue
         rows = n // cols
@@ -735,7 +739,7 @@ def run_task(out, taskfile, index):
 
 def queue_states(st):
     """{(job id, array index): state} of the submissions' tasks still in the queue."""
-    ids = [j for s in st["submissions"] for j in s["jobs"].values() if j]
+    ids = [str(j) for s in st["submissions"] for j in s["jobs"].values() if j]
     if not ids:
         return {}
     try:
@@ -806,8 +810,8 @@ def cmd_status(a):
             tp = os.path.join(out, WORK, "times", t["name"] + ".json")
             try:
                 with open(tp) as f:
-                    secs.append((t["kind"], json.load(f)["seconds"]))
-            except (OSError, ValueError, KeyError):
+                    secs.append((t.get("kind"), float(json.load(f)["seconds"])))
+            except (OSError, ValueError, KeyError, TypeError):
                 pass
         for t in units:
             q = where.get(t["name"])
@@ -937,6 +941,10 @@ def main(argv):
         return 130
     except OSError as e:
         say("error: %s" % e)
+        return 1
+    except Exception as e:  # no input ends in a traceback: a damaged file no check foresaw
+        say("error: unexpected %s: %s (a damaged file in the output folder?)" % (
+            type(e).__name__, e))
         return 1
 
 
