@@ -412,7 +412,8 @@ def load_state(out):
             _is_task({"name": "", "argv": [], "outputs": fr.get("outputs")})
     for sub in st.get("submissions", []) if ok else []:
         ok = ok and isinstance(sub, dict) and isinstance(sub.get("jobs"), dict) and \
-            isinstance(sub.get("taskfiles"), dict)
+            isinstance(sub.get("taskfiles"), dict) and \
+            all(isinstance(v, str) for v in sub["taskfiles"].values())
     if not ok:
         raise Bad("%s: a damaged opaline-cluster state file (remove it and submit again)" % p)
     return st
@@ -916,7 +917,8 @@ def main(argv):
     r.add_argument("index", type=int)
     a = ap.parse_args(argv)
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, on_signal)
+        if signal.getsignal(sig) != signal.SIG_IGN:  # one ignored at start (nohup) stays so
+            signal.signal(sig, on_signal)
     try:
         if a.cmd == "submit":
             for opt, v, lo in (("--tiles", a.tiles, 1), ("--threads", a.threads, 1),

@@ -78,7 +78,8 @@ static void h_u64(XXH3_state_t *h, uint64_t v)
 }
 
 op_status op_inputs_key(op_inputs *in, const op_scene *scene, const op_scene_define *defines,
-                        int ndefines, int spp, uint64_t *key, op_error *err)
+                        int ndefines, const op_scene_limits *limits, int spp, uint64_t *key,
+                        op_error *err)
 {
     op_file_set_open_hook(NULL, NULL); /* the files hashed below are not the scene's reads */
     if (in->nomem)
@@ -105,6 +106,13 @@ op_status op_inputs_key(op_inputs *in, const op_scene *scene, const op_scene_def
         h_str(h, defines[i].name);
         h_str(h, defines[i].value);
     }
+    uint64_t coordinate;
+    memcpy(&coordinate, &limits->coordinate, sizeof coordinate);
+    h_u64(h, coordinate);
+    h_u64(h, (uint64_t)limits->image_pixels);
+    h_u64(h, (uint64_t)limits->kernel);
+    h_u64(h, (uint64_t)limits->sss_points);
+    h_u64(h, (uint64_t)limits->sss_max_points);
     op_scene_info info;
     op_scene_get_info(scene, &info);
     h_u64(h, (uint64_t)(spp > 0 ? spp : info.spp));

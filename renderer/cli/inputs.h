@@ -22,9 +22,11 @@ void op_inputs_free(op_inputs *in);
  * f cannot be written. */
 op_status op_inputs_print(const op_inputs *in, FILE *f, op_error *err);
 /* Stops recording, then hashes (XXH3-64) what the image of scene depends on: the renderer's
- * version, the bytes of every file recorded, the -D values, the samples per pixel (spp, else
- * the scene's) and the whole film's size (not a --crop). */
+ * version, the bytes of every file recorded, the -D values, the limits (sss-max-points sets
+ * the default maxPoints), the samples per pixel (spp, else the scene's) and the whole film's
+ * size (not a --crop). */
 op_status op_inputs_key(op_inputs *in, const op_scene *scene, const op_scene_define *defines,
-                        int ndefines, int spp, uint64_t *key, op_error *err);
+                        int ndefines, const op_scene_limits *limits, int spp, uint64_t *key,
+                        op_error *err);
 
 #endif

@@ -525,7 +525,8 @@ int main(int argc, char **argv)
     if (st == OP_OK && list_inputs)
         st = op_inputs_print(&inputs, stdout, &err);
     else if (st == OP_OK && (estimate || merge_list || g_raw_exr))
-        st = op_inputs_key(&inputs, scene, defines, ndefines, spp, &key, &err);
+        st = op_inputs_key(&inputs, scene, defines, ndefines, &limits, spp, &key,
+                           &err);
     op_inputs_free(&inputs);
     for (int k = 0; k < ndefines; k++)
         free(define_buf[k]);
