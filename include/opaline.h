@@ -171,16 +171,31 @@ int op_parallel_threads(int nthreads);
 /* An output file that appears whole or not at all (docs/limits.md, "Output files").
  * op_output_open writes to a temporary file "<dest>.tmp-opaline-<pid>-XXXXXX" beside the file
  * it replaces, symbolic links followed (a link stays a link; its target is replaced, or created
- * when missing); commit renames it over that file, which keeps its permission bits (and, when
- * run as root, its owner); a new file gets 0666 less the umask. A destination that is a
- * character device (/dev/null, /dev/stdout on a terminal) or a FIFO is never replaced: the data
- * waits in $TMPDIR (default /tmp) and commit copies it through. Directories, block devices and
- * sockets are refused (OP_ERR_IO). Opening also removes the temporary files for the same
- * destination that a process no longer running left (after SIGKILL), never one of a live
- * process. All functions are thread-safe for distinct objects. */
+ * when missing), except a link in a sticky world-writable folder that belongs to neither the
+ * caller nor the folder's owner (refused, OP_ERR_IO, as the kernel's protected_symlinks rule
+ * would). Commit renames it over that file, which keeps its permission bits, extended
+ * attributes (ACLs) and, when run as root, its owner; a new file gets 0666 less the umask. A
+ * destination that is a character device (/dev/null), a FIFO or a descriptor (/dev/stdout,
+ * /dev/fd/N), or a file whose attributes cannot be given to a new file, is never replaced: the
+ * data waits in $TMPDIR (default /tmp) or beside it and commit copies it through. Directories,
+ * block devices and sockets are refused (OP_ERR_IO). An output that is an input of this run
+ * (op_file_protect_inputs) or the same file as another output still open is refused
+ * (OP_ERR_INPUT). Opening also removes the temporary files for the same destination that no
+ * writer holds locked (left after SIGKILL), never one of a live writer, whatever pid namespace
+ * it runs in. All functions are thread-safe for distinct objects. */
 typedef struct op_output op_output;
 
 op_status op_output_open(const char *path, op_output **out, op_error *err);
+/* op_output_open for a file that is meant to be both an input and an output of this run (a
+ * cache brought up to date): it may replace an input. */
+op_status op_output_open_update(const char *path, op_output **out, op_error *err);
+/* Checks, before any work, that each of outputs[0..n) can be written (op_output_open accepts
+ * it: its folder exists and takes a new file, its type, its links), that no two of them are the
+ * same file (device and inode, links followed; for a file yet to be made, the same name in the
+ * same folder) and that none is one of inputs[0..m) (NULL entries skipped) or an input of this
+ * run. Leaves nothing behind. */
+op_status op_output_check(const char *const *outputs, int n, const char *const *inputs, int m,
+                          op_error *err);
 /* The stream to write to (seekable: it is always the temporary file). */
 FILE *op_output_stream(op_output *out);
 /* Writes n bytes; the first failure is remembered and reported by commit. */
@@ -193,14 +208,24 @@ op_status op_output_pending(op_output *out, const char **tmp_path, op_error *err
 op_status op_output_commit(op_output *out, op_error *err);
 /* Removes the temporary file and frees out. Accepts NULL. */
 void op_output_abort(op_output *out);
+/* Outputs put in place all together or not at all. After op_output_group_begin, an
+ * op_output_commit on the calling thread only completes the output (written, flushed, synced;
+ * every write error reported then) and keeps it pending; op_output_group_commit puts all the
+ * pending ones in place, those written through to a device or FIFO first, then the renames
+ * (at the first failure the rest are removed, so a device that refuses its data leaves every
+ * file as it was); op_output_group_abort removes them all. Either ends the group. */
+void op_output_group_begin(void);
+op_status op_output_group_commit(op_error *err);
+void op_output_group_abort(void);
 
 /* ---------------------------------------------------------------- interruption */
 
 /* Called, from a thread of its own, on the first SIGINT, SIGTERM or SIGHUP. */
 typedef void (*op_interrupt_fn)(void *user, int signo);
 
-/* Makes SIGINT, SIGTERM and SIGHUP interrupt the process cleanly, and ignores SIGPIPE (a closed
- * pipe is then a write error, EPIPE, that reaches the exit code like any other). With fn NULL, a
+/* Makes SIGINT, SIGTERM and SIGHUP interrupt the process cleanly, and ignores SIGPIPE and
+ * SIGXFSZ (a closed pipe, a file over `ulimit -f`, is then a write error, EPIPE or EFBIG, that
+ * reaches the exit code like any other). With fn NULL, a
  * signal removes the temporary file of every op_output not yet committed or aborted, logs
  * "interrupted by SIGxxx" and exits with 130 at once, from any point of the work (it waits only
  * for a commit's rename in progress). With fn, the first signal calls fn (cooperative
@@ -217,14 +242,17 @@ op_status op_interrupt_install(op_interrupt_fn fn, void *user, op_error *err);
  * the like), at once, without ever blocking on a FIFO; an unreadable one OP_ERR_INPUT
  * "PATH: permission denied". */
 
+/* From now on every file opened through these is remembered as an input of this run, and
+ * op_output_open refuses to replace it: programs call it first thing in main, so that no output
+ * of a run destroys one of its inputs (through links, hard links or another spelling). */
+void op_file_protect_inputs(void);
+/* Calls fn with the path (as first opened) of every input remembered so far, in the order
+ * first opened (how opaline-render lists the files a scene reads). fn must open no file. */
+void op_file_inputs_each(void (*fn)(void *user, const char *path), void *user);
+
 /* Opens a regular file for reading (blocking, close-on-exec); *size (if not NULL) is its size
  * in bytes when opened. */
 op_status op_file_open(const char *path, int *fd, uint64_t *size, op_error *err);
-/* Called with the path of every file op_file_open opens (as given, from the opening thread),
- * while set: how opaline-render lists the files a scene reads (--list-inputs). Set it (or NULL)
- * only while no other thread opens files. */
-typedef void (*op_file_open_hook)(void *user, const char *path);
-void op_file_set_open_hook(op_file_open_hook fn, void *user);
 /* op_file_open as a stdio stream, positioned at the start. */
 op_status op_file_open_stream(const char *path, FILE **f, uint64_t *size, op_error *err);
 /* Reads the whole file into a malloc'ed buffer (*data, with a NUL byte after the *size bytes

@@ -148,8 +148,13 @@ void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);
 /* The last rendered image (width * height * 4 floats), or NULL before the first render. */
 const op_image *op_renderer_image(const op_renderer *r);
 
-/* Writes img to path through op_image_write_* (or the RGBE writer), the format chosen by the
- * extension (.exr, .png, .pfm, .hdr, case-insensitive), applying the film's settings: hdrfilm's
+/* The image format path is written in: its extension (".exr", ".png", ".pfm", ".hdr",
+ * case-insensitive), or the film's own for a name without one (/dev/stdout, a FIFO); NULL for
+ * another extension. */
+const char *op_scene_image_format(const op_scene *scene, const char *path);
+
+/* Writes img to path through op_image_write_* (or the RGBE writer), the format chosen by
+ * op_scene_image_format, applying the film's settings: hdrfilm's
  * componentFormat (float16 or float32 EXR) and pixelFormat (rgb, rgba, luminance), ldrfilm's
  * tonemapping (gamma with exposure, or reinhard) and gamma for PNG. */
 op_status op_scene_write_image(const op_scene *scene, const op_image *img, const char *path,

@@ -6,9 +6,11 @@
  * with a compare-and-swap, filled, then published by one atomic store, so the handler (which
  * takes no lock and calls only async-signal-safe functions) never sees a half-written slot. */
 #include "opaline.h"
+#include "file_inputs.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -17,16 +19,73 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* ------------------------------------------------------------ this run's inputs */
+
+typedef struct run_input {
+    dev_t dev;
+    ino_t ino;
+    char *path; /* as first opened */
+} run_input;
+
+static pthread_mutex_t inputs_lock = PTHREAD_MUTEX_INITIALIZER;
+static int inputs_protected;
+static run_input *inputs;
+static size_t inputs_n, inputs_cap;
+
+void op_file_protect_inputs(void)
+{
+    pthread_mutex_lock(&inputs_lock);
+    inputs_protected = 1;
+    pthread_mutex_unlock(&inputs_lock);
+}
+
+/* Remembers the file sb describes as an input of this run; a failed allocation only loses the
+ * protection of this one file. */
+static void remember_input(const char *path, const struct stat *sb)
+{
+    pthread_mutex_lock(&inputs_lock);
+    int known = !inputs_protected;
+    for (size_t i = 0; i < inputs_n && !known; i++)
+        known = inputs[i].dev == sb->st_dev && inputs[i].ino == sb->st_ino;
+    if (!known && inputs_n == inputs_cap) {
+        size_t cap = inputs_cap ? 2 * inputs_cap : 16;
+        run_input *grown = realloc(inputs, cap * sizeof *grown);
+        if (grown) {
+            inputs = grown;
+            inputs_cap = cap;
+        }
+    }
+    if (!known && inputs_n < inputs_cap && (inputs[inputs_n].path = strdup(path))) {
+        inputs[inputs_n].dev = sb->st_dev;
+        inputs[inputs_n].ino = sb->st_ino;
+        inputs_n++;
+    }
+    pthread_mutex_unlock(&inputs_lock);
+}
+
+void op_file_inputs_each(void (*fn)(void *user, const char *path), void *user)
+{
+    pthread_mutex_lock(&inputs_lock);
+    for (size_t i = 0; i < inputs_n; i++)
+        fn(user, inputs[i].path);
+    pthread_mutex_unlock(&inputs_lock);
+}
+
+int op_file_input_path(dev_t dev, ino_t ino, char *path, size_t n)
+{
+    int found = 0;
+    pthread_mutex_lock(&inputs_lock);
+    for (size_t i = 0; i < inputs_n && !found; i++)
+        if (inputs[i].dev == dev && inputs[i].ino == ino) {
+            snprintf(path, n, "%s", inputs[i].path);
+            found = 1;
+        }
+    pthread_mutex_unlock(&inputs_lock);
+    return found;
+}
+
 /* ------------------------------------------------------------ opening */
 
-static op_file_open_hook g_open_hook; /* set by op_file_set_open_hook before threads start */
-static void *g_open_hook_user;
-
-void op_file_set_open_hook(op_file_open_hook fn, void *user)
-{
-    g_open_hook = fn;
-    g_open_hook_user = user;
-}
 
 static op_status refuse_type(const char *path, mode_t mode, op_error *err)
 {
@@ -87,11 +146,10 @@ op_status op_file_open(const char *path, int *fd, uint64_t *size, op_error *err)
         close(d);
         return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
     }
+    remember_input(path, &sb);
     *fd = d;
     if (size)
         *size = (uint64_t)sb.st_size;
-    if (g_open_hook)
-        g_open_hook(g_open_hook_user, path);
     return OP_OK;
 }
 

@@ -502,6 +502,15 @@ int op_cmd_factor(int argc, char **argv)
         usage(stderr);
         return fail(st, &err);
     }
+    /* Every output writable and none of them another or the dataset, before any work. */
+    const char *outputs[3] = {a.output}, *inputs[1] = {a.input};
+    int noutputs = 1;
+    if (a.report)
+        outputs[noutputs++] = a.report;
+    if (a.albedo_png)
+        outputs[noutputs++] = a.albedo_png;
+    if ((st = op_output_check(outputs, noutputs, inputs, 1, &err)) != OP_OK)
+        return fail(st, &err);
     double t0 = op_monotonic_seconds(), t = t0;
     op_factor_report rep = {0};
     dataset ds = {0};
@@ -607,6 +616,8 @@ int op_cmd_factor(int argc, char **argv)
                           strerror(errno ? errno : EIO));
         goto done;
     }
+    /* The png, the report and the material are put in place together, or none of them. */
+    op_output_group_begin();
     if (a.report && (st = op_report_write_json(&rep, a.report, &report, &err)) != OP_OK)
         goto done;
     if (a.albedo_png && (st = write_albedo_png(a.albedo_png, &ds, albedo, &err)) != OP_OK)
@@ -619,8 +630,11 @@ int op_cmd_factor(int argc, char **argv)
     }
     st = op_material_writer_commit(writer, &err);
     writer = NULL;
+    if (st == OP_OK)
+        st = op_output_group_commit(&err);
 
 done:
+    op_output_group_abort(); /* what a failure left pending; nothing after a commit */
     op_output_abort(report);
     op_material_writer_abort(writer);
     free(albedo);

@@ -212,9 +212,13 @@ int op_cmd_import(int argc, char **argv)
     op_error err = {0};
     op_sidecar sc;
     op_dataset d;
-    /* the input named first is checked first, before the (cheap) sidecar and the (long) read */
+    /* the output writable and neither input, then the input named first checked first, before
+     * the (cheap) sidecar and the (long) read */
+    const char *inputs[2] = {in, side};
+    op_status st = op_output_check(&out, 1, inputs, 2, &err);
     int fd;
-    op_status st = op_file_open(in, &fd, NULL, &err);
+    if (st == OP_OK)
+        st = op_file_open(in, &fd, NULL, &err);
     if (st == OP_OK) {
         close(fd);
         st = read_sidecar(side, &sc, &err);

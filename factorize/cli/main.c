@@ -38,6 +38,7 @@ static int check_stdout(int code)
 int main(int argc, char **argv)
 {
     op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
+    op_file_protect_inputs(); /* no output replaces a file this run reads */
     /* SIGINT, SIGTERM, SIGHUP: remove the temporary files, exit 130; SIGPIPE: an EPIPE error. */
     op_error err = {0};
     if (op_interrupt_install(NULL, NULL, &err) != OP_OK) {

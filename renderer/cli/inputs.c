@@ -34,15 +34,17 @@ static void record(void *user, const char *path)
     in->paths[in->n++] = full;
 }
 
-void op_inputs_begin(op_inputs *in)
+op_status op_inputs_collect(op_inputs *in, op_error *err)
 {
     memset(in, 0, sizeof *in);
-    op_file_set_open_hook(record, in);
+    op_file_inputs_each(record, in);
+    if (in->nomem)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory listing the scene's files");
+    return OP_OK;
 }
 
 void op_inputs_free(op_inputs *in)
 {
-    op_file_set_open_hook(NULL, NULL);
     for (int i = 0; i < in->n; i++)
         free(in->paths[i]);
     free(in->paths);
@@ -51,8 +53,6 @@ void op_inputs_free(op_inputs *in)
 
 op_status op_inputs_print(const op_inputs *in, FILE *f, op_error *err)
 {
-    if (in->nomem)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory listing the scene's files");
     for (int i = 0; i < in->n; i++)
         if (strchr(in->paths[i], '\n'))
             return op_error_set(err, OP_ERR_INPUT, "%s: a file name with a line break cannot be "
@@ -77,13 +77,10 @@ static void h_u64(XXH3_state_t *h, uint64_t v)
     XXH3_64bits_update(h, &v, sizeof v);
 }
 
-op_status op_inputs_key(op_inputs *in, const op_scene *scene, const op_scene_define *defines,
+op_status op_inputs_key(const op_inputs *in, const op_scene *scene, const op_scene_define *defines,
                         int ndefines, const op_scene_limits *limits, int spp, uint64_t *key,
                         op_error *err)
 {
-    op_file_set_open_hook(NULL, NULL); /* the files hashed below are not the scene's reads */
-    if (in->nomem)
-        return op_error_set(err, OP_ERR_NOMEM, "out of memory listing the scene's files");
     XXH3_state_t *h = XXH3_createState();
     if (!h)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");

@@ -14,18 +14,20 @@ typedef struct op_inputs {
     int nomem;    /* a path could not be recorded */
 } op_inputs;
 
-/* Starts recording every file opened (op_file_set_open_hook) into in. Before loading. */
-void op_inputs_begin(op_inputs *in);
-/* Stops recording and frees the list. */
+/* Fills in (zeroed first) with the inputs this run has opened so far (op_file_inputs_each; the
+ * record starts with op_file_protect_inputs, first thing in main): right after loading a
+ * scene, the files it read. */
+op_status op_inputs_collect(op_inputs *in, op_error *err);
+/* Frees the list. Accepts a zeroed in. */
 void op_inputs_free(op_inputs *in);
 /* Prints the paths, one a line. OP_ERR_INPUT for a name holding a line break, OP_ERR_IO when
  * f cannot be written. */
 op_status op_inputs_print(const op_inputs *in, FILE *f, op_error *err);
-/* Stops recording, then hashes (XXH3-64) what the image of scene depends on: the renderer's
+/* Hashes (XXH3-64) what the image of scene depends on: the renderer's
  * version, the bytes of every file recorded, the -D values, the limits (sss-max-points sets
  * the default maxPoints), the samples per pixel (spp, else the scene's) and the whole film's
  * size (not a --crop). */
-op_status op_inputs_key(op_inputs *in, const op_scene *scene, const op_scene_define *defines,
+op_status op_inputs_key(const op_inputs *in, const op_scene *scene, const op_scene_define *defines,
                         int ndefines, const op_scene_limits *limits, int spp, uint64_t *key,
                         op_error *err);
 

@@ -7,7 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #ifdef __linux__
 #include <sys/prctl.h>
@@ -42,7 +42,8 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: opaline-render [options] SCENE.xml\n"
-            "  -o FILE        output image (.exr .png .pfm .hdr by extension); repeatable\n"
+            "  -o FILE        output image (.exr .png .pfm .hdr by extension; the film's\n"
+            "                 format without one, as /dev/stdout); repeatable\n"
             "  -t N           worker threads (default: all cores)\n"
             "  -s N           samples per pixel (overrides the scene's sampler)\n"
             "  -D name=value  overrides <default name=...>; repeatable\n"
@@ -210,7 +211,12 @@ static void stop_with_parent(void)
     if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0)
         op_log(OP_LOG_WARN, "cannot ask to stop with the parent process: %s", strerror(errno));
     const char *want = getenv("OPALINE_PARENT_PID");
-    if (want && *want && atol(want) != (long)getppid())
+    char *end;
+    errno = 0;
+    long pid = want && *want ? strtol(want, &end, 10) : 0;
+    if (want && *want && (errno || *end || pid <= 0))
+        op_log(OP_LOG_WARN, "OPALINE_PARENT_PID=%s is not a process id: ignored", want);
+    else if (pid > 0 && pid != (long)getppid())
         kill(getpid(), SIGTERM);
 #endif
 }
@@ -235,30 +241,30 @@ static int parse_crop(const char *s, int v[4])
 static int g_raw_exr; /* --raw-exr: .exr outputs are the image's floats, 32-bit RGBA */
 static char g_tile_tag[160]; /* with --raw-exr: their "opalineTile" attribute (tile_merge.h) */
 
-static int is_exr(const char *path)
-{
-    size_t n = strlen(path);
-    return n > 4 && strcasecmp(path + n - 4, ".exr") == 0;
-}
-
-/* Writes img to each path. Returns code, or when code is 0 the exit code of a failed write. */
+/* Writes img to each path, all of them put in place together or none (op_output_group).
+ * Returns code, or when code is 0 the exit code of a failed write. */
 static int write_images(const op_scene *scene, const op_image *img, const char *const *paths,
                         int n, int code)
 {
-    for (int i = 0; i < n; i++) {
-        op_error werr = {0};
-        op_status ws = g_raw_exr && is_exr(paths[i])
-                           ? op_image_write_exr_attr(paths[i], img, 0, OP_TILE_ATTR, g_tile_tag,
-                                                     &werr)
-                           : op_scene_write_image(scene, img, paths[i], &werr);
-        if (ws) {
-            op_log(OP_LOG_ERROR, "%s", werr.message);
-            if (code == 0)
-                code = op_exit_code(ws);
-        } else {
-            op_log(OP_LOG_INFO, "wrote %s", paths[i]);
-        }
+    op_error werr = {0};
+    op_status ws = OP_OK;
+    op_output_group_begin();
+    for (int i = 0; i < n && !ws; i++) {
+        const char *format = op_scene_image_format(scene, paths[i]);
+        ws = g_raw_exr && format && !strcmp(format, ".exr")
+                 ? op_image_write_exr_attr(paths[i], img, 0, OP_TILE_ATTR, g_tile_tag, &werr)
+                 : op_scene_write_image(scene, img, paths[i], &werr);
     }
+    if (ws)
+        op_output_group_abort();
+    else
+        ws = op_output_group_commit(&werr);
+    if (ws) {
+        op_log(OP_LOG_ERROR, "%s%s", werr.message, n > 1 ? " (no output was replaced)" : "");
+        return code ? code : op_exit_code(ws);
+    }
+    for (int i = 0; i < n; i++)
+        op_log(OP_LOG_INFO, "wrote %s", paths[i]);
     return code;
 }
 
@@ -351,6 +357,7 @@ static void default_output(const char *scene_path, const op_scene_info *info, ch
 int main(int argc, char **argv)
 {
     op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
+    op_file_protect_inputs(); /* no output replaces a file this run reads */
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
     int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0}, stream_log = 0;
@@ -517,11 +524,28 @@ int main(int argc, char **argv)
     }
     if (stream_mode || getenv("OPALINE_PARENT_PID")) /* a stream's reader, or opaline-cluster */
         stop_with_parent();
+    /* Every output (and the cache) writable, none of them another or the scene, before loading;
+     * after it, none of them a file the scene reads. */
+    const char *written[MAX_OUTPUTS + 1], *read[2] = {scene_path, merge_list};
+    int nwritten = 0;
+    for (int i = 0; i < noutputs; i++)
+        written[nwritten++] = outputs[i];
+    struct stat cache_st; /* a cache that is not a regular file is the cache's to refuse (exit 2) */
+    if (sss_cache && (stat(sss_cache, &cache_st) != 0 || S_ISREG(cache_st.st_mode)))
+        written[nwritten++] = sss_cache;
+    if (op_output_check(written, nwritten, read, 2, &err) != OP_OK) {
+        for (int k = 0; k < ndefines; k++)
+            free(define_buf[k]);
+        op_log(OP_LOG_ERROR, "%s", err.message);
+        op_log_set_hook(NULL, NULL);
+        return op_exit_code(err.status);
+    }
     op_scene *scene = NULL;
-    op_inputs inputs; /* the files the scene reads: listed, or hashed into its key */
-    op_inputs_begin(&inputs);
     op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
+    op_inputs inputs = {0}; /* the files the scene read: listed, or hashed into its key */
     uint64_t key = 0;
+    if (st == OP_OK && (list_inputs || estimate || merge_list || g_raw_exr))
+        st = op_inputs_collect(&inputs, &err);
     if (st == OP_OK && list_inputs)
         st = op_inputs_print(&inputs, stdout, &err);
     else if (st == OP_OK && (estimate || merge_list || g_raw_exr))
@@ -557,6 +581,17 @@ int main(int argc, char **argv)
              info.full_width, info.full_height);
     snprintf(g_tile_tag, sizeof g_tile_tag, "%s crop=%d,%d,%d,%d", scene_tag, crop[0], crop[1],
              has_crop ? crop[2] : info.width, has_crop ? crop[3] : info.height);
+    char default_out[2048];
+    if (noutputs == 0 && !stream_mode && !sss_cache_only && !estimate) {
+        default_output(scene_path, &info, default_out, sizeof default_out);
+        outputs[noutputs++] = default_out;
+    }
+    if (op_output_check(outputs, noutputs, NULL, 0, &err) != OP_OK) {
+        op_log(OP_LOG_ERROR, "%s", err.message);
+        op_log_set_hook(NULL, NULL);
+        op_scene_free(scene);
+        return op_exit_code(err.status);
+    }
     if (check) {
         op_log(OP_LOG_INFO, "%s: valid (%dx%d, %d shapes, %d triangles, %d emitters, %d "
                "translucent)", scene_path, info.width, info.height, info.shapes, info.triangles,
@@ -581,11 +616,6 @@ int main(int argc, char **argv)
             return 1;
         }
         return 0;
-    }
-    char default_out[2048];
-    if (noutputs == 0 && !stream_mode && !sss_cache_only) {
-        default_output(scene_path, &info, default_out, sizeof default_out);
-        outputs[noutputs++] = default_out;
     }
     if (merge_list) { /* the tiles' floats, written exactly as a render's image */
         op_image merged;

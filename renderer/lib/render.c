@@ -347,17 +347,28 @@ static int has_ext(const char *path, const char *ext)
     return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
+const char *op_scene_image_format(const op_scene *s, const char *path)
+{
+    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr"};
+    for (size_t i = 0; i < sizeof formats / sizeof formats[0]; i++)
+        if (has_ext(path, formats[i]))
+            return formats[i];
+    const char *slash = strrchr(path, '/');
+    return strchr(slash ? slash + 1 : path, '.') ? NULL : s->film.extension;
+}
+
 op_status op_scene_write_image(const op_scene *s, const op_image *img, const char *path,
                                op_error *err)
 {
     const op_film *film = &s->film;
     if (!img || img->channels != 4)
         return op_error_set(err, OP_ERR_INPUT, "%s: no RGBA image to write", path);
-    int is_exr = has_ext(path, ".exr"), is_png = has_ext(path, ".png"), is_pfm = has_ext(path, ".pfm");
-    int is_hdr = has_ext(path, ".hdr");
-    if (!is_exr && !is_png && !is_pfm && !is_hdr)
+    const char *ext = op_scene_image_format(s, path);
+    if (!ext)
         return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm or "
                             ".hdr)", path);
+    int is_exr = !strcmp(ext, ".exr"), is_png = !strcmp(ext, ".png"), is_pfm = !strcmp(ext, ".pfm");
+    int is_hdr = !strcmp(ext, ".hdr");
     int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
     if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
         oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */

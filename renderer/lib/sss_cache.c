@@ -406,7 +406,7 @@ op_status op_sss_store_save(const char *path, const unsigned char key[OP_SSS_KEY
     op_put_le64(buf + 40, XXH3_64bits(buf + HEADER_BYTES, (size_t)body));
     op_put_le64(buf + 48, XXH3_64bits(buf, 48));
     op_output *out;
-    op_status st = op_output_open(path, &out, err);
+    op_status st = op_output_open_update(path, &out, err); /* it was read as an input */
     if (st == OP_OK) {
         op_output_write(out, buf, HEADER_BYTES + (size_t)body);
         st = op_output_commit(out, err);

@@ -92,3 +92,12 @@ sphere_scene() {
 </scene>
 XML
 }
+
+# hold_lock FILE: holds an flock on FILE, as a live opaline writer holds its temporary file,
+# until killed (one process, with no output, so that killing it ends everything it holds).
+hold_lock() {
+  exec python3 -c 'import fcntl, sys, time
+f = open(sys.argv[1])
+fcntl.flock(f, fcntl.LOCK_EX)
+time.sleep(600)' "$1" >/dev/null 2>&1
+}

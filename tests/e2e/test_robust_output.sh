@@ -6,12 +6,13 @@
 #  - a 0600 file keeps its mode (and, as root, its owner);
 #  - a write error (a /dev/full node, stdout on it, a pipe closed early) exits 1 and leaves the old
 #    material intact;
-#  - the temporary file of a SIGKILLed run is removed by the next run to the same output, one of
-#    a live process is kept;
+#  - the temporary file of a SIGKILLed run is removed by the next run to the same output, one a
+#    live process holds locked is kept;
 #  - SIGINT, SIGTERM and SIGHUP during dataset, import and factor (while computing, and while the
 #    temporary file exists) exit 130 with one line, no sanitizer report, no temporary file left
 #    and the previous output unchanged.
 set -uo pipefail
+. "$(dirname "$0")/e2e_support.sh" # hold_lock
 BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
 F=$BIN/opaline-factor
 [ -x "$F" ] || { echo "skip: $F not built"; exit 77; }
@@ -156,10 +157,15 @@ if wait_for_temp "$T/k.opm" $pid; then
   stale=$(compgen -G "$T/k.opm.tmp-*")
   live=$T/k.opm.tmp-opaline-$$-abcdef
   echo x >"$live"
+  hold_lock "$live" & # a live writer holds its temporary file locked
+  locker=$!
+  for _ in $(seq 200); do flock -n "$live" true || break; sleep 0.05; done
   "$F" dataset "${small[@]}" -o "$T/k.opm" 2>"$T/err" || fail "dataset after SIGKILL: exit $?"
   [ -e "$stale" ] && fail "the stale temporary file $stale was not removed"
   grep -q "removed .*no longer running" "$T/err" || fail "no message about the stale file"
   [ -e "$live" ] || fail "the temporary file of a live process was removed"
+  kill $locker
+  wait $locker 2>/dev/null
   rm -f "$live"
 else
   fail "dataset never made a temporary file"
