@@ -246,6 +246,9 @@ op_status op_interrupt_install(op_interrupt_fn fn, void *user, op_error *err);
  * op_output_open refuses to replace it: programs call it first thing in main, so that no output
  * of a run destroys one of its inputs (through links, hard links or another spelling). */
 void op_file_protect_inputs(void);
+/* Calls fn with the path (as first opened) of every input remembered so far, in the order
+ * first opened (how opaline-render lists the files a scene reads). fn must open no file. */
+void op_file_inputs_each(void (*fn)(void *user, const char *path), void *user);
 
 /* Opens a regular file for reading (blocking, close-on-exec); *size (if not NULL) is its size
  * in bytes when opened. */
@@ -303,6 +306,13 @@ op_status op_image_write_png(const char *path, const op_image *img, float exposu
                              op_error *err);
 /* OpenEXR (via its C API), half floats when half_float != 0, else 32-bit floats. */
 op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err);
+/* op_image_write_exr with one more header attribute, the string attr_name = attr_value. */
+op_status op_image_write_exr_attr(const char *path, const op_image *img, int half_float,
+                                  const char *attr_name, const char *attr_value, op_error *err);
+/* The string attribute name of an OpenEXR file's first part into out (n bytes, truncated),
+ * "" when it has none; OP_ERR_FORMAT when path is not a readable OpenEXR file. */
+op_status op_image_exr_attr(const char *path, const char *name, char *out, size_t n,
+                            op_error *err);
 /* Portable float map, little-endian. */
 op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
 /* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */

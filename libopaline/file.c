@@ -63,6 +63,14 @@ static void remember_input(const char *path, const struct stat *sb)
     pthread_mutex_unlock(&inputs_lock);
 }
 
+void op_file_inputs_each(void (*fn)(void *user, const char *path), void *user)
+{
+    pthread_mutex_lock(&inputs_lock);
+    for (size_t i = 0; i < inputs_n; i++)
+        fn(user, inputs[i].path);
+    pthread_mutex_unlock(&inputs_lock);
+}
+
 int op_file_input_path(dev_t dev, ino_t ino, char *path, size_t n)
 {
     int found = 0;
@@ -77,6 +85,7 @@ int op_file_input_path(dev_t dev, ino_t ino, char *path, size_t n)
 }
 
 /* ------------------------------------------------------------ opening */
+
 
 static op_status refuse_type(const char *path, mode_t mode, op_error *err)
 {

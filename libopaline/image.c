@@ -256,7 +256,29 @@ static const char *exr_msg(const exr_io *io, exr_result_t rv)
     return io->message[0] ? io->message : exr_get_default_error_message(rv);
 }
 
+/* Starts reading the OpenEXR file open as fd (size bytes) through io. */
+static exr_result_t exr_open_read(const char *path, int fd, int64_t size, exr_io *io,
+                                  exr_context_t *ctx)
+{
+    memset(io, 0, sizeof *io);
+    io->fd = fd;
+    io->size = size;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = exr_error_cb;
+    init.user_data = io;
+    init.read_fn = exr_read_cb;
+    init.size_fn = exr_size_cb;
+    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
+    return exr_start_read(ctx, path, &init);
+}
+
 op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err)
+{
+    return op_image_write_exr_attr(path, img, half_float, NULL, NULL, err);
+}
+
+op_status op_image_write_exr_attr(const char *path, const op_image *img, int half_float,
+                                  const char *attr_name, const char *attr_value, op_error *err)
 {
     op_status st = check_image(path, img, err);
     if (st != OP_OK)
@@ -284,6 +306,8 @@ op_status op_image_write_exr(const char *path, const op_image *img, int half_flo
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_initialize_required_attr_simple(ctx, part, img->width, img->height,
                                                  EXR_COMPRESSION_ZIP);
+    if (rv == EXR_ERR_SUCCESS && attr_name)
+        rv = exr_attr_set_string(ctx, part, attr_name, attr_value);
     for (int k = 0; k < c && rv == EXR_ERR_SUCCESS; k++)
         rv = exr_add_channel(ctx, part, names[c - 1][k], ptype,
                              k == 3 ? EXR_PERCEPTUALLY_LINEAR : EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
@@ -348,18 +372,9 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
                           op_image *img, op_error *err)
 {
     exr_io io;
-    memset(&io, 0, sizeof io);
-    io.fd = fd;
-    io.size = size;
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = exr_error_cb;
-    init.user_data = &io;
-    init.read_fn = exr_read_cb;
-    init.size_fn = exr_size_cb;
-    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
     exr_context_t ctx = NULL;
     op_status st = OP_OK;
-    exr_result_t rv = exr_start_read(&ctx, path, &init);
+    exr_result_t rv = exr_open_read(path, fd, size, &io, &ctx);
     if (rv != EXR_ERR_SUCCESS) {
         if (ctx)
             exr_finish(&ctx);
@@ -640,6 +655,33 @@ static op_status read_pfm(const char *path, int fd, int64_t size, uint64_t max_p
 }
 
 /* ---------------------------------------------------------------- reading */
+
+op_status op_image_exr_attr(const char *path, const char *name, char *out, size_t n,
+                            op_error *err)
+{
+    out[0] = '\0';
+    int fd;
+    uint64_t size;
+    op_status st = op_file_open(path, &fd, &size, err);
+    if (st != OP_OK)
+        return st;
+    exr_io io;
+    exr_context_t ctx = NULL;
+    exr_result_t rv = exr_open_read(path, fd, (int64_t)size, &io, &ctx);
+    if (rv != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: not a readable OpenEXR file: %s", path,
+                          exr_msg(&io, rv));
+    } else {
+        int32_t len = 0;
+        const char *v = NULL;
+        if (exr_attr_get_string(ctx, 0, name, &len, &v) == EXR_ERR_SUCCESS && v && len > 0)
+            snprintf(out, n, "%.*s", (int)len, v);
+    }
+    if (ctx)
+        exr_finish(&ctx);
+    close(fd);
+    return st;
+}
 
 /* Reads any supported file; 8-bit ones are sRGB-decoded when decode is set. */
 static op_status read_any(const char *path, int decode, uint64_t max_pixels, op_image *img,

@@ -14,6 +14,7 @@
 #endif
 
 #include "estimate.h"
+#include "inputs.h"
 #include "opaline_render.h"
 #include "tile_merge.h"
 
@@ -48,11 +49,16 @@ static void usage(FILE *f)
             "  -D name=value  overrides <default name=...>; repeatable\n"
             "  --check        parse and validate only\n"
             "  --estimate     parse, then print the render's size and memory estimate on\n"
-            "                 stdout (key=value; for schedulers, docs/cluster.md)\n"
+            "                 stdout (key=value; for schedulers, docs/cluster.md), and key=,\n"
+            "                 the hash of everything the image depends on\n"
+            "  --list-inputs  parse, then print every file the scene reads (absolute paths,\n"
+            "                 one a line: the scene, includes, meshes, images, materials)\n"
             "  --raw-exr      .exr outputs hold the rendered floats exactly (32-bit RGBA,\n"
-            "                 whatever the film says): tiles for --merge-tiles\n"
+            "                 whatever the film says) and the key, film and crop: tiles for\n"
+            "                 --merge-tiles\n"
             "  --merge-tiles LIST  render nothing: assemble the film from the tiles LIST\n"
-            "                 names (lines X Y W H FILE) and write the outputs as a render\n"
+            "                 names (lines X Y W H FILE), each of this scene's key, film and\n"
+            "                 listed crop, and write the outputs as a render\n"
             "  --limit NAME=VALUE  raise or lower a scene limit (coordinate, image-pixels,\n"
             "                 kernel, sss-points, sss-max-points, include-bytes,\n"
             "                 include-count, attribute-bytes, triangles, load-memory;\n"
@@ -234,6 +240,7 @@ static int parse_crop(const char *s, int v[4])
 /* ------------------------------------------------------------ output images */
 
 static int g_raw_exr; /* --raw-exr: .exr outputs are the image's floats, 32-bit RGBA */
+static char g_tile_tag[160]; /* with --raw-exr: their "opalineTile" attribute (tile_merge.h) */
 
 /* Writes img to each path, all of them put in place together or none (op_output_group).
  * Returns code, or when code is 0 the exit code of a failed write. */
@@ -246,7 +253,7 @@ static int write_images(const op_scene *scene, const op_image *img, const char *
     for (int i = 0; i < n && !ws; i++) {
         const char *format = op_scene_image_format(scene, paths[i]);
         ws = g_raw_exr && format && !strcmp(format, ".exr")
-                 ? op_image_write_exr(paths[i], img, 0, &werr)
+                 ? op_image_write_exr_attr(paths[i], img, 0, OP_TILE_ATTR, g_tile_tag, &werr)
                  : op_scene_write_image(scene, img, paths[i], &werr);
     }
     if (ws)
@@ -355,7 +362,7 @@ int main(int argc, char **argv)
     const char *outputs[MAX_OUTPUTS];
     int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
     int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0}, stream_log = 0;
-    int estimate = 0;
+    int estimate = 0, list_inputs = 0;
     const char *merge_list = NULL;
     op_scene_define defines[MAX_DEFINES];
     char *define_buf[MAX_DEFINES];
@@ -436,6 +443,8 @@ int main(int argc, char **argv)
             check = 1;
         } else if (strcmp(a, "--estimate") == 0) {
             estimate = 1;
+        } else if (strcmp(a, "--list-inputs") == 0) {
+            list_inputs = 1;
         } else if (strcmp(a, "--raw-exr") == 0) {
             g_raw_exr = 1;
         } else if (strcmp(a, "--merge-tiles") == 0) {
@@ -514,7 +523,7 @@ int main(int argc, char **argv)
         op_log_set_hook(NULL, NULL);
         return op_exit_code(err.status);
     }
-    if (stream_mode)
+    if (stream_mode || getenv("OPALINE_PARENT_PID")) /* a stream's reader, or opaline-cluster */
         stop_with_parent();
     /* Every output (and the cache) writable, none of them another or the scene, before loading;
      * after it, none of them a file the scene reads. */
@@ -534,6 +543,16 @@ int main(int argc, char **argv)
     }
     op_scene *scene = NULL;
     op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
+    op_inputs inputs = {0}; /* the files the scene read: listed, or hashed into its key */
+    uint64_t key = 0;
+    if (st == OP_OK && (list_inputs || estimate || merge_list || g_raw_exr))
+        st = op_inputs_collect(&inputs, &err);
+    if (st == OP_OK && list_inputs)
+        st = op_inputs_print(&inputs, stdout, &err);
+    else if (st == OP_OK && (estimate || merge_list || g_raw_exr))
+        st = op_inputs_key(&inputs, scene, defines, ndefines, &limits, spp, &key,
+                           &err);
+    op_inputs_free(&inputs);
     for (int k = 0; k < ndefines; k++)
         free(define_buf[k]);
     if (st == OP_OK && has_crop)
@@ -553,6 +572,16 @@ int main(int argc, char **argv)
     }
     op_scene_info info;
     op_scene_get_info(scene, &info);
+    if (list_inputs) {
+        op_log_set_hook(NULL, NULL);
+        op_scene_free(scene);
+        return 0;
+    }
+    char scene_tag[96]; /* what every tile of this render carries and --merge-tiles expects */
+    snprintf(scene_tag, sizeof scene_tag, "key=%016llx film=%dx%d", (unsigned long long)key,
+             info.full_width, info.full_height);
+    snprintf(g_tile_tag, sizeof g_tile_tag, "%s crop=%d,%d,%d,%d", scene_tag, crop[0], crop[1],
+             has_crop ? crop[2] : info.width, has_crop ? crop[3] : info.height);
     char default_out[2048];
     if (noutputs == 0 && !stream_mode && !sss_cache_only && !estimate) {
         default_output(scene_path, &info, default_out, sizeof default_out);
@@ -577,10 +606,10 @@ int main(int argc, char **argv)
         op_estimate_render(&info, &limits, &e);
         const double mb = 1024.0 * 1024.0;
         printf("width=%d height=%d full_width=%d full_height=%d spp=%d translucent=%d "
-               "memory_mb=%.0f loaded_mb=%.0f image_mb=%.0f sss_mb=%.0f\n", info.width,
-               info.height, info.full_width, info.full_height, info.spp, info.subsurface_shapes,
-               e.total_bytes / mb + 0.5, e.loaded_bytes / mb, e.image_bytes / mb,
-               e.sss_bytes / mb);
+               "memory_mb=%.0f loaded_mb=%.0f image_mb=%.0f sss_mb=%.0f key=%016llx\n",
+               info.width, info.height, info.full_width, info.full_height, info.spp,
+               info.subsurface_shapes, e.total_bytes / mb + 0.5, e.loaded_bytes / mb,
+               e.image_bytes / mb, e.sss_bytes / mb, (unsigned long long)key);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
         if (fflush(stdout) != 0 || ferror(stdout)) {
@@ -591,7 +620,7 @@ int main(int argc, char **argv)
     }
     if (merge_list) { /* the tiles' floats, written exactly as a render's image */
         op_image merged;
-        st = op_tiles_merge(merge_list, info.width, info.height, &merged, &err);
+        st = op_tiles_merge(merge_list, info.width, info.height, scene_tag, &merged, &err);
         int mcode = st ? op_exit_code(st) : write_images(scene, &merged, outputs, noutputs, 0);
         if (st)
             op_log(OP_LOG_ERROR, "%s", err.message);

@@ -1,6 +1,8 @@
 /* tile_merge.c - the tile list and its merge (see tile_merge.h). */
 #include "tile_merge.h"
 
+#include <errno.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +26,35 @@ static char *resolve(const char *list, const char *file)
         memcpy(p + dn, file, fn + 1);
     }
     return p;
+}
+
+/* The next whitespace-separated whole number of *s in 0..INT_MAX into *v, *s moved past it. */
+static int next_int(char **s, int *v)
+{
+    while (**s == ' ' || **s == '\t')
+        (*s)++;
+    if (**s < '0' || **s > '9')
+        return 0;
+    char *end;
+    errno = 0;
+    long long x = strtoll(*s, &end, 10);
+    if (errno || x > INT_MAX || (*end != ' ' && *end != '\t'))
+        return 0;
+    *v = (int)x;
+    *s = end;
+    return 1;
+}
+
+/* Whether a and b name one file: the same name, or the same existing file. */
+static int same_file(const char *a, const char *b)
+{
+    if (strcmp(a, b) == 0)
+        return 1;
+    char *ra = realpath(a, NULL), *rb = ra ? realpath(b, NULL) : NULL;
+    int same = ra && rb && strcmp(ra, rb) == 0;
+    free(ra);
+    free(rb);
+    return same;
 }
 
 static void free_tiles(tile *t, int n)
@@ -50,20 +81,27 @@ static op_status parse_list(const char *path, tile **out, int *n, op_error *err)
         char *hash = strchr(s, '#');
         if (hash)
             *hash = '\0';
-        int x, y, w, h, used = 0;
+        int x, y, w, h;
         char *rest = s;
         while (*rest == ' ' || *rest == '\t' || *rest == '\r')
             rest++;
         if (*rest) {
-            if (sscanf(rest, "%d %d %d %d %n", &x, &y, &w, &h, &used) != 4 || used == 0 ||
-                x < 0 || y < 0 || w <= 0 || h <= 0 || !rest[used]) {
-                st = op_error_set(err, OP_ERR_INPUT, "%s:%d: need X Y W H FILE", path, line + 1);
+            if (!next_int(&rest, &x) || !next_int(&rest, &y) || !next_int(&rest, &w) ||
+                !next_int(&rest, &h) || w == 0 || h == 0) {
+                st = op_error_set(err, OP_ERR_INPUT, "%s:%d: need X Y W H FILE (whole numbers "
+                                  "in 0..%d, W and H at least 1)", path, line + 1, INT_MAX);
                 break;
             }
-            char *file = rest + used;
+            while (*rest == ' ' || *rest == '\t')
+                rest++;
+            char *file = rest;
             size_t fl = strlen(file);
             while (fl && (file[fl - 1] == ' ' || file[fl - 1] == '\t' || file[fl - 1] == '\r'))
                 file[--fl] = '\0';
+            if (!fl) {
+                st = op_error_set(err, OP_ERR_INPUT, "%s:%d: need X Y W H FILE", path, line + 1);
+                break;
+            }
             if (count == cap) {
                 int nc = cap ? 2 * cap : 16;
                 tile *g = realloc(t, (size_t)nc * sizeof *t);
@@ -80,6 +118,12 @@ static op_status parse_list(const char *path, tile **out, int *n, op_error *err)
                 break;
             }
             count++;
+            for (int k = 0; k < count - 1; k++)
+                if (same_file(t[k].file, t[count - 1].file)) {
+                    st = op_error_set(err, OP_ERR_INPUT, "%s:%d: %s is listed twice (line %d "
+                                      "too)", path, line + 1, file, t[k].line);
+                    break;
+                }
         }
         s = nl ? nl + 1 : NULL;
     }
@@ -126,8 +170,23 @@ static op_status check_layout(const char *path, const tile *t, int n, int width,
     return st;
 }
 
-op_status op_tiles_merge(const char *list_path, int width, int height, op_image *img,
-                         op_error *err)
+/* OP_ERR_INPUT naming file unless its OP_TILE_ATTR is scene_tag with t's crop. */
+static op_status check_tag(const tile *t, const char *scene_tag, op_error *err)
+{
+    char want[192], got[192];
+    snprintf(want, sizeof want, "%s crop=%d,%d,%d,%d", scene_tag, t->x, t->y, t->w, t->h);
+    op_status st = op_image_exr_attr(t->file, OP_TILE_ATTR, got, sizeof got, err);
+    if (st == OP_OK && !got[0])
+        st = op_error_set(err, OP_ERR_INPUT, "%s: not a tile of opaline-render --raw-exr (no %s "
+                          "attribute)", t->file, OP_TILE_ATTR);
+    else if (st == OP_OK && strcmp(got, want) != 0)
+        st = op_error_set(err, OP_ERR_INPUT, "%s: a tile of another render (%s, not %s)",
+                          t->file, got, want);
+    return st;
+}
+
+op_status op_tiles_merge(const char *list_path, int width, int height, const char *scene_tag,
+                         op_image *img, op_error *err)
 {
     memset(img, 0, sizeof *img);
     tile *t;
@@ -152,6 +211,8 @@ op_status op_tiles_merge(const char *list_path, int width, int height, op_image 
             ts = op_error_set(&terr, OP_ERR_INPUT, "%s: %dx%d with %d channels, not the "
                               "%dx%d RGBA tile listed", t[i].file, tileimg.width,
                               tileimg.height, tileimg.channels, t[i].w, t[i].h);
+            op_image_free(&tileimg);
+        } else if (ts == OP_OK && scene_tag && (ts = check_tag(&t[i], scene_tag, &terr))) {
             op_image_free(&tileimg);
         }
         if (ts) {

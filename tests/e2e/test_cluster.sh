@@ -152,7 +152,7 @@ sphere_scene "$T/slow.xml" 48 36 2048 '<bsdf type="roughplastic"/>'
   fail "submit (slow) exited $?"
 wait_until 30 test -s "$T/out_slow/.cluster/pids/slow" || fail "the slow task did not start"
 sleep 0.5
-read -r pid attempt < "$T/out_slow/.cluster/pids/slow"
+read -r pid attempt _ < "$T/out_slow/.cluster/pids/slow"
 [ "$attempt" = 1 ] || fail "first attempt is $attempt"
 kill -9 "$pid" || fail "the render had finished before it could be killed"
 [ -e "$T/out_slow/slow.exr" ] && fail "a killed render left an output"
@@ -164,12 +164,14 @@ wait_until 10 grep -q '"attempt": 2' "$T/out_slow/.cluster/times/slow.json" ||
   fail "not done by attempt 2"
 echo "ok: killed task retried in $(( $(date +%s) - t0 )) s"
 
-# 6. A scene naming a file outside the shared folder is refused before anything is submitted.
-mkdir -p "$T/proj"
+# 6. A scene naming a file outside the shared folder is refused before anything is submitted
+# (the renderer's own presets folder is on every node: a copy elsewhere is not).
+mkdir -p "$T/proj" "$T/elsewhere"
+cp "$OPALINE_PRESETS_DIR/SVD_S10_Chess4x4.opm" "$T/elsewhere/chess.opm"
 sphere_scene "$T/proj/abs.xml" 8 8 1 \
-  "<subsurface type=\"svd\"><string name=\"material\" value=\"$OPALINE_PRESETS_DIR/SVD_S10_Chess4x4.opm\"/></subsurface>"
+  "<subsurface type=\"svd\"><string name=\"material\" value=\"$T/elsewhere/chess.opm\"/></subsurface>"
 "$C" submit "$T/proj/abs.xml" -o "$T/proj/out" >"$T/sub8" 2>"$T/err"
 [ $? = 2 ] || fail "a scene with an absolute path outside the shared folder was not refused"
-grep -q "abs.xml:[0-9]*: '$OPALINE_PRESETS_DIR/SVD_S10_Chess4x4.opm' is an absolute path outside" "$T/err" ||
+grep -q "abs.xml: reads $T/elsewhere/chess.opm, outside the shared folder $T/proj" "$T/err" ||
   fail "the refusal: $(cat "$T/err")"
 echo "ok: all in $(( $(date +%s) - t0 )) s"
