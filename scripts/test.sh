@@ -11,6 +11,17 @@ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_SANITIZ
 cmake --build "$build" --parallel "$(nproc)"
 (cd "$build" && ctest --output-on-failure --parallel "$(nproc)" "$@")
 
+# The tests that cannot run under the sanitizers (ulimit -v: their shadow memory reserves
+# terabytes of address space) run again on a build without them, which skips none of them.
+if [ $# -eq 0 ]; then
+  plain="$root/build-plain"
+  cmake -S "$root" -B "$plain" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_WERROR=ON \
+    -DOPALINE_BUILD_PRESETS=OFF >/dev/null
+  cmake --build "$plain" --parallel "$(nproc)" --target opaline-render
+  echo "== tests needing a build without sanitizers =="
+  OPALINE_BIN_DIR="$plain/bin" OPALINE_TEST_TMP="$plain" bash "$root/tests/e2e/test_robust_scene_memory.sh"
+fi
+
 # Fuzzing (clang's libFuzzer): every reader of untrusted input for OPALINE_FUZZ_SECONDS each
 # (default 30; 0 skips), in its own build folder. The replay of the saved inputs ran above.
 seconds=${OPALINE_FUZZ_SECONDS:-30}
