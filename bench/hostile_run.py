@@ -485,8 +485,12 @@ def cases_factor(rng, bins, root):
             c.append(Case("factor", "factor %s %s" % (method, " ".join(extra)),
                           ["opaline-factor", "factor", "d.opm", "--method", method, "-t", "2", "-o", "m.opm", *extra],
                           {"d.opm": data}, guard=("d.opm",)))
+    # A size of 1e-300 cm makes a valid file that a scene refuses (limits.md): 0 is clean too.
+    c.append(Case("factor", "dataset --size-cm 1e-300x1",
+                  ["opaline-factor", "dataset", "chess4x4", "--pixels", "8x8", "--kernel", "5", "-t", "2",
+                   "-o", "x.opm", "--size-cm", "1e-300x1"], {}, allow=(0, 2)))
     ds_args = [["--pixels", "0x0"], ["--pixels", "100000x100000"], ["--kernel", "0"], ["--kernel", "2"],
-               ["--size-cm", "nan,1"], ["--size-cm", "1e-300x1"], ["--photons", "0"], ["--seed", "-1"],
+               ["--size-cm", "nan,1"], ["--photons", "0"], ["--seed", "-1"],
                ["--media", "a,b"], ["--eta", "inf"], ["--generator", "x"], ["-o", "/dev/full"]]
     for extra in ds_args:
         c.append(Case("factor", "dataset " + " ".join(extra),
