@@ -14,7 +14,7 @@ cmake --build "$build" --parallel "$(nproc)"
 # The tests that cannot run under the sanitizers (ulimit -v: their shadow memory reserves
 # terabytes of address space) run again on a build without them, which skips none of them.
 if [ $# -eq 0 ]; then
-  plain="$root/build-plain"
+  plain="$build-plain"
   cmake -S "$root" -B "$plain" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_WERROR=ON \
     -DOPALINE_BUILD_PRESETS=OFF >/dev/null
   cmake --build "$plain" --parallel "$(nproc)" --target opaline-render
