@@ -37,6 +37,7 @@ static void rtc_occluded(RTCScene s, struct RTCRay *r)
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/resource.h>
 
 struct op_accel {
     RTCDevice device;
@@ -93,7 +94,12 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         op_accel_free(a);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
-    a->device = rtcNewDevice("verbose=0");
+    /* Embree's task system (TBB, with Debian 13's Embree 4) ends the process (std::terminate)
+     * when it cannot start a worker thread, as under an address-space limit (ulimit -v) each
+     * thread's stack may not fit: there it starts none and builds on the calling thread. */
+    struct rlimit as;
+    int limited = getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY;
+    a->device = rtcNewDevice(limited ? "verbose=0,threads=1" : "verbose=0");
     if (!a->device) {
         enum RTCError code = rtcGetDeviceError(NULL);
         op_accel_free(a);
