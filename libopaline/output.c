@@ -372,17 +372,19 @@ static int create_temp_locked(op_output *o, const char *temp_prefix)
 static int keep_xattrs(op_output *o)
 {
     int fd = fileno(o->f);
-    ssize_t n = listxattr(o->dest, NULL, 0);
-    if (n < 0)
+    ssize_t got = listxattr(o->dest, NULL, 0);
+    if (got < 0)
         return errno == ENOTSUP ? 0 : errno;
-    char *names = malloc((size_t)n + 1), *value = NULL;
+    size_t n = (size_t)got;
+    char *names = malloc(n + 1), *value = NULL;
     int e = names ? 0 : ENOMEM;
-    if (!e && (n = listxattr(o->dest, names, (size_t)n)) < 0)
+    if (!e && (got = listxattr(o->dest, names, n)) < 0)
         e = errno;
+    n = e ? 0 : (size_t)got;
     if (!e && fgetxattr(fd, "system.posix_acl_access", NULL, 0) >= 0 &&
-        !memmem(names, (size_t)n, "system.posix_acl_access", sizeof "system.posix_acl_access"))
+        !memmem(names, n, "system.posix_acl_access", sizeof "system.posix_acl_access"))
         e = fremovexattr(fd, "system.posix_acl_access") == 0 ? 0 : errno;
-    for (ssize_t at = 0; !e && at < n; at += (ssize_t)strlen(names + at) + 1) {
+    for (size_t at = 0; !e && at < n; at += strlen(names + at) + 1) {
         const char *name = names + at;
         ssize_t size = getxattr(o->dest, name, NULL, 0);
         char *grown = size >= 0 ? realloc(value, (size_t)size + 1) : NULL;
