@@ -5,13 +5,13 @@
 #include <string.h>
 #include <strings.h>
 
-#include "integrator.h"
+#include "integrator/integrator.h"
 #include "opaline_render.h"
-#include "rgbe.h"
-#include "scene_build.h"
-#include "scene_color.h"
-#include "sss_cache.h"
-#include "subsurface.h"
+#include "light/rgbe.h"
+#include "scene/scene_build.h"
+#include "scene/scene_color.h"
+#include "sss/cache_file.h"
+#include "sss/prepass.h"
 
 op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
                                 const op_scene_limits *limits, op_scene **out, op_error *err)

@@ -1,7 +1,7 @@
 /* dipole_reference.h - the classical dipole of Jensen et al. 2001, written in the tests from the
- * paper's formulas, independently of renderer/lib/dipole.c, as the reference the dipole tests
- * compare the renderer with. Coefficients per mm (reduced scattering sp, absorption sa), relative
- * index of refraction eta, distances in mm. */
+ * paper's formulas, independently of renderer/lib/sss/dipole_profile.c, as the reference the
+ * dipole tests compare the renderer with. Coefficients per mm (reduced scattering sp,
+ * absorption sa), relative index of refraction eta, distances in mm. */
 #ifndef OP_TEST_DIPOLE_REFERENCE_H
 #define OP_TEST_DIPOLE_REFERENCE_H
 

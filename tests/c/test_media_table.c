@@ -6,7 +6,7 @@
 
 #include "commands.h"
 #include "dataset_generate.h"
-#include "dipole.h"
+#include "sss/dipole_profile.h"
 #include "opaline.h"
 
 #include <math.h>

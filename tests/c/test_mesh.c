@@ -8,7 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "mesh.h"
+#include "geometry/mesh.h"
 
 static const char *write_file(const char *suffix, const void *data, size_t n)
 {

@@ -7,14 +7,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dipole.h"
+#include "sss/dipole_profile.h"
 #include "dipole_reference.h"
 #include "opaline_render.h"
-#include "render_scene.h"
-#include "integrator.h"
+#include "scene/render_scene.h"
+#include "integrator/integrator.h"
 #include "test_support.h"
 
-/* Skin1 from Jensen et al. 2001 (1/mm), eta 1.3, written out here independently of dipole.c. */
+/* Skin1 from Jensen et al. 2001 (1/mm), eta 1.3, written out here independently of
+ * sss/dipole_profile.c. */
 static const double skin_sp[3] = {0.74, 0.88, 1.01}, skin_a[3] = {0.032, 0.17, 0.48};
 
 static void test_profile(void **state)

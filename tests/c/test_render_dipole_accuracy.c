@@ -1,7 +1,7 @@
 /* test_render_dipole_accuracy.c - the dipole's exitance at every distance, for every named
  * medium of the renderer's table (taken from op_sss_dipole_names(), so a medium added to the
  * table is tested too), against Jensen et al.'s closed form written out in dipole_reference.h,
- * independently of renderer/lib/dipole.c:
+ * independently of renderer/lib/sss/dipole_profile.c:
  *  - a slab in a millimetre scene lit by a hard-edged spot (a disk of radius a): the exitance
  *    interpolated at 1, 2 and 4 diffusion lengths 1/sigma_tr outside the disk's edge, in every
  *    channel, within 5 % of the profile integrated over the lit disk (media with no absorption
@@ -14,11 +14,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dipole.h"
+#include "sss/dipole_profile.h"
 #include "dipole_reference.h"
-#include "integrator.h"
+#include "integrator/integrator.h"
 #include "opaline_render.h"
-#include "render_scene.h"
+#include "scene/render_scene.h"
 #include "test_support.h"
 
 typedef struct medium {

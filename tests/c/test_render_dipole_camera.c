@@ -1,7 +1,7 @@
 /* test_render_dipole_camera.c - <subsurface type="dipole"> through a whole camera render, for
  * the named medium Skimmilk (Jensen et al. 2001: sigma_s' = 0.70, 1.22, 1.90 and sigma_a =
  * 0.0014, 0.0025, 0.0142 per mm, eta 1.3), checked against values computed here from the
- * dipole's formulas, independently of renderer/lib/dipole.c:
+ * dipole's formulas, independently of renderer/lib/sss/dipole_profile.c:
  *  - a wide flat slab under a directional light at normal incidence, seen by a perspective
  *    camera: every pixel's radiance is L = Rd_total E / pi (opaline applies no Fresnel factor:
  *    the exitance of a flat slab is Rd_total x E, and the camera pass takes L = M / pi);
@@ -21,8 +21,8 @@
 
 #include "dipole_reference.h"
 #include "opaline_render.h"
-#include "render_scene.h"
-#include "subsurface.h"
+#include "scene/render_scene.h"
+#include "sss/prepass.h"
 #include "test_support.h"
 
 static const double sk_sp[3] = {0.70, 1.22, 1.90}, sk_a[3] = {0.0014, 0.0025, 0.0142};

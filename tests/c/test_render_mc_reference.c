@@ -31,9 +31,9 @@
 #include "dataset.h"
 #include "dipole_reference.h"
 #include "dataset_montecarlo.h"
-#include "integrator.h"
+#include "integrator/integrator.h"
 #include "opaline_render.h"
-#include "render_scene.h"
+#include "scene/render_scene.h"
 #include "test_support.h"
 
 #define NANG 32 /* directions per ring: a multiple of 4, symmetric under the slab's flips */

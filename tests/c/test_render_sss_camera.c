@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "opaline_render.h"
-#include "integrator.h"
+#include "integrator/integrator.h"
 #include "test_support.h"
 
 /* Writes to path a raw material of 16 x 16 pixels, kernel 5, 1 x 1 cm: a normalized Gaussian

@@ -16,10 +16,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "integrator.h"
+#include "integrator/integrator.h"
 #include "opaline_render.h"
-#include "render_scene.h"
-#include "sss_measured.h"
+#include "scene/render_scene.h"
+#include "sss/measured_points.h"
 #include "test_support.h"
 
 enum { W = 16, TILES = 3, BIG = 11 };

@@ -13,10 +13,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "integrator.h"
+#include "integrator/integrator.h"
 #include "opaline_render.h"
-#include "render_scene.h"
-#include "sampler.h"
+#include "scene/render_scene.h"
+#include "camera/sampler.h"
 #include "test_support.h"
 
 enum { W = 24, H = 24, SPP = 2 };

@@ -13,9 +13,9 @@
 
 #include "commands.h"
 #include "opaline_render.h"
-#include "render_scene.h"
-#include "integrator.h"
-#include "material_name.h"
+#include "scene/render_scene.h"
+#include "integrator/integrator.h"
+#include "scene/material_name.h"
 #include "test_support.h"
 
 static char dir[1024];      /* the scene folder: materials are found there by preset name */

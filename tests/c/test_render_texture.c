@@ -9,10 +9,10 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "render_scene.h"
-#include "scene_color.h"
+#include "scene/render_scene.h"
+#include "scene/scene_color.h"
 #include "test_support.h"
-#include "texture.h"
+#include "bsdf/texture.h"
 
 #define RES 32
 

@@ -6,10 +6,10 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "film.h"
+#include "camera/film.h"
 #include "opaline_render.h"
-#include "render_scene.h"
-#include "sampler.h"
+#include "scene/render_scene.h"
+#include "camera/sampler.h"
 #include "test_support.h"
 
 /* a few pixel seeds and keys the tests run over */

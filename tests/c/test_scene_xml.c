@@ -13,9 +13,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "scene_color.h"
-#include "scene_desc.h"
-#include "transform.h"
+#include "scene/scene_color.h"
+#include "scene/scene_desc.h"
+#include "math/transform.h"
 
 static void write_text(const char *path, const char *text)
 {

@@ -1,8 +1,8 @@
 /* test_support.c - see test_support.h. */
 #include "test_support.h"
 
-#include "integrator.h"
-#include "subsurface.h"
+#include "integrator/integrator.h"
+#include "sss/prepass.h"
 
 #include <dirent.h>
 #include <math.h>

@@ -86,7 +86,7 @@ def main():
                     failures.append(f'{name}: {o} uses {s} of {other}')
     modules = {}
     for d in SOURCE_DIRS:
-        for f in glob.glob(os.path.join(src, d, '*.[ch]')):
+        for f in glob.glob(os.path.join(src, d, '**', '*.[ch]'), recursive=True):
             m = re.sub(r'_internal$', '', os.path.splitext(os.path.basename(f))[0])
             with open(f, encoding='utf-8') as fh:
                 inc = re.findall(r'#include "([^"]+)\.h"', fh.read())

@@ -3,7 +3,7 @@
  * scene builder's normal computation. */
 #include "fuzz_support.h"
 
-#include "mesh.h"
+#include "geometry/mesh.h"
 
 #include <math.h>
 #include <string.h>

@@ -5,7 +5,7 @@
  * or a $parameter bomb is refused within the fuzzer's time per input. */
 #include "fuzz_support.h"
 
-#include "scene_desc.h"
+#include "scene/scene_desc.h"
 
 #include <stdlib.h>
 #include <string.h>

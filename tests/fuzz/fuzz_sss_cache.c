@@ -6,7 +6,7 @@
  * fuzzed. A cache that loads must hold only known flags, and must save and load back equal. */
 #include "fuzz_support.h"
 
-#include "sss_cache.h"
+#include "sss/cache_file.h"
 
 #include <stdio.h>
 #include <stdlib.h>

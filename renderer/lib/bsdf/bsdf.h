@@ -1,0 +1,115 @@
+/* bsdf.h - surface scattering models: diffuse, dielectric, conductor, plastic, roughplastic
+ * (GGX), each optionally two-sided, and Mitsuba's `mask` (cut-out opacity) around any of them;
+ * and the boundary of a translucent shape (op_bsdf_boundary: the reflection of a dielectric,
+ * roughdielectric, plastic, roughplastic or coating whose transmitted part is the subsurface
+ * transport, docs/subsurface-rendering.md).
+ * All work in the local shading frame (z = normal); wi points away from the surface toward where
+ * the light goes (the viewer), wo toward where it comes from. Values returned are f * |cos(wo)|.
+ *
+ * A mask is not a scattering lobe: the integrator lets a ray pass straight through a masked
+ * surface with probability 1 - op_bsdf_opacity_prob() (weight op_bsdf_pass_weight(), not a
+ * bounce), and shadow rays are attenuated by 1 - opacity; otherwise the nested model applies,
+ * weighted by op_bsdf_hit_weight(). The eval/sample functions below describe the nested model
+ * only. */
+#ifndef OP_BSDF_H
+#define OP_BSDF_H
+
+#include "math/vec.h"
+#include "scene/scene_desc.h"
+#include "bsdf/texture.h"
+
+typedef enum op_bsdf_type {
+    OP_BSDF_DIFFUSE,
+    OP_BSDF_DIELECTRIC,
+    OP_BSDF_CONDUCTOR,
+    OP_BSDF_PLASTIC,
+    OP_BSDF_ROUGHPLASTIC,
+    OP_BSDF_ROUGHDIELECTRIC, /* parsed; rendered only as a translucent shape's boundary */
+    OP_BSDF_COATING,         /* parsed; rendered only as a translucent shape's boundary */
+    OP_BSDF_SHEEN,   /* a boundary's reflection lobe alone: Fresnel reflection of a smooth
+                        (alpha 0) or GGX-rough dielectric interface, tinted by specular */
+    OP_BSDF_THROUGH  /* a white Lambertian behind a boundary: f = t(cos wo) / pi (the irradiance
+                        that crosses it, op_bsdf_through) */
+} op_bsdf_type;
+
+/* What a translucent shape's boundary lets through, per direction: t[k] is the fraction of
+ * light arriving at cos theta = k / (OP_THROUGH_N - 1) that enters (1 - the reflection lobe's
+ * directional albedo, times a coating's absorption), and exit_norm is 1 / (2 int (1 - R(mu))
+ * mu dmu): leaving with weight t(cos) exit_norm keeps the exitance that crosses the boundary
+ * equal to M (internal reflection is part of the subsurface transport). */
+enum { OP_THROUGH_N = 64 };
+typedef struct op_bsdf_through {
+    op_v3 t[OP_THROUGH_N];
+    float exit_norm;
+} op_bsdf_through;
+
+typedef struct op_bsdf {
+    op_bsdf_type type;
+    int twosided;
+    op_v3 reflectance;     /* diffuse; the diffuse base of plastics */
+    op_texture refl_tex;   /* when set (type != OP_TEX_NONE), reflectance varies over the
+                              surface: op_bsdf_at() looks it up */
+    op_v3 specular;        /* specularReflectance (and transmittance of dielectrics) */
+    float eta;             /* interior / exterior index of refraction */
+    op_v3 cond_eta, cond_k;/* conductor: complex index relative to the exterior */
+    int mirror;            /* conductor "none": a perfect mirror */
+    float alpha;           /* roughplastic, roughdielectric, sheen: GGX roughness (sheen: 0 smooth) */
+    op_v3 sigma_a;         /* coating: absorption per unit thickness */
+    float thickness;       /* coating: layer thickness */
+    const op_bsdf_through *through; /* OP_BSDF_THROUGH: the boundary it sits behind */
+    int nonlinear;
+    int masked;            /* wrapped in a mask: opacity below applies */
+    op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
+} op_bsdf;
+
+typedef struct op_bsdf_sample {
+    op_v3 wo;
+    op_v3 weight; /* f * |cos| / pdf */
+    float pdf;    /* solid angle; meaningless when delta */
+    int delta;    /* sampled a specular component */
+} op_bsdf_sample;
+
+/* Builds b from a <bsdf> node (twosided and mask unwrap their child; a mask without a child
+ * wraps the default diffuse; nested masks multiply their opacities). Out-of-range reflectances
+ * and opacities are clamped to [0, 1] with a warning. The diffuse reflectance (diffuse, plastic,
+ * roughplastic) may be a nested or referenced <texture>, whose image is read through tex. */
+op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err);
+/* The boundary of a translucent shape from a dielectric, roughdielectric, plastic,
+ * roughplastic or coating b (any other type: OP_ERR_INPUT, the message naming the type): its
+ * reflection lobe *sheen (a plastic's diffuse base is replaced by the subsurface transport) and
+ * what it lets through, *tr (tabulated by integrating the lobe). */
+op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr, op_error *err);
+/* t(cos) of a boundary, interpolated (cos clamped to [0, 1]). */
+op_v3 op_bsdf_through_at(const op_bsdf_through *tr, float cos);
+/* The stand-in of a translucent shape where no exitance is known: plastic (smooth sheen) or
+ * roughplastic (rough sheen) of diffuse reflectance albedo with sheen's interface. */
+void op_bsdf_sheen_standin(const op_bsdf *sheen, op_v3 albedo, op_bsdf *out);
+/* The default material of shapes without a BSDF: diffuse 0.5. */
+void op_bsdf_default(op_bsdf *b);
+/* The BSDF at surface coordinates (u, v): b itself when nothing in it is textured, else
+ * *scratch, a copy of b with its textures looked up there. Every function below takes the
+ * result (a textured b evaluates as its constant reflectance). */
+const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch);
+/* Whether the BSDF has a non-delta component that next-event estimation can evaluate. */
+int op_bsdf_is_smooth_only(const op_bsdf *b);
+
+/* f * |cos(wo)| and the sampling density of wo (solid angle), non-delta parts only. */
+op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf);
+/* Samples wo; returns 0 when the sample is absorbed. */
+int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
+                       op_bsdf_sample *s);
+/* Mask: the probability that a ray stops at the surface (mean opacity; 1 when not masked, 0 for
+ * a fully transparent mask). */
+float op_bsdf_opacity_prob(const op_bsdf *b);
+/* Mask: the throughput factor of a ray that stopped at the surface (opacity / prob) or passed
+ * through it ((1 - opacity) / (1 - prob)); both are 1 for grey opacities. */
+op_v3 op_bsdf_hit_weight(const op_bsdf *b);
+op_v3 op_bsdf_pass_weight(const op_bsdf *b);
+/* Mask: the fraction of light that crosses the surface along a shadow ray (1 - opacity; 0 when
+ * not masked). */
+op_v3 op_bsdf_transmittance(const op_bsdf *b);
+
+/* A colour for the albedo debug view. */
+op_v3 op_bsdf_albedo(const op_bsdf *b);
+
+#endif

@@ -1,0 +1,54 @@
+/* texture.h - Mitsuba's 2-D textures: `bitmap` (an image file, bilinear or nearest lookups,
+ * wrap modes, gamma) and `checkerboard`, both with uoffset/voffset/uscale/vscale.
+ *
+ * Convention (Mitsuba's): texture coordinate (u, v) = (uv.u * uscale + uoffset,
+ * uv.v * vscale + voffset); u runs left to right over the image, v from its TOP row (v = 0) to
+ * its bottom row (v = 1); texel centres are at ((i + 0.5) / width, (j + 0.5) / height). Mesh
+ * files meet it through the OBJ reader's default flipTexCoords and the add-on's (u, 1 - v).
+ *
+ * Images live in an op_tex_cache that the scene owns: each (file, gamma) is read once, however
+ * many textures use it, and only when a texture that something renders is built. Textures
+ * point into the cache, so it must outlive them. Evaluation is read-only and thread-safe. */
+#ifndef OP_TEXTURE_H
+#define OP_TEXTURE_H
+
+#include "math/vec.h"
+#include "scene/scene_desc.h"
+
+typedef enum op_tex_type { OP_TEX_NONE = 0, OP_TEX_BITMAP, OP_TEX_CHECKERBOARD } op_tex_type;
+
+typedef enum op_tex_wrap {
+    OP_WRAP_REPEAT = 0,
+    OP_WRAP_MIRROR,
+    OP_WRAP_CLAMP,
+    OP_WRAP_ZERO, /* 0 outside [0, 1] */
+    OP_WRAP_ONE   /* 1 outside [0, 1] */
+} op_tex_wrap;
+
+typedef struct op_texture {
+    op_tex_type type;        /* OP_TEX_NONE: no texture (zero-initialized) */
+    const op_image *img;     /* bitmap: 3 channels, linear, in [0, 1]; owned by the cache */
+    int nearest;             /* bitmap: nearest-texel lookups instead of bilinear */
+    op_tex_wrap wrap_u, wrap_v;
+    float uoffset, voffset, uscale, vscale;
+    op_v3 color0, color1;    /* checkerboard */
+} op_texture;
+
+typedef struct op_tex_cache op_tex_cache;
+
+/* NULL when out of memory. */
+op_tex_cache *op_tex_cache_new(long long max_pixels); /* images over max_pixels are refused */
+/* Frees the cache and its images. Accepts NULL. */
+void op_tex_cache_free(op_tex_cache *c);
+/* How many images the cache holds (how many files were read). */
+int op_tex_cache_count(const op_tex_cache *c);
+/* Image i (0 <= i < count), in the order the files were first read. */
+const op_image *op_tex_cache_image(const op_tex_cache *c, int i);
+
+/* Builds t from a <texture> node (marking it and its parameters used), reading the image of a
+ * bitmap through cache. Errors name the scene file, line and the image file. */
+op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err);
+/* The value at surface coordinates (u, v) (before uscale/uoffset). */
+op_v3 op_texture_eval(const op_texture *t, float u, float v);
+
+#endif

@@ -1,0 +1,289 @@
+/* film.c - films, reconstruction filters and samplers (see film.h). */
+#include "camera/film.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "math/vec.h"
+
+static op_status build_filter(op_node *f, op_film *out, op_error *err)
+{
+    out->filter = OP_FILTER_GAUSSIAN;
+    out->stddev = 0.5f;
+    out->filter_radius = 2.0f;
+    if (!f)
+        return OP_OK;
+    f->used = 1;
+    if (strcmp(f->type, "box") == 0) {
+        out->filter = OP_FILTER_BOX;
+        out->filter_radius = 0.5f;
+    } else if (strcmp(f->type, "tent") == 0) {
+        double r;
+        GET_OR_FAIL(op_node_float(f, "radius", 1.0, &r, err));
+        if (!(r > 0.0 && r <= 16.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"tent\">: radius %g is "
+                                "not in (0, 16]", f->file, f->line, r);
+        out->filter = OP_FILTER_TENT;
+        out->filter_radius = (float)r;
+    } else if (strcmp(f->type, "gaussian") == 0) {
+        double sd;
+        GET_OR_FAIL(op_node_float(f, "stddev", 0.5, &sd, err));
+        if (!(sd > 0.0 && sd <= 4.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"gaussian\">: stddev %g "
+                                "is not in (0, 4]", f->file, f->line, sd);
+        out->stddev = (float)sd;
+        out->filter_radius = 4.0f * (float)sd;
+    } else {
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"%s\">: unknown filter "
+                            "(box, tent, gaussian)", f->file, f->line, f->type);
+    }
+    return OP_OK;
+}
+
+op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
+                           const char *where, op_error *err)
+{
+    if (x < 0 || y < 0 || w < 1 || h < 1 || x + w > film->full_width ||
+        y + h > film->full_height)
+        return op_error_set(err, OP_ERR_INPUT, "%s: crop window %lldx%lld at (%lld, %lld) is not "
+                            "inside the %dx%d film", where, w, h, x, y, film->full_width,
+                            film->full_height);
+    film->crop_x = (int)x;
+    film->crop_y = (int)y;
+    film->width = (int)w;
+    film->height = (int)h;
+    return OP_OK;
+}
+
+op_status op_film_build(op_node *film, op_film *out, op_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->full_width = 768;
+    out->full_height = 576;
+    out->half_float = 1;
+    out->gamma = -1.0;
+    out->pixel_format = OP_PIXFMT_RGBA;
+    out->extension = ".exr";
+    op_node *filter = NULL;
+    if (film) {
+        film->used = 1;
+        if (strcmp(film->type, "hdrfilm") != 0 && strcmp(film->type, "ldrfilm") != 0)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"%s\">: unknown film "
+                                "(hdrfilm, ldrfilm)", film->file, film->line, film->type);
+        out->ldr = strcmp(film->type, "ldrfilm") == 0;
+        out->extension = out->ldr ? ".png" : ".exr";
+        long long w, h, cx, cy, cw, ch;
+        GET_OR_FAIL(op_node_int(film, "width", 768, &w, err));
+        GET_OR_FAIL(op_node_int(film, "height", 576, &h, err));
+        if (w < 1 || h < 1 || w > OP_IMAGE_MAX_SIDE || h > OP_IMAGE_MAX_SIDE)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: size %lldx%lld is not in "
+                                "1..%d", film->file, film->line, w, h, OP_IMAGE_MAX_SIDE);
+        if ((size_t)(w * h) > OP_IMAGE_MAX_PIXELS)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: size %lldx%lld = %lld pixels "
+                                "is more than the %zu pixels (2^30) an image can hold", film->file,
+                                film->line, w, h, w * h, OP_IMAGE_MAX_PIXELS);
+        GET_OR_FAIL(op_node_int(film, "cropOffsetX", 0, &cx, err));
+        GET_OR_FAIL(op_node_int(film, "cropOffsetY", 0, &cy, err));
+        GET_OR_FAIL(op_node_int(film, "cropWidth", w, &cw, err));
+        GET_OR_FAIL(op_node_int(film, "cropHeight", h, &ch, err));
+        out->full_width = (int)w;
+        out->full_height = (int)h;
+        char where[300];
+        snprintf(where, sizeof where, "%s:%d: <film>", film->file, film->line);
+        GET_OR_FAIL(op_film_set_crop(out, cx, cy, cw, ch, where, err));
+        const char *fn, *pf, *cf;
+        GET_OR_FAIL(op_node_string(film, "filename", NULL, &fn, err));
+        if (fn)
+            snprintf(out->filename, sizeof out->filename, "%s", fn);
+        GET_OR_FAIL(op_node_string(film, "pixelFormat", out->ldr ? "rgb" : "rgba", &pf, err));
+        if (strcmp(pf, "rgb") == 0)
+            out->pixel_format = OP_PIXFMT_RGB;
+        else if (strcmp(pf, "rgba") == 0)
+            out->pixel_format = OP_PIXFMT_RGBA;
+        else if (strcmp(pf, "luminance") == 0)
+            out->pixel_format = OP_PIXFMT_LUMINANCE;
+        else
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: pixelFormat \"%s\" is not rgb, "
+                                "rgba or luminance", film->file, film->line, pf);
+        if (!out->ldr) {
+            GET_OR_FAIL(op_node_string(film, "componentFormat", "float16", &cf, err));
+            if (strcmp(cf, "float16") == 0)
+                out->half_float = 1;
+            else if (strcmp(cf, "float32") == 0)
+                out->half_float = 0;
+            else
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: componentFormat \"%s\" is "
+                                    "not float16 or float32", film->file, film->line, cf);
+            const char *ff;
+            GET_OR_FAIL(op_node_string(film, "fileFormat", "openexr", &ff, err));
+            if (strcmp(ff, "openexr") == 0)
+                out->extension = ".exr";
+            else if (strcmp(ff, "pfm") == 0)
+                out->extension = ".pfm";
+            else if (strcmp(ff, "rgbe") == 0)
+                out->extension = ".hdr";
+            else
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: fileFormat \"%s\" is not "
+                                    "openexr, pfm or rgbe", film->file, film->line, ff);
+        } else {
+            GET_OR_FAIL(op_node_float(film, "gamma", -1.0, &out->gamma, err));
+            GET_OR_FAIL(op_node_float(film, "exposure", 0.0, &out->exposure, err));
+            if (!(out->gamma == -1.0 || (out->gamma > 0.0 && out->gamma < 10.0)))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: gamma %g is neither -1 "
+                                    "(sRGB) nor in (0, 10)", film->file, film->line, out->gamma);
+            if (!isfinite(out->exposure) || fabs(out->exposure) > 64.0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: exposure %g is out of "
+                                    "range", film->file, film->line, out->exposure);
+            const char *ff, *tm;
+            GET_OR_FAIL(op_node_string(film, "fileFormat", "png", &ff, err));
+            if (strcmp(ff, "png") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: fileFormat \"%s\": only png "
+                                    "is supported", film->file, film->line, ff);
+            GET_OR_FAIL(op_node_string(film, "tonemapMethod", "gamma", &tm, err));
+            if (strcmp(tm, "reinhard") == 0)
+                out->reinhard = 1;
+            else if (strcmp(tm, "gamma") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: tonemapMethod \"%s\" is not "
+                                    "gamma or reinhard", film->file, film->line, tm);
+            GET_OR_FAIL(op_node_float(film, "key", 0.18, &out->key, err));
+            GET_OR_FAIL(op_node_float(film, "burn", 0.0, &out->burn, err));
+            if (!(out->key > 0.0 && out->key <= 1e6) || !(out->burn >= 0.0 && out->burn <= 1.0))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: key %g must be > 0 and burn "
+                                    "%g in [0, 1]", film->file, film->line, out->key, out->burn);
+            if (!out->reinhard && (op_node_has(film, "key") || op_node_has(film, "burn")))
+                op_log(OP_LOG_WARN, "%s:%d: <film>: key and burn apply to tonemapMethod "
+                       "\"reinhard\" only", film->file, film->line);
+        }
+        for (int i = 0; i < film->nchildren; i++) {
+            op_node *c = film->children[i];
+            if (strcmp(c->tag, "rfilter") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s> is not allowed in <film>",
+                                    c->file, c->line, c->tag);
+            filter = c;
+        }
+    } else {
+        out->width = out->full_width;
+        out->height = out->full_height;
+    }
+    return build_filter(filter, out, err);
+}
+
+op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
+{
+    out->type = OP_SAMPLER_INDEPENDENT;
+    out->spp = 4;
+    if (!sampler)
+        return OP_OK;
+    sampler->used = 1;
+    static const char *const ld[] = {"stratified", "ldsampler", "sobol", "halton", "hammersley"};
+    int known = strcmp(sampler->type, "independent") == 0;
+    for (size_t i = 0; i < sizeof ld / sizeof ld[0] && !known; i++)
+        if (strcmp(sampler->type, ld[i]) == 0) {
+            out->type = OP_SAMPLER_LD;
+            known = 1;
+        }
+    if (!known)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler type=\"%s\">: unknown sampler "
+                            "(independent, stratified, ldsampler, sobol, halton, hammersley)",
+                            sampler->file, sampler->line, sampler->type);
+    long long n;
+    GET_OR_FAIL(op_node_int(sampler, "sampleCount", 4, &n, err));
+    if (n < 1 || n > (1 << 24))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler>: sampleCount %lld is not in "
+                            "1..16777216", sampler->file, sampler->line, n);
+    if (strcmp(sampler->type, "stratified") == 0) {
+        long long r = (long long)ceil(sqrt((double)n));
+        if (r * r != n)
+            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"stratified\">: sampleCount %lld rounded "
+                   "up to %lld (a square)", sampler->file, sampler->line, n, r * r);
+        n = r * r;
+    } else if (strcmp(sampler->type, "ldsampler") == 0) {
+        long long p = 1;
+        while (p < n)
+            p *= 2;
+        if (p != n)
+            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"ldsampler\">: sampleCount %lld rounded "
+                   "up to %lld (a power of two)", sampler->file, sampler->line, n, p);
+        n = p;
+    }
+    /* Mitsuba's dimension (stratified, ldsampler) and scramble (sobol, halton, hammersley) are
+     * accepted and not needed: every dimension is low-discrepancy, scrambled per pixel */
+    long long dim, scramble;
+    GET_OR_FAIL(op_node_int(sampler, "dimension", 4, &dim, err));
+    GET_OR_FAIL(op_node_int(sampler, "scramble", -1, &scramble, err));
+    out->spp = (int)n;
+    return OP_OK;
+}
+
+void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_reinhard *r)
+{
+    double log_sum = 0.0, max_lum = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = rgba + 4 * i;
+        double y = 0.212671 * p[0] + 0.715160 * p[1] + 0.072169 * p[2];
+        if (!isfinite(y))
+            y = 0.0;
+        max_lum = fmax(max_lum, y);
+        log_sum += log(1e-3 + fmax(y, 0.0));
+    }
+    r->scale = 0.0f;
+    r->inv_wp2 = 0.0f;
+    if (!(max_lum > 0.0) || n == 0)
+        return;
+    double avg = exp(log_sum / (double)n);
+    double burn = fmin(1.0, fmax(1e-8, 1.0 - film->burn));
+    double scale = film->key / avg, white = max_lum * scale;
+    r->scale = (float)scale;
+    r->inv_wp2 = (float)(1.0 / (white * white * pow(burn, 4.0)));
+}
+
+void op_reinhard_apply(const op_reinhard *r, float rgb[3])
+{
+    float X = rgb[0] * 0.412453f + rgb[1] * 0.357580f + rgb[2] * 0.180423f;
+    float Y = rgb[0] * 0.212671f + rgb[1] * 0.715160f + rgb[2] * 0.072169f;
+    float Z = rgb[0] * 0.019334f + rgb[1] * 0.119193f + rgb[2] * 0.950227f;
+    float sum = X + Y + Z;
+    if (!(sum > 0.0f) || !(Y > 0.0f) || r->scale == 0.0f || !isfinite(sum)) {
+        rgb[0] = rgb[1] = rgb[2] = 0.0f;
+        return;
+    }
+    float x = X / sum, y = Y / sum, lp = Y * r->scale;
+    Y = lp * (1.0f + lp * r->inv_wp2) / (1.0f + lp);
+    float ratio = Y / y;
+    X = ratio * x;
+    Z = ratio * (1.0f - x - y);
+    rgb[0] = 3.240479f * X - 1.537150f * Y - 0.498535f * Z;
+    rgb[1] = -0.969256f * X + 1.875991f * Y + 0.041556f * Z;
+    rgb[2] = 0.055648f * X - 0.204043f * Y + 1.057311f * Z;
+}
+
+/* Inverse CDF of the tent 1 - |x| on [-1, 1]. */
+static float tent_warp(float u)
+{
+    return u < 0.5f ? sqrtf(2.0f * u) - 1.0f : 1.0f - sqrtf(2.0f - 2.0f * u);
+}
+
+void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy)
+{
+    switch (film->filter) {
+    case OP_FILTER_BOX:
+        *dx = u1 - 0.5f;
+        *dy = u2 - 0.5f;
+        break;
+    case OP_FILTER_TENT:
+        *dx = tent_warp(u1) * film->filter_radius;
+        *dy = tent_warp(u2) * film->filter_radius;
+        break;
+    case OP_FILTER_GAUSSIAN: {
+        /* Box-Muller, truncated at the filter radius by folding the radius into range. */
+        float r = film->stddev * sqrtf(-2.0f * logf(fmaxf(1.0f - u1, 1e-12f)));
+        if (r > film->filter_radius)
+            r = fmodf(r, film->filter_radius);
+        float phi = 2.0f * OP_PI * u2;
+        *dx = r * cosf(phi);
+        *dy = r * sinf(phi);
+        break;
+    }
+    }
+}

@@ -1,0 +1,66 @@
+/* film.h - the film (hdrfilm / ldrfilm: size, crop window, output settings), its
+ * reconstruction filter and the sampler. The filter is applied by filter importance sampling:
+ * each sample's position within its pixel is drawn from the filter's own distribution and the
+ * sample is given weight 1, so pixels never share samples and tiles are independent. */
+#ifndef OP_FILM_H
+#define OP_FILM_H
+
+#include "scene/scene_desc.h"
+
+typedef enum op_filter_type { OP_FILTER_BOX, OP_FILTER_TENT, OP_FILTER_GAUSSIAN } op_filter_type;
+typedef enum op_pixel_format { OP_PIXFMT_RGB, OP_PIXFMT_RGBA, OP_PIXFMT_LUMINANCE } op_pixel_format;
+
+typedef struct op_film {
+    int ldr;                    /* ldrfilm */
+    int full_width, full_height;
+    int crop_x, crop_y, width, height;
+    char filename[1024];        /* empty when the film names none */
+    op_pixel_format pixel_format;
+    int half_float;             /* hdrfilm componentFormat float16 (the default) */
+    const char *extension;      /* the fileFormat's: ".exr" (openexr), ".pfm", ".hdr" (rgbe),
+                                   ".png" (ldrfilm) */
+    double gamma;               /* ldrfilm: -1 = sRGB */
+    double exposure;            /* ldrfilm: stops (tonemapMethod gamma) */
+    int reinhard;               /* ldrfilm: tonemapMethod reinhard */
+    double key, burn;           /* ldrfilm: Reinhard's key (0.18) and burn (0) */
+    op_filter_type filter;
+    float filter_radius;        /* box 0.5, tent 1 (or radius), gaussian 4 * stddev */
+    float stddev;
+} op_film;
+
+/* independent: plain random numbers; ld: the Owen-scrambled Sobol numbers of sampler.h (Mitsuba's
+ * stratified, ldsampler, sobol, halton and hammersley all map to it). */
+typedef enum op_sampler_type { OP_SAMPLER_INDEPENDENT, OP_SAMPLER_LD } op_sampler_type;
+
+typedef struct op_sampler {
+    op_sampler_type type;
+    int spp;
+} op_sampler;
+
+/* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
+op_status op_film_build(op_node *film, op_film *out, op_error *err);
+/* Sets the crop window (Mitsuba's cropOffsetX/Y, cropWidth/Height: the pixels rendered, a
+ * rectangle of the full_width x full_height film, top-left origin). A window not inside the
+ * film is OP_ERR_INPUT, the message starting with `where`. */
+op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
+                           const char *where, op_error *err);
+/* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's
+ * log-average luminance (log(1e-3 + Y) averaged) and maximum Y set the scale key / avg and the
+ * white point; each pixel's Y becomes Lp (1 + Lp / (Lwhite^2 b^4)) / (1 + Lp) with Lp = Y scale
+ * and b = clamp(1 - burn, 1e-8, 1), chromaticity kept. */
+typedef struct op_reinhard {
+    float scale, inv_wp2; /* scale 0: a black image, left black */
+} op_reinhard;
+/* The operator's parameters for the RGBA image pixels[0..n) under film's key and burn. */
+void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_reinhard *r);
+/* Tonemaps one linear Rec. 709 RGB value in place (black stays black). */
+void op_reinhard_apply(const op_reinhard *r, float rgb[3]);
+
+/* Reads a <sampler> (NULL: independent, 4 samples, Mitsuba's default). sampleCount is rounded
+ * up to a square for stratified and to a power of two for ldsampler, as Mitsuba does. */
+op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
+
+/* The offset of a sample from its pixel's centre, in pixels, drawn from the filter. */
+void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
+
+#endif

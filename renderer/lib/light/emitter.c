@@ -1,0 +1,410 @@
+/* emitter.c - light sources (see emitter.h). */
+#include "light/emitter.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static op_status read_nonneg_color(op_node *n, const char *name, double def, op_v3 *out,
+                                   op_error *err)
+{
+    double d[3] = {def, def, def}, c[3];
+    GET_OR_FAIL(op_node_color(n, name, d, c, err));
+    for (int i = 0; i < 3; i++)
+        if (!(c[i] >= 0.0) || !isfinite(c[i]))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: %s must be "
+                                "finite and >= 0", n->file, n->line, n->type, name);
+    *out = v3_from_d(c);
+    return OP_OK;
+}
+
+/* The sampling weight of envmap pixel (x, y): its luminance (negative channels count as 0)
+ * times sin(theta) at the row's centre. */
+static double env_pixel_weight(const op_emitter *e, int x, int y)
+{
+    const float *px = e->env.pixels + ((size_t)y * e->env.width + x) * (size_t)e->env.channels;
+    double lum = 0.2126 * fmax(px[0], 0.0) + 0.7152 * fmax(px[1], 0.0) + 0.0722 * fmax(px[2], 0.0);
+    return lum * sin(M_PI * (y + 0.5) / e->env.height);
+}
+
+/* Builds the envmap's row and column CDFs; a black map is sampled by sin(theta) alone (its
+ * emission is zero anyway). Returns 0, or -1 when out of memory. */
+static int env_build_distribution(op_emitter *e)
+{
+    int w = e->env.width, h = e->env.height;
+    e->env_row_cdf = malloc(((size_t)h + 1) * sizeof(float));
+    e->env_col_cdf = malloc((size_t)h * ((size_t)w + 1) * sizeof(float));
+    double *rows = malloc((size_t)h * sizeof(double));
+    if (!e->env_row_cdf || !e->env_col_cdf || !rows) {
+        free(rows);
+        return -1;
+    }
+    double total = 0.0;
+    for (int y = 0; y < h; y++) {
+        float *cdf = e->env_col_cdf + (size_t)y * (w + 1);
+        double acc = 0.0;
+        for (int x = 0; x < w; x++)
+            acc += env_pixel_weight(e, x, y);
+        double run = 0.0;
+        cdf[0] = 0.0f;
+        for (int x = 0; x < w; x++) {
+            run += acc > 0.0 ? env_pixel_weight(e, x, y) : 1.0;
+            cdf[x + 1] = (float)(run / (acc > 0.0 ? acc : (double)w));
+        }
+        cdf[w] = 1.0f;
+        rows[y] = acc;
+        total += acc;
+    }
+    e->env_weight = total;
+    double run = 0.0, norm = 0.0;
+    for (int y = 0; y < h; y++)
+        norm += total > 0.0 ? rows[y] : sin(M_PI * (y + 0.5) / h);
+    e->env_row_cdf[0] = 0.0f;
+    for (int y = 0; y < h; y++) {
+        run += total > 0.0 ? rows[y] : sin(M_PI * (y + 0.5) / h);
+        e->env_row_cdf[y + 1] = (float)(run / norm);
+    }
+    e->env_row_cdf[h] = 1.0f;
+    free(rows);
+    return 0;
+}
+
+/* The index i in [0, n) with cdf[i] <= u < cdf[i + 1] (cdf has n + 1 entries from 0 to 1,
+ * non-decreasing); *frac gets u's position within that interval. */
+static int cdf_find(const float *cdf, int n, float u, float *frac)
+{
+    int lo = 0, hi = n; /* cdf[lo] <= u < cdf[hi] */
+    while (hi - lo > 1) {
+        int mid = lo + (hi - lo) / 2;
+        if (cdf[mid] <= u)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    float d = cdf[lo + 1] - cdf[lo];
+    *frac = d > 0.0f ? fminf((u - cdf[lo]) / d, 0x1.fffffep-1f) : 0.5f;
+    return lo;
+}
+
+op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
+                           long long max_pixels, op_emitter *e, op_error *err)
+{
+    memset(e, 0, sizeof *e);
+    node->used = 1;
+    op_matrix4 xf;
+    GET_OR_FAIL(op_node_transform(node, "toWorld", &xf, err));
+    const char *t = node->type;
+    if (strcmp(t, "point") == 0 || strcmp(t, "spot") == 0) {
+        double o[3] = {0, 0, 0}, pos[3];
+        op_matrix4_point(&xf, o, o);
+        GET_OR_FAIL(op_node_vec3(node, "position", o, pos, err));
+        e->pos = v3_from_d(pos);
+        GET_OR_FAIL(read_nonneg_color(node, "intensity", 1.0, &e->value, err));
+        e->type = OP_EM_POINT;
+        if (strcmp(t, "spot") == 0) {
+            e->type = OP_EM_SPOT;
+            double cutoff, beam, z[3] = {0, 0, 1};
+            GET_OR_FAIL(op_node_float(node, "cutoffAngle", 20.0, &cutoff, err));
+            if (!(cutoff > 0.0) || cutoff > 90.0) {
+                double c = cutoff > 90.0 ? 90.0 : 0.01;
+                op_log(OP_LOG_WARN, "%s:%d: <emitter type=\"spot\">: cutoffAngle %g is outside "
+                       "(0, 90]; clamped to %g", node->file, node->line, cutoff, c);
+                cutoff = c;
+            }
+            GET_OR_FAIL(op_node_float(node, "beamWidth", cutoff * 0.75, &beam, err));
+            if (!(beam > 0.0) || beam > cutoff) {
+                double c = beam > cutoff ? cutoff : cutoff * 0.75;
+                op_log(OP_LOG_WARN, "%s:%d: <emitter type=\"spot\">: beamWidth %g is outside "
+                       "(0, cutoffAngle]; clamped to %g", node->file, node->line, beam, c);
+                beam = c;
+            }
+            op_matrix4_vector(&xf, z, z);
+            op_v3 axis;
+            if (!v3_unit_from_d(z, &axis))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: toWorld "
+                                    "is degenerate", node->file, node->line);
+            e->frame = op_frame_from_normal(axis);
+            e->cutoff = (float)(cutoff * M_PI / 180.0);
+            e->beam = (float)(beam * M_PI / 180.0);
+            e->cos_cutoff = cosf(e->cutoff);
+            e->cos_beam = cosf(e->beam);
+        }
+        return OP_OK;
+    }
+    if (strcmp(t, "area") == 0) {
+        if (!mesh)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be nested "
+                                "in a <shape>", node->file, node->line);
+        e->type = OP_EM_AREA;
+        e->mesh = mesh;
+        e->shape = shape;
+        int visible;
+        GET_OR_FAIL(op_node_bool(node, "visibleToCamera", 1, &visible, err));
+        e->camera_hidden = !visible;
+        return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "directional") == 0) {
+        double z[3] = {0, 0, 1}, d[3];
+        op_matrix4_vector(&xf, z, z);
+        GET_OR_FAIL(op_node_vec3(node, "direction", z, d, err));
+        e->type = OP_EM_DIRECTIONAL;
+        if (!v3_unit_from_d(d, &e->dir))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: zero "
+                                "or non-finite direction", node->file, node->line);
+        return read_nonneg_color(node, "irradiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "constant") == 0) {
+        e->type = OP_EM_CONSTANT;
+        return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "envmap") == 0) {
+        const char *fn;
+        double scale;
+        GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
+        GET_OR_FAIL(op_node_float(node, "scale", 1.0, &scale, err));
+        if (!fn)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\"> needs a "
+                                "filename", node->file, node->line);
+        char path[4096];
+        if (fn[0] == '/' || !base_dir)
+            snprintf(path, sizeof path, "%s", fn);
+        else
+            snprintf(path, sizeof path, "%s/%s", base_dir, fn);
+        e->type = OP_EM_ENVMAP;
+        op_status st = op_image_read_limited(path, 1, (uint64_t)max_pixels, &e->env, NULL, err);
+        if (st)
+            return op_error_prefix(err, "%s:%d: <emitter type=\"envmap\">: ", node->file,
+                                   node->line);
+        if (e->env.channels < 3) {
+            op_image_free(&e->env);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: envmap %s: needs an RGB image",
+                                node->file, node->line, path);
+        }
+        e->value = v3s((float)scale);
+        /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
+        op_matrix4 inv;
+        if (!op_matrix4_inverse(&xf, &inv) || !op_matrix4_is_finite(&inv)) {
+            op_image_free(&e->env);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: toWorld is "
+                                "singular", node->file, node->line);
+        }
+        double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
+        op_matrix4_vector(&inv, ex, ex);
+        op_matrix4_vector(&inv, ey, ey);
+        op_matrix4_vector(&inv, ez, ez);
+        /* store columns so that local = (dot(d, s), dot(d, t), dot(d, n)) */
+        e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
+        e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
+        e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
+        double fx[3] = {1, 0, 0}, fy[3] = {0, 1, 0}, fz[3] = {0, 0, 1};
+        op_matrix4_vector(&xf, fx, fx);
+        op_matrix4_vector(&xf, fy, fy);
+        op_matrix4_vector(&xf, fz, fz);
+        e->env_to_world.s = v3_from_d(fx);
+        e->env_to_world.t = v3_from_d(fy);
+        e->env_to_world.n = v3_from_d(fz);
+        const op_v3 *axes[6] = {&e->frame.s, &e->frame.t, &e->frame.n, &e->env_to_world.s,
+                                &e->env_to_world.t, &e->env_to_world.n};
+        for (int k = 0; k < 6; k++) {
+            float len = v3_len(*axes[k]);
+            if (!(len > 0.0f) || !isfinite(len)) {
+                op_image_free(&e->env);
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: "
+                                    "toWorld's rotation is degenerate in single precision",
+                                    node->file, node->line);
+            }
+        }
+        if (env_build_distribution(e) != 0) {
+            op_emitter_free(e);
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+        }
+        return OP_OK;
+    }
+    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
+                        "(point, spot, area, directional, constant, envmap)", node->file,
+                        node->line, t);
+}
+
+void op_emitter_free(op_emitter *e)
+{
+    if (e->type == OP_EM_ENVMAP) {
+        op_image_free(&e->env);
+        free(e->env_row_cdf);
+        free(e->env_col_cdf);
+        e->env_row_cdf = e->env_col_cdf = NULL;
+    }
+}
+
+int op_emitter_is_env(const op_emitter *e)
+{
+    return e->type == OP_EM_CONSTANT || e->type == OP_EM_ENVMAP;
+}
+
+static float spot_falloff(const op_emitter *e, float cos_theta)
+{
+    if (cos_theta <= e->cos_cutoff)
+        return 0.0f;
+    if (cos_theta >= e->cos_beam)
+        return 1.0f;
+    return (e->cutoff - acosf(fminf(cos_theta, 1.0f))) / (e->cutoff - e->beam);
+}
+
+/* The envmap pixel (*x, *y) that direction d (map space, unit) falls in; *sin_theta gets
+ * sin of d's polar angle from +Y. */
+static void env_pixel(const op_emitter *e, op_v3 d, int *x, int *y, float *sin_theta)
+{
+    float u = atan2f(d.x, -d.z) * (0.5f * OP_INV_PI);
+    if (u < 0.0f)
+        u += 1.0f;
+    float cy = fmaxf(-1.0f, fminf(1.0f, d.y));
+    float v = acosf(cy) * OP_INV_PI;
+    int w = e->env.width, h = e->env.height;
+    int px = (int)(u * (float)w), py = (int)(v * (float)h);
+    *x = px < 0 ? 0 : (px >= w ? w - 1 : px);
+    *y = py < 0 ? 0 : (py >= h ? h - 1 : py);
+    *sin_theta = sqrtf(fmaxf(0.0f, 1.0f - cy * cy));
+}
+
+op_v3 op_emitter_env_le(const op_emitter *e, op_v3 dir)
+{
+    if (e->type == OP_EM_CONSTANT)
+        return e->value;
+    int x, y;
+    float st;
+    env_pixel(e, op_frame_to_local(&e->frame, dir), &x, &y, &st);
+    const float *px = e->env.pixels + ((size_t)y * e->env.width + x) * (size_t)e->env.channels;
+    return v3_scale(v3(px[0], px[1], px[2]), e->value.x);
+}
+
+/* The density over the unit (u, v) square of envmap pixel (x, y). */
+static float env_uv_pdf(const op_emitter *e, int x, int y)
+{
+    int w = e->env.width, h = e->env.height;
+    double p;
+    if (e->env_weight > 0.0)
+        p = env_pixel_weight(e, x, y) / e->env_weight;
+    else /* a black map: rows by sin(theta), columns uniform */
+        p = (double)(e->env_row_cdf[y + 1] - e->env_row_cdf[y]) / w;
+    return (float)(p * (double)w * (double)h);
+}
+
+float op_emitter_env_pdf(const op_emitter *e, op_v3 dir)
+{
+    if (e->type == OP_EM_CONSTANT)
+        return 1.0f / (4.0f * OP_PI);
+    int x, y;
+    float st;
+    env_pixel(e, v3_norm(op_frame_to_local(&e->frame, dir)), &x, &y, &st);
+    if (st <= 0.0f)
+        return 0.0f;
+    return env_uv_pdf(e, x, y) / (2.0f * OP_PI * OP_PI * st);
+}
+
+op_v3 op_emitter_area_le(const op_emitter *e, op_v3 n, op_v3 w)
+{
+    return v3_dot(n, w) > 0.0f ? e->value : v3s(0.0f);
+}
+
+float op_emitter_area_pdf(const op_emitter *e, op_v3 n, op_v3 dir, float dist)
+{
+    float c = fabsf(v3_dot(n, dir)) / fmaxf(v3_len(n), 1e-30f);
+    if (c <= 0.0f)
+        return 0.0f;
+    return dist * dist / (c * e->mesh->area);
+}
+
+int op_emitter_sample_dims(const op_emitter *e)
+{
+    switch (e->type) {
+    case OP_EM_POINT:
+    case OP_EM_SPOT:
+    case OP_EM_DIRECTIONAL:
+        return 0;
+    case OP_EM_CONSTANT:
+    case OP_EM_ENVMAP:
+        return 2;
+    case OP_EM_AREA:
+        return 3;
+    }
+    return 3;
+}
+
+int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,
+                      op_light_sample *s)
+{
+    switch (e->type) {
+    case OP_EM_POINT:
+    case OP_EM_SPOT: {
+        op_v3 d = v3_sub(e->pos, p);
+        float d2 = v3_dot(d, d);
+        if (d2 <= 0.0f)
+            return 0;
+        s->dist = sqrtf(d2);
+        s->wi = v3_scale(d, 1.0f / s->dist);
+        s->pdf = 0.0f;
+        float f = 1.0f;
+        if (e->type == OP_EM_SPOT)
+            f = spot_falloff(e, -v3_dot(s->wi, e->frame.n));
+        if (f <= 0.0f)
+            return 0;
+        s->value = v3_scale(e->value, f / d2);
+        return 1;
+    }
+    case OP_EM_AREA: {
+        int t = op_trimesh_pick(e->mesh, u3);
+        float b1, b2;
+        op_sample_triangle(u1, u2, &b1, &b2);
+        op_v3 a, b, c;
+        op_trimesh_tri(e->mesh, t, &a, &b, &c);
+        op_v3 q = v3_add(v3_add(v3_scale(a, 1.0f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+        op_v3 n = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        op_v3 d = v3_sub(q, p);
+        float dist = v3_len(d);
+        if (dist <= 0.0f)
+            return 0;
+        s->wi = v3_scale(d, 1.0f / dist);
+        s->dist = dist;
+        float cl = -v3_dot(n, s->wi);
+        if (cl <= 0.0f)
+            return 0;
+        s->pdf = dist * dist / (cl * e->mesh->area);
+        s->value = v3_scale(e->value, 1.0f / s->pdf);
+        return 1;
+    }
+    case OP_EM_DIRECTIONAL:
+        s->wi = v3_neg(e->dir);
+        s->dist = INFINITY;
+        s->pdf = 0.0f;
+        s->value = e->value;
+        return 1;
+    case OP_EM_CONSTANT: {
+        s->wi = op_sample_sphere(u1, u2);
+        s->dist = INFINITY;
+        s->pdf = 1.0f / (4.0f * OP_PI);
+        s->value = v3_scale(op_emitter_env_le(e, s->wi), 1.0f / s->pdf);
+        return !v3_is_black(s->value);
+    }
+    case OP_EM_ENVMAP: {
+        int w = e->env.width, h = e->env.height;
+        float fy, fx;
+        int y = cdf_find(e->env_row_cdf, h, u2, &fy);
+        int x = cdf_find(e->env_col_cdf + (size_t)y * (w + 1), w, u1, &fx);
+        float theta = OP_PI * ((float)y + fy) / (float)h;
+        float phi = 2.0f * OP_PI * ((float)x + fx) / (float)w;
+        float st = sinf(theta);
+        if (st <= 0.0f)
+            return 0;
+        op_v3 d = v3(st * sinf(phi), cosf(theta), -st * cosf(phi));
+        s->wi = v3_norm(op_frame_to_world(&e->env_to_world, d));
+        s->dist = INFINITY;
+        s->pdf = env_uv_pdf(e, x, y) / (2.0f * OP_PI * OP_PI * st);
+        if (!(s->pdf > 0.0f))
+            return 0;
+        const float *px = e->env.pixels + ((size_t)y * w + x) * (size_t)e->env.channels;
+        s->value = v3_scale(v3(px[0], px[1], px[2]), e->value.x / s->pdf);
+        return !v3_is_black(s->value);
+    }
+    }
+    return 0;
+}

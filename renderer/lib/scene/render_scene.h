@@ -1,0 +1,96 @@
+/* render_scene.h - the built scene as the renderer's modules see it (the public op_scene is
+ * opaque). Built once by scene_build.c, read-only afterwards. */
+#ifndef OP_RENDER_SCENE_H
+#define OP_RENDER_SCENE_H
+
+#include "geometry/accel.h"
+#include "bsdf/bsdf.h"
+#include "camera/camera.h"
+#include "sss/dipole_profile.h"
+#include "light/emitter.h"
+#include "camera/film.h"
+#include "opaline_render.h"
+#include "geometry/shape.h"
+
+typedef enum op_integrator_type {
+    OP_INT_PATH,
+    OP_INT_DIRECT,
+    OP_INT_NORMALS,
+    OP_INT_UV,
+    OP_INT_ALBEDO
+} op_integrator_type;
+
+typedef struct op_integrator {
+    op_integrator_type type;
+    int max_depth; /* -1 infinite; 1 = only emitters seen directly; 2 = direct lighting */
+    int rr_depth;
+    int hide_emitters;
+    int emitter_samples; /* direct: samples of every emitter per pixel sample (>= 0) */
+    int bsdf_samples;    /* direct: BSDF samples per pixel sample (>= 0) */
+} op_integrator;
+
+/* A measured subsurface material on one shape. */
+typedef struct op_sss_desc {
+    op_material *material; /* owned by the scene's material list (shared between shapes) */
+    double scale;          /* multiplies the material's physical size */
+    int irr_samples;       /* paths per irradiance point */
+    double density;        /* irradiance points per material pixel area */
+    int max_points;
+    int points;            /* the irradiance points of its layout (op_sss_plan) */
+    int windowed;          /* 1: a shape needing more than max_points (a measured material,
+                              or the dipole at its profile's spacing): only the points near the
+                              view are laid, up to max_points, else the shape is coarsened
+                              (sss/layout.c) */
+    int finest;            /* the points of its layout's finest level: one per material pixel,
+                              or at the profile's spacing (a windowed dipole's levels add up to
+                              points) */
+    op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
+    int is_dipole;         /* 1: the classical dipole below instead of a material (material NULL) */
+    op_sss_dipole dipole;      /* coefficients per scene unit (docs/subsurface-rendering.md) */
+    int has_boundary;      /* 1: the shape's <bsdf> gives its surface reflection (below) */
+    op_bsdf sheen;         /* that reflection lobe (op_bsdf_boundary) */
+    op_bsdf_through through; /* what the boundary lets in and out */
+} op_sss_desc;
+
+typedef struct op_shape_rec {
+    op_trimesh mesh; /* world space; for an instance a borrowed copy of the scene's prototype in
+                        object space (never freed through the shape) */
+    int instanced;   /* 1: mesh is a shared prototype placed by place (never an emitter or
+                        translucent: those need their world-space triangles) */
+    int proto;       /* instanced: the prototype's index in the scene's protos */
+    op_placement place;
+    int bsdf;      /* index into bsdfs */
+    int emitter;   /* index into emitters, or -1 */
+    int sss;       /* index into sss, or -1 */
+    char label[160]; /* "file:line" of the shape, for messages */
+} op_shape_rec;
+
+struct op_scene {
+    char *path;
+    op_camera camera;
+    op_film film;
+    op_sampler sampler;
+    op_integrator integrator;
+    op_shape_rec *shapes;
+    int nshapes;
+    op_trimesh *protos; /* object-space meshes shared by instanced shapes */
+    int nprotos;
+    op_bsdf *bsdfs;
+    int nbsdfs;
+    int has_masks; /* some shape's bsdf is a mask: shadow rays must look through surfaces */
+    op_emitter *emitters;
+    int nemitters;
+    int env; /* index of the environment emitter, or -1 */
+    op_sss_desc *sss;
+    int nsss;
+    op_material **materials;
+    char **material_paths; /* the file each material was opened from */
+    int nmaterials;
+    unsigned char desc_hash[16]; /* op_sss_desc_hash of the description (translucent scenes) */
+    op_tex_cache *textures; /* the images the bsdfs' textures point into */
+    op_accel *accel;
+    op_v3 bmin, bmax; /* world bounds of the geometry */
+    float eps;        /* ray offset scale */
+};
+
+#endif
