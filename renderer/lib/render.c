@@ -216,10 +216,10 @@ static void render_tile(void *user, int task, int thread)
  * where the key matches, and the file is (re)written, before the camera pass, when the pre-pass
  * computed anything or the file was missing or stale. */
 static op_status prepass(const op_scene *s, const op_render_options *opt,
-                         op_sss_build_options *so, op_sss_cache **sss, op_error *err)
+                         op_sss_prepass_options *so, op_sss_prepass **sss, op_error *err)
 {
     if (!opt->sss_cache)
-        return op_sss_cache_build(s, so, sss, err);
+        return op_sss_prepass_run(s, so, sss, err);
     unsigned char key[OP_SSS_KEY_BYTES];
     op_sss_store store;
     op_sss_file_state state;
@@ -232,7 +232,7 @@ static op_status prepass(const op_scene *s, const op_render_options *opt,
         return st;
     double t2 = op_monotonic_seconds();
     so->store = &store;
-    st = op_sss_cache_build(s, so, sss, err);
+    st = op_sss_prepass_run(s, so, sss, err);
     if (st == OP_ERR_FORMAT) /* the store does not fit the scene (saved_prepare) */
         op_error_prefix(err, "--sss-cache %s: ", opt->sss_cache);
     if (st == OP_OK) {
@@ -251,7 +251,7 @@ static op_status prepass(const op_scene *s, const op_render_options *opt,
                        op_monotonic_seconds() - t3);
         }
         if (st) {
-            op_sss_cache_free(*sss);
+            op_sss_prepass_free(*sss);
             *sss = NULL;
         }
     }
@@ -283,16 +283,16 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     job.tiles_x = (s->film.width + job.tile - 1) / job.tile;
     int tiles_y = (s->film.height + job.tile - 1) / job.tile;
     r->stats.tiles = job.tiles_x * tiles_y;
-    op_sss_cache *sss = NULL;
+    op_sss_prepass *sss = NULL;
     int it = s->integrator.type;
     if (s->nsss > 0 && (it == OP_INT_PATH || it == OP_INT_DIRECT)) {
-        op_sss_build_options so = {opt->threads, opt->seed, opt->cancel, opt->progress,
+        op_sss_prepass_options so = {opt->threads, opt->seed, opt->cancel, opt->progress,
                                    opt->progress_user, 0, NULL, &op_path_transport};
         st = prepass(s, opt, &so, &sss, err);
         if (st)
             return st;
         op_sss_stats ss;
-        op_sss_cache_stats(sss, &ss);
+        op_sss_prepass_stats(sss, &ss);
         r->stats.sss_points = ss.points;
         r->stats.sss_sources = ss.sources;
         r->stats.sss_receivers = ss.receivers;
@@ -307,13 +307,13 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
                            : "the scene has no translucent shapes");
     }
     if (opt->sss_cache_only) {
-        op_sss_cache_free(sss);
+        op_sss_prepass_free(sss);
         return OP_OK;
     }
     int threads = op_parallel_threads(opt->threads);
     job.scratch = calloc((size_t)threads, sizeof *job.scratch);
     if (!job.scratch) {
-        op_sss_cache_free(sss);
+        op_sss_prepass_free(sss);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
     for (int i = 0; i < threads; i++)
@@ -337,7 +337,7 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     for (int i = 0; i < threads; i++)
         free(job.scratch[i]);
     free(job.scratch);
-    op_sss_cache_free(sss);
+    op_sss_prepass_free(sss);
     return st;
 }
 

@@ -102,9 +102,9 @@ static void slab_exitance(const char *path, double inner, double out[3])
     op_scene *scene = NULL;
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    st = op_sss_cache_build(scene, &o, &cache, &err);
+    op_sss_prepass_options o = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
+    op_sss_prepass *cache = NULL;
+    st = op_sss_prepass_run(scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);
     out[0] = out[1] = out[2] = 0.0;
     int n = 0;
@@ -121,7 +121,7 @@ static void slab_exitance(const char *path, double inner, double out[3])
         }
     for (int c = 0; c < 3; c++)
         out[c] /= n;
-    op_sss_cache_free(cache);
+    op_sss_prepass_free(cache);
     op_scene_free(scene);
 }
 

@@ -50,7 +50,8 @@ static double diffusion_length(const medium *m, int c)
 
 /* Renders nothing: loads the scene text, runs the pre-pass as a render would (camera-marked
  * receivers, 2 threads) and returns the scene and cache. */
-static op_sss_cache *prepass(const char *name, const char *text, op_scene **scene, double *seconds)
+static op_sss_prepass *prepass(const char *name, const char *text, op_scene **scene,
+                               double *seconds)
 {
     return op_test_sss_prepass(op_test_write_temp(name, text), scene, seconds);
 }
@@ -113,7 +114,7 @@ static void test_spot_every_distance(void **state)
         scene_text(text, sizeof text, m, x0, x1, -y, y, em, 0.5 * (s0 + s1), w, 64, 2);
         op_scene *scene = NULL;
         double secs = 0.0;
-        op_sss_cache *cache = prepass("spot.xml", text, &scene, &secs);
+        op_sss_prepass *cache = prepass("spot.xml", text, &scene, &secs);
         for (int c = 0; c < 3; c++) {
             double L = diffusion_length(m, c);
             printf("%-10s  %d  %6.3f ", m->name, c, L);
@@ -130,9 +131,10 @@ static void test_spot_every_distance(void **state)
                     printf(" <-");
                 }
             }
-            printf(c == 2 ? "   (%d points, %.2f s)\n" : "\n", op_sss_cache_points(cache, 0), secs);
+            printf(c == 2 ? "   (%d points, %.2f s)\n" : "\n", op_sss_prepass_points(cache, 0),
+                   secs);
         }
-        op_sss_cache_free(cache);
+        op_sss_prepass_free(cache);
         op_scene_free(scene);
     }
     if (failures)
@@ -162,7 +164,7 @@ static void test_uniform_every_medium(void **state)
                    0.0, w, 4, 4);
         op_scene *scene = NULL;
         double secs = 0.0;
-        op_sss_cache *cache = prepass("uniform.xml", text, &scene, &secs);
+        op_sss_prepass *cache = prepass("uniform.xml", text, &scene, &secs);
         op_v3 got = v3s(0.0f);
         for (int j = 0; j < 5; j++)
             for (int i = 0; i < 5; i++) {
@@ -181,8 +183,8 @@ static void test_uniform_every_medium(void **state)
                 printf(" <-");
             }
         }
-        printf("   (%d points, %.2f s)\n", op_sss_cache_points(cache, 0), secs);
-        op_sss_cache_free(cache);
+        printf("   (%d points, %.2f s)\n", op_sss_prepass_points(cache, 0), secs);
+        op_sss_prepass_free(cache);
         op_scene_free(scene);
     }
     if (failures)

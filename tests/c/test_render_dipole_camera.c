@@ -199,11 +199,11 @@ static void test_receivers_thinned(void **state)
         "  <integer name=\"irrSamples\" value=\"4\"/></subsurface></shape></scene>");
     op_scene *s2 = NULL, *s1 = NULL, *sall = NULL;
     double secs;
-    op_sss_cache *c2 = op_test_sss_prepass_with(path, 0, 2, &s2, &secs);
-    op_sss_cache *c1 = op_test_sss_prepass_with(path, 0, 1, &s1, &secs);
-    op_sss_cache *call = op_test_sss_prepass_with(path, 1, 2, &sall, &secs);
+    op_sss_prepass *c2 = op_test_sss_prepass_with(path, 0, 2, &s2, &secs);
+    op_sss_prepass *c1 = op_test_sss_prepass_with(path, 0, 1, &s1, &secs);
+    op_sss_prepass *call = op_test_sss_prepass_with(path, 1, 2, &sall, &secs);
     op_sss_stats st;
-    op_sss_cache_stats(c2, &st);
+    op_sss_prepass_stats(c2, &st);
     printf("%lld points, %lld receivers\n", st.points, st.receivers);
     assert_true(st.points > 10000);
     assert_true(st.receivers > 0 && st.receivers * 4 < st.points);
@@ -232,9 +232,9 @@ static void test_receivers_thinned(void **state)
      * elsewhere and on the whole they agree */
     assert_true(worst < 0.06);
     assert_true(fabs(sum_thin / sum_all - 1.0) < 0.01);
-    op_sss_cache_free(c2);
-    op_sss_cache_free(c1);
-    op_sss_cache_free(call);
+    op_sss_prepass_free(c2);
+    op_sss_prepass_free(c1);
+    op_sss_prepass_free(call);
     op_scene_free(s2);
     op_scene_free(s1);
     op_scene_free(sall);
@@ -242,7 +242,7 @@ static void test_receivers_thinned(void **state)
 
 /* The spot-lit Marble square of test_large_slab_levels with maxPoints `cap`, its pre-pass run
  * as a render's (everywhere 0) or for every point (1). */
-static op_sss_cache *large_slab(int cap, int everywhere, op_scene **scene)
+static op_sss_prepass *large_slab(int cap, int everywhere, op_scene **scene)
 {
     char path[1024], text[4096];
     snprintf(path, sizeof path, "%s", op_test_tmp_path("large.xml"));
@@ -275,11 +275,11 @@ static void test_large_slab_levels(void **state)
     /* a 200 mm Marble square (295,000 points at the profile's 0.37 mm spacing) lit by a spot of
      * radius 20 mm, seen over 30 mm from its edge outwards; maxPoints 40000 */
     op_scene *sl = NULL, *sf = NULL, *sc = NULL;
-    op_sss_cache *lev = large_slab(40000, 0, &sl), *full = large_slab(400000, 0, &sf);
-    op_sss_cache *capped = large_slab(40000, 1, &sc); /* every point: the cap applies */
-    int nl = op_sss_cache_points(lev, 0), nf = op_sss_cache_points(full, 0);
+    op_sss_prepass *lev = large_slab(40000, 0, &sl), *full = large_slab(400000, 0, &sf);
+    op_sss_prepass *capped = large_slab(40000, 1, &sc); /* every point: the cap applies */
+    int nl = op_sss_prepass_points(lev, 0), nf = op_sss_prepass_points(full, 0);
     printf("levels: %d points laid, every point at the profile's spacing: %d, capped: %d\n", nl,
-           nf, op_sss_cache_points(capped, 0));
+           nf, op_sss_prepass_points(capped, 0));
     assert_true(nf > 250000);
     assert_true(nl > 10000 && nl <= 40000);
     double worst = 0.0, worst_cap = 0.0;
@@ -304,9 +304,9 @@ static void test_large_slab_levels(void **state)
     /* measured: levels 0.41 % (the far levels' aggregates), the cap 16 % */
     assert_true(worst < 0.01);
     assert_true(worst_cap > 5.0 * worst);
-    op_sss_cache_free(lev);
-    op_sss_cache_free(full);
-    op_sss_cache_free(capped);
+    op_sss_prepass_free(lev);
+    op_sss_prepass_free(full);
+    op_sss_prepass_free(capped);
     op_scene_free(sl);
     op_scene_free(sf);
     op_scene_free(sc);

@@ -9,7 +9,7 @@
  *      Rd~((x - y) / pixel) / pixel^2, Rd~ the row interpolated bilinearly between its offsets
  *      (zero beyond the kernel), the disk integrated in polar coordinates; its standard error from
  *      the rows' own (sum of (dM/dRd_k)^2 se_k^2); under uniform light the row sum;
- *  (b) the renderer's exitance with that dataset as a `raw` material (op_sss_cache_build as a
+ *  (b) the renderer's exitance with that dataset as a `raw` material (op_sss_prepass_run as a
  *      render runs it, camera-marked, then op_sss_lookup);
  *  (c) the renderer's dipole for the same grey medium, and (d) the dipole's closed form
  *      (dipole_reference.h) integrated over the disk, which tells the renderer's error from the
@@ -126,7 +126,7 @@ static const char *slab_scene(const char *name, const char *sss_xml, const char 
     return op_test_write_temp(name, text);
 }
 
-static op_v3 lookup(const op_sss_cache *cache, double x, double y)
+static op_v3 lookup(const op_sss_prepass *cache, double x, double y)
 {
     op_v3 m;
     if (!op_sss_lookup(cache, 0, v3((float)x, (float)y, 0.0f), v3(0.0f, 0.0f, 1.0f), &m))
@@ -145,7 +145,7 @@ static void ring(double rho, double *px, double *py)
 }
 
 /* Mean exitance per channel on the ring at rho. */
-static op_v3 ring_exitance(const op_sss_cache *cache, double rho)
+static op_v3 ring_exitance(const op_sss_prepass *cache, double rho)
 {
     double px[NANG], py[NANG];
     ring(rho, px, py);
@@ -187,9 +187,9 @@ static void measure(const mcref_result *r, const mcref_case *k, const char *sss_
     op_scene *scene = NULL;
     double secs = 0.0;
     const char *path = slab_scene("spot.xml", sss_xml, spot, S, V);
-    op_sss_cache *cache = op_test_sss_prepass(path, &scene, &secs);
+    op_sss_prepass *cache = op_test_sss_prepass(path, &scene, &secs);
     *seconds = secs;
-    *points = op_sss_cache_points(cache, 0);
+    *points = op_sss_prepass_points(cache, 0);
     for (int q = 0; q < 3; q++) {
         op_v3 m = ring_exitance(cache, distance_of(r, q));
         for (int c = 0; c < 3; c++)
@@ -207,7 +207,7 @@ static void measure(const mcref_result *r, const mcref_case *k, const char *sss_
         for (int c = 0; c < 3; c++)
             got[c][3] = tot[c];
     }
-    op_sss_cache_free(cache);
+    op_sss_prepass_free(cache);
     op_scene_free(scene);
     /* uniform light: the mean over 5 x 5 positions at the centre */
     path = slab_scene("uniform.xml", sss_xml, unil, S, V);
@@ -219,7 +219,7 @@ static void measure(const mcref_result *r, const mcref_case *k, const char *sss_
             s = v3_add(s, v3_scale(lookup(cache, r->pix * (i - 2), r->pix * (j - 2)), 1.0f / 25));
     for (int c = 0; c < 3; c++)
         uni[c] = chan(s, c);
-    op_sss_cache_free(cache);
+    op_sss_prepass_free(cache);
     op_scene_free(scene);
 }
 

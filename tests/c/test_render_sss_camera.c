@@ -122,12 +122,12 @@ static void test_partly_seen_plane(void **state)
     op_scene *scene = NULL;
     op_status s = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(s, err);
-    op_sss_build_options full = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
-    op_sss_build_options cam = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
-    op_sss_cache *cf = NULL, *cc = NULL;
-    s = op_sss_cache_build(scene, &full, &cf, &err);
+    op_sss_prepass_options full = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
+    op_sss_prepass_options cam = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
+    op_sss_prepass *cf = NULL, *cc = NULL;
+    s = op_sss_prepass_run(scene, &full, &cf, &err);
     OP_ASSERT_OK(s, err);
-    s = op_sss_cache_build(scene, &cam, &cc, &err);
+    s = op_sss_prepass_run(scene, &cam, &cc, &err);
     OP_ASSERT_OK(s, err);
     int outside = 0;
     for (int j = 0; j <= 40; j++)
@@ -144,8 +144,8 @@ static void test_partly_seen_plane(void **state)
     op_v3 m;
     outside = op_sss_lookup(cc, 0, v3(2.5f, 2.5f, 0.0f), v3(0.0f, 0.0f, 1.0f), &m);
     assert_int_equal(outside, 0);
-    op_sss_cache_free(cf);
-    op_sss_cache_free(cc);
+    op_sss_prepass_free(cf);
+    op_sss_prepass_free(cc);
     op_scene_free(scene);
 }
 

@@ -125,7 +125,7 @@ static const char *patch_mesh(int tiles)
 /* The pre-pass of the patch of `tiles` tiles: maxPoints max_points (0: the default), receivers
  * every point (everywhere) or those the camera (looking down at the centre from height 4, or
  * `height`) needs. */
-static op_sss_cache *prepass_patch(const char *mat, int tiles, int spot, double density,
+static op_sss_prepass *prepass_patch(const char *mat, int tiles, int spot, double density,
                                    int threads, int max_points, int everywhere, double height,
                                    double scale, op_scene **scene)
 {
@@ -160,13 +160,14 @@ static op_sss_cache *prepass_patch(const char *mat, int tiles, int spot, double 
     const char *path = op_test_write_temp("patch.xml", text);
     op_error err = {0};
     OP_ASSERT_OK(op_scene_load(path, NULL, 0, scene, &err), err);
-    op_sss_build_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    OP_ASSERT_OK(op_sss_cache_build(*scene, &o, &cache, &err), err);
+    op_sss_prepass_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL,
+                                &op_path_transport};
+    op_sss_prepass *cache = NULL;
+    OP_ASSERT_OK(op_sss_prepass_run(*scene, &o, &cache, &err), err);
     return cache;
 }
 
-static op_sss_cache *prepass(const char *mat, int spot, double density, int threads,
+static op_sss_prepass *prepass(const char *mat, int spot, double density, int threads,
                              op_scene **scene)
 {
     return prepass_patch(mat, TILES, spot, density, threads, 0, 1, 4.0, 100.0, scene);
@@ -174,7 +175,7 @@ static op_sss_cache *prepass(const char *mat, int spot, double density, int thre
 
 /* The exitance op_sss_lookup gives at the central tile's pixel centres (3 x W x W) of a
  * pre-pass of the patch of `tiles` tiles. */
-static void lookup_tile(const op_sss_cache *cache, int tiles, float *out)
+static void lookup_tile(const op_sss_prepass *cache, int tiles, float *out)
 {
     int c0 = tiles / 2 * W;
     for (int j = c0; j < c0 + W; j++)
@@ -231,9 +232,9 @@ static void compare(const float *got, const double *ref, const char *what)
 static void rendered(const char *mat, int spot, double density, int threads, float *out)
 {
     op_scene *scene = NULL;
-    op_sss_cache *cache = prepass(mat, spot, density, threads, &scene);
+    op_sss_prepass *cache = prepass(mat, spot, density, threads, &scene);
     lookup_tile(cache, TILES, out);
-    op_sss_cache_free(cache);
+    op_sss_prepass_free(cache);
     op_scene_free(scene);
 }
 
@@ -255,10 +256,10 @@ static long long big_patch(const char *mat, int spot, int threads, int max_point
                            double stretch, float *out)
 {
     op_scene *scene = NULL;
-    op_sss_cache *c = prepass_patch(mat, BIG, spot, 1.0, threads, max_points, everywhere, 2.5,
+    op_sss_prepass *c = prepass_patch(mat, BIG, spot, 1.0, threads, max_points, everywhere, 2.5,
                                     100.0 / stretch, &scene);
     op_sss_stats st;
-    op_sss_cache_stats(c, &st);
+    op_sss_prepass_stats(c, &st);
     if (out)
         lookup_tile(c, BIG, out);
     if (out && st.points < BIG * BIG * W * W * stretch * stretch * 0.9) { /* windowed: a
@@ -268,7 +269,7 @@ static long long big_patch(const char *mat, int spot, int threads, int max_point
         assert_false(op_sss_lookup(c, 0, corner, v3(0.0f, 0.0f, 1.0f), &m));
         assert_true(m.x == 0.0f && m.y == 0.0f && m.z == 0.0f);
     }
-    op_sss_cache_free(c);
+    op_sss_prepass_free(c);
     op_scene_free(scene);
     return st.points;
 }

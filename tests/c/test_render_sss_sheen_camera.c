@@ -59,7 +59,7 @@ static const char *write_scene(void)
 
 /* The image of scene with the pre-pass cache given: the renderer's own pixel loop (render.c),
  * seed 0. */
-static void image_with(const op_scene *s, const op_sss_cache *cache, float *out)
+static void image_with(const op_scene *s, const op_sss_prepass *cache, float *out)
 {
     const op_trace_ctx ctx = {s, cache};
     for (int y = 0; y < H; y++)
@@ -94,12 +94,12 @@ static void test_reflected_wall_is_marked(void **state)
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
     assert_int_equal(scene->nsss, 2);
-    op_sss_build_options full = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
-    op_sss_build_options cam = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
-    op_sss_cache *cf = NULL, *cc = NULL;
-    st = op_sss_cache_build(scene, &full, &cf, &err);
+    op_sss_prepass_options full = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
+    op_sss_prepass_options cam = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
+    op_sss_prepass *cf = NULL, *cc = NULL;
+    st = op_sss_prepass_run(scene, &full, &cf, &err);
     OP_ASSERT_OK(st, err);
-    st = op_sss_cache_build(scene, &cam, &cc, &err);
+    st = op_sss_prepass_run(scene, &cam, &cc, &err);
     OP_ASSERT_OK(st, err);
     int wall = scene->shapes[1].sss;
 
@@ -156,8 +156,8 @@ static void test_reflected_wall_is_marked(void **state)
     op_image_free(&img);
     free(a);
     free(b);
-    op_sss_cache_free(cf);
-    op_sss_cache_free(cc);
+    op_sss_prepass_free(cf);
+    op_sss_prepass_free(cc);
     op_scene_free(scene);
 }
 

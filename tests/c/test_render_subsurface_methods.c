@@ -197,9 +197,9 @@ static void tile_exitance(const char *path, double out[3])
     op_scene *scene = NULL;
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    st = op_sss_cache_build(scene, &o, &cache, &err);
+    op_sss_prepass_options o = {2, 0, NULL, NULL, NULL, 1, NULL, &op_path_transport};
+    op_sss_prepass *cache = NULL;
+    st = op_sss_prepass_run(scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);
     double s[3] = {0, 0, 0};
     for (int j = 0; j < 48; j++)
@@ -212,7 +212,7 @@ static void tile_exitance(const char *path, double out[3])
         }
     for (int c = 0; c < 3; c++)
         out[c] = s[c] / (48.0 * 48.0);
-    op_sss_cache_free(cache);
+    op_sss_prepass_free(cache);
     op_scene_free(scene);
 }
 

@@ -156,23 +156,24 @@ void op_test_write_gaussian_raw(const char *path, const double albedo[3], int va
     free(rd);
 }
 
-op_sss_cache *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds)
+op_sss_prepass *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds)
 {
     return op_test_sss_prepass_with(path, 0, 2, scene, seconds);
 }
 
-op_sss_cache *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
+op_sss_prepass *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
                                        op_scene **scene, double *seconds)
 {
     op_error err = {0};
     op_status st = op_scene_load(path, NULL, 0, scene, &err);
     OP_ASSERT_OK(st, err);
-    op_sss_build_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL, &op_path_transport};
-    op_sss_cache *cache = NULL;
-    st = op_sss_cache_build(*scene, &o, &cache, &err);
+    op_sss_prepass_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL,
+                                &op_path_transport};
+    op_sss_prepass *cache = NULL;
+    st = op_sss_prepass_run(*scene, &o, &cache, &err);
     OP_ASSERT_OK(st, err);
     op_sss_stats stats;
-    op_sss_cache_stats(cache, &stats);
+    op_sss_prepass_stats(cache, &stats);
     *seconds = stats.seconds;
     return cache;
 }

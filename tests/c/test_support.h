@@ -30,9 +30,9 @@ op_image op_test_render_image(const char *path, int spp, int threads, uint64_t s
 /* Loads the scene at path and runs its subsurface pre-pass as a render would (camera-marked
  * receivers, 2 threads, seed 0), failing the test on any error; *seconds gets the pre-pass's
  * wall time. The caller frees the cache and the scene. */
-struct op_sss_cache *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds);
+struct op_sss_prepass *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds);
 /* The same with the build's everywhere (1: every point, no camera pass) and threads. */
-struct op_sss_cache *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
+struct op_sss_prepass *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
                                               op_scene **scene, double *seconds);
 /* Writes to path a raw material of 16 x 16 pixels, kernel 5, 1 x 1 cm, whose every row is the
  * same normalized Gaussian (sigma 1 pixel) times albedo[c] in channel c; with vary, row r is

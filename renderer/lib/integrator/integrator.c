@@ -171,13 +171,13 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
 
 /* What a path meets at it, coming from direction wi_world (pointing away from the surface).
  * *m gets pi times the radiance the surface itself sends towards wi_world: at a translucent
- * shape with cached exitance M, on the lit side (black seen from behind), M itself without a
- * surface bsdf (the Rd holds both crossings of the boundary, docs/subsurface-rendering.md) and
- * M t(cos) exit_norm through one; black elsewhere. Returns the BSDF to shade with: NULL where the
- * path ends (a translucent shape with exitance and no surface bsdf), the boundary's reflection
- * lobe (with exitance and a surface bsdf), a translucent shape's stand-in without exitance
- * there (built in *proxy: diffuse of its mean albedo, under a plastic interface where it has a
- * surface bsdf), else the shape's own BSDF. */
+ * shape with the pre-pass's exitance M, on the lit side (black seen from behind), M itself
+ * without a surface bsdf (the Rd holds both crossings of the boundary,
+ * docs/subsurface-rendering.md) and M t(cos) exit_norm through one; black elsewhere. Returns
+ * the BSDF to shade with: NULL where the path ends (a translucent shape with exitance and no
+ * surface bsdf), the boundary's reflection lobe (with exitance and a surface bsdf), a
+ * translucent shape's stand-in without exitance there (built in *proxy: diffuse of its mean
+ * albedo, under a plastic interface where it has a surface bsdf), else the shape's own BSDF. */
 static const op_bsdf *surface_at(const op_trace_ctx *ctx, const op_isect *it, op_v3 wi_world,
                                  op_bsdf *proxy, op_v3 *m)
 {
@@ -357,7 +357,7 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
 /* Mitsuba's `direct` integrator: emission seen along the camera ray (through masked surfaces),
  * then at the surface found emitterSamples samples of every emitter and bsdfSamples BSDF samples
  * combined by multiple importance sampling; no indirect light. A translucent shape shows its
- * cached exitance (or, without one, acts as a diffuse surface of its mean albedo). */
+ * pre-pass's exitance (or, without one, acts as a diffuse surface of its mean albedo). */
 static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
                     op_path_sampler *ps, float *alpha)
 {

@@ -2,10 +2,10 @@
  * importance sampling, Russian roulette), Mitsuba's direct lighting (emitterSamples samples of
  * every emitter and bsdfSamples BSDF samples combined by MIS, no indirect light), the
  * debug views (normals, uv, albedo), and the irradiance estimate the subsurface pass uses.
- * Translucent shapes: a camera path that reaches one takes the cached exitance M/pi there and
- * ends; with a surface bsdf (render_scene.h: op_sss_desc's boundary) it takes the exitance
+ * Translucent shapes: a camera path that reaches one takes the pre-pass's exitance M/pi there
+ * and ends; with a surface bsdf (render_scene.h: op_sss_desc's boundary) it takes the exitance
  * through the boundary, M t(cos) exit_norm / pi, and goes on with the boundary's reflection
- * lobe. During the irradiance pass, and where the cache has no exitance (parts no camera
+ * lobe. During the irradiance pass, and where the pre-pass has no exitance (parts no camera
  * segment reaches, see sss/prepass.h), they act as diffuse surfaces of the material's mean
  * albedo (under the boundary's interface as a plastic where there is one).
  * Masked surfaces (bsdf.h): camera, indirect and debug rays pass through them with probability
@@ -21,7 +21,7 @@
 
 typedef struct op_trace_ctx {
     const op_scene *scene;
-    const op_sss_cache *sss; /* NULL during the irradiance pass */
+    const op_sss_prepass *sss; /* NULL during the irradiance pass */
 } op_trace_ctx;
 
 /* Radiance along the ray (org, dir) with t in (tmin, tmax), its random numbers drawn from ps

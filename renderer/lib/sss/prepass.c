@@ -23,7 +23,7 @@ static op_status point_grid(sss_grid *g, const sss_shape *ss, const unsigned cha
     return op_sss_grid_build(g, p, sizeof *ss->pts, ss->pts ? ss->n : 0, only, origin, cell, err);
 }
 
-struct op_sss_cache {
+struct op_sss_prepass {
     sss_shape *shapes;
     int n;
     double seconds; /* the build's wall time */
@@ -42,7 +42,7 @@ typedef struct cam_job {
 typedef struct build_job {
     const op_scene *scene;
     const op_sss_transport *transport;
-    op_sss_cache *cache;
+    op_sss_prepass *prepass;
     uint64_t seed;
     atomic_int *cancel;
     op_progress *prog; /* the running stage's report, owned by its *_pass call; else NULL */
@@ -57,7 +57,7 @@ static void irradiance_task(void *user, int task, int thread)
 {
     (void)thread;
     build_job *job = user;
-    sss_shape *ss = &job->cache->shapes[job->task_shape[task]];
+    sss_shape *ss = &job->prepass->shapes[job->task_shape[task]];
     int first = job->task_first[task], last = first + POINTS_PER_TASK;
     if (last > ss->nsrc)
         last = ss->nsrc;
@@ -170,7 +170,7 @@ static void near_task(void *user, int task, int thread)
 
 /* Sets ss->recv (allocated, zero) for the points near the camera's hits on shape sss. */
 static op_status mark_receivers(sss_shape *ss, int sss, const cam_job *cam, int gh, float pix,
-                                const op_sss_build_options *opt, op_error *err)
+                                const op_sss_prepass_options *opt, op_error *err)
 {
     int threads = op_parallel_threads(opt->threads);
     near_job job = {ss, cam->rows, gh, sss, pix, calloc((size_t)threads, sizeof(unsigned char *))};
@@ -295,7 +295,7 @@ static void need_task(void *user, int task, int thread)
 /* The scatter's selection (select_receivers, then): the sources, the points whose gather cells
  * (op_sss_gather_cells, those the scatter visits) hold a computed receiver. */
 static op_status select_points(sss_shape *ss, const op_sss_saved *sv,
-                               const op_sss_build_options *opt, op_error *err)
+                               const op_sss_prepass_options *opt, op_error *err)
 {
     const sss_grid *g = &ss->gather;
     op_status st = select_receivers(ss, sv, err);
@@ -363,8 +363,8 @@ static void touch_task(void *user, int task, int thread)
 /* The hierarchical sum's selection (select_receivers, then): the sources are the points under
  * the tree nodes the computed receivers' sums use (op_sss_tree_touch), which depend on geometry
  * only: every node a receiver uses has all its points' irradiance, whatever else is marked. */
-static op_status select_tree(sss_shape *ss, const op_sss_saved *sv, const op_sss_build_options *opt,
-                             op_error *err)
+static op_status select_tree(sss_shape *ss, const op_sss_saved *sv,
+                             const op_sss_prepass_options *opt, op_error *err)
 {
     op_status st = select_receivers(ss, sv, err);
     if (st)
@@ -414,8 +414,9 @@ static op_status select_tree(sss_shape *ss, const op_sss_saved *sv, const op_sss
  * reach; a crop window does not narrow it, so that a cropped render's pixels are exactly the
  * full render's), so that every sample position lies within one grid spacing of a traced ray.
  * Fills *rows (gh rows of hits) and marks the translucent shapes reached. */
-static op_status camera_pass(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
-                             cam_job *job, int *gh, op_error *err)
+static op_status camera_pass(const op_scene *scene, op_sss_prepass *c,
+                             const op_sss_prepass_options *opt, cam_job *job, int *gh,
+                             op_error *err)
 {
     const op_film *film = &scene->film;
     memset(job, 0, sizeof *job);
@@ -439,7 +440,7 @@ static op_status camera_pass(const op_scene *scene, op_sss_cache *c, const op_ss
 
 /* The irradiance stage: E at the sources, ntasks tasks of POINTS_PER_TASK points. Its progress
  * report is job->prog for exactly the duration of this call. */
-static op_status irradiance_pass(build_job *job, const op_sss_build_options *opt, int ntasks,
+static op_status irradiance_pass(build_job *job, const op_sss_prepass_options *opt, int ntasks,
                                  uint64_t nsrc, op_error *err)
 {
     job->prog = op_progress_begin("irradiance", nsrc, opt->progress, opt->progress_user);
@@ -453,7 +454,7 @@ static void tree_task(void *user, int task, int thread)
 {
     (void)thread;
     build_job *job = user;
-    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    sss_shape *ss = &job->prepass->shapes[job->scatter_shape];
     int first = task * POINTS_PER_TASK, last = first + POINTS_PER_TASK;
     if (last > ss->n)
         last = ss->n;
@@ -513,9 +514,9 @@ static void weigh_task(void *user, int task, int thread)
 /* The hierarchical stage of shape job->scatter_shape: the tree weighed with E_i A_i g_i (zero
  * at the points that are not sources), then M at each computed receiver from its own walk of
  * the tree: the same bits for any thread count. */
-static op_status tree_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
+static op_status tree_pass(build_job *job, const op_sss_prepass_options *opt, op_error *err)
 {
-    sss_shape *ss = &job->cache->shapes[job->scatter_shape];
+    sss_shape *ss = &job->prepass->shapes[job->scatter_shape];
     size_t bytes = (size_t)ss->n * sizeof(op_v3);
     weigh_job wj = {ss, malloc(bytes), malloc(bytes), malloc(bytes)};
     int ntasks = (ss->n + POINTS_PER_TASK - 1) / POINTS_PER_TASK;
@@ -536,10 +537,10 @@ static op_status tree_pass(build_job *job, const op_sss_build_options *opt, op_e
 
 /* The scattering stage: M at the receivers of every shape. Its progress report (job->prog)
  * lives for exactly the duration of this call, whatever it returns; on an error or cancellation
- * the receivers' M is incomplete and the caller drops the cache. */
-static op_status scatter_pass(build_job *job, const op_sss_build_options *opt, op_error *err)
+ * the receivers' M is incomplete and the caller drops the result. */
+static op_status scatter_pass(build_job *job, const op_sss_prepass_options *opt, op_error *err)
 {
-    op_sss_cache *c = job->cache;
+    op_sss_prepass *c = job->prepass;
     op_status st = OP_OK;
     uint64_t npts = 0; /* the scatter runs over all the points of the shapes it scatters */
     for (int s = 0; s < c->n; s++)
@@ -660,7 +661,7 @@ static op_status saved_prepare(op_sss_store *store, int sss, int n, const op_sss
 
 /* Adds what a finished build computed to the store (every shape whose points were laid has its
  * entry, from saved_prepare) and counts it. */
-static void store_update(op_sss_store *store, const op_sss_cache *c)
+static void store_update(op_sss_store *store, const op_sss_prepass *c)
 {
     for (int s = 0; s < c->n; s++) {
         const sss_shape *ss = &c->shapes[s];
@@ -695,8 +696,9 @@ static void store_update(op_sss_store *store, const op_sss_cache *c)
 /* The camera-marking phase: which translucent shapes some camera segment reaches (all of them
  * when opt->everywhere), and the segments' hits (*gh rows in cam->rows, owned by the caller
  * and freed with cam_free). */
-static op_status mark_reached(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
-                              cam_job *cam, int *gh, op_error *err)
+static op_status mark_reached(const op_scene *scene, op_sss_prepass *c,
+                              const op_sss_prepass_options *opt, cam_job *cam, int *gh,
+                              op_error *err)
 {
     memset(cam, 0, sizeof *cam);
     *gh = 0;
@@ -721,7 +723,7 @@ static void cam_free(cam_job *cam, int gh)
  * between neighbouring corner rays), and selects what must be computed against the store:
  * receivers (rmap) and sources (src), taking what the store holds. */
 static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
-                               const op_sss_build_options *opt, const cam_job *cam, int gh,
+                               const op_sss_prepass_options *opt, const cam_job *cam, int gh,
                                float pix, op_error *err)
 {
     op_status st = op_sss_lay_points(scene, sh, ss, opt->everywhere ? NULL : cam->rows, gh,
@@ -793,8 +795,9 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
 }
 
 /* The point phase of every translucent shape (prepare_shape for those reached). */
-static op_status prepare_shapes(const op_scene *scene, op_sss_cache *c, const op_sss_build_options *opt,
-                                const cam_job *cam, int gh, op_error *err)
+static op_status prepare_shapes(const op_scene *scene, op_sss_prepass *c,
+                                const op_sss_prepass_options *opt, const cam_job *cam, int gh,
+                                op_error *err)
 {
     /* the angle between neighbouring grid rays, bounded over the image plane */
     const op_camera *cm = &scene->camera;
@@ -822,9 +825,10 @@ static op_status prepare_shapes(const op_scene *scene, op_sss_cache *c, const op
 
 /* The irradiance phase: E at every shape's listed sources (src), in tasks of POINTS_PER_TASK
  * points of one shape (job->task_shape/task_first, freed by the caller). */
-static op_status irradiance_phase(build_job *job, const op_sss_build_options *opt, op_error *err)
+static op_status irradiance_phase(build_job *job, const op_sss_prepass_options *opt,
+                                  op_error *err)
 {
-    const op_sss_cache *c = job->cache;
+    const op_sss_prepass *c = job->prepass;
     long long ntasks = 0;
     uint64_t nsrc = 0;
     for (int s = 0; s < c->n; s++) {
@@ -848,11 +852,11 @@ static op_status irradiance_phase(build_job *job, const op_sss_build_options *op
     return irradiance_pass(job, opt, (int)ntasks, nsrc, err);
 }
 
-op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
-                             op_sss_cache **out, op_error *err)
+op_status op_sss_prepass_run(const op_scene *scene, const op_sss_prepass_options *opt,
+                             op_sss_prepass **out, op_error *err)
 {
     double t0 = op_monotonic_seconds();
-    op_sss_cache *c = calloc(1, sizeof *c);
+    op_sss_prepass *c = calloc(1, sizeof *c);
     if (!c)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     c->n = scene->nsss;
@@ -873,7 +877,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     memset(&job, 0, sizeof job);
     job.scene = scene;
     job.transport = opt->transport;
-    job.cache = c;
+    job.prepass = c;
     job.seed = opt->seed;
     job.cancel = opt->cancel;
     if (st == OP_OK)
@@ -898,7 +902,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
                "irradiance %.3f s, scattering %.3f s)", te - t0, tc - t0, tp - tc, t1 - tp,
                te - t1);
     if (st) {
-        op_sss_cache_free(c);
+        op_sss_prepass_free(c);
         return st;
     }
     if (opt->store)
@@ -907,7 +911,7 @@ op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *
     return OP_OK;
 }
 
-void op_sss_cache_free(op_sss_cache *c)
+void op_sss_prepass_free(op_sss_prepass *c)
 {
     if (!c)
         return;
@@ -933,12 +937,12 @@ void op_sss_cache_free(op_sss_cache *c)
     free(c);
 }
 
-int op_sss_cache_points(const op_sss_cache *c, int sss)
+int op_sss_prepass_points(const op_sss_prepass *c, int sss)
 {
     return sss >= 0 && sss < c->n ? c->shapes[sss].n : 0;
 }
 
-void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st)
+void op_sss_prepass_stats(const op_sss_prepass *c, op_sss_stats *st)
 {
     memset(st, 0, sizeof *st);
     for (int i = 0; i < c->n; i++) {
@@ -1047,7 +1051,7 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
     return ls.ok;
 }
 
-int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
+int op_sss_lookup(const op_sss_prepass *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
 {
     const sss_shape *ss = &c->shapes[sss];
     *out = v3s(0.0f);
@@ -1065,7 +1069,7 @@ int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *out)
     return 0;
 }
 
-op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n)
+op_v3 op_sss_exitance(const op_sss_prepass *c, int sss, op_v3 p, op_v3 n)
 {
     op_v3 m;
     op_sss_lookup(c, sss, p, n, &m);

@@ -28,7 +28,7 @@
 #include "geometry/isect.h"
 #include "math/rng.h"
 
-typedef struct op_sss_cache op_sss_cache;
+typedef struct op_sss_prepass op_sss_prepass;
 
 /* The light transport the pre-pass needs, supplied by its caller (render.c passes the path
  * tracer's, integrator.h's op_path_transport): the pre-pass lays points, marks and sums, and
@@ -67,7 +67,7 @@ typedef struct op_sss_store {
     long long new_e, new_m;       /* irradiance and exitance values computed and added */
 } op_sss_store;
 
-typedef struct op_sss_build_options {
+typedef struct op_sss_prepass_options {
     int threads;
     uint64_t seed;
     atomic_int *cancel;
@@ -76,7 +76,7 @@ typedef struct op_sss_build_options {
     int everywhere; /* 1: every point of every translucent shape, no camera pass */
     op_sss_store *store; /* NULL, or results to reuse, extended with what the build computes */
     const op_sss_transport *transport; /* required */
-} op_sss_build_options;
+} op_sss_prepass_options;
 
 /* What a build computed, summed over the translucent shapes. */
 typedef struct op_sss_stats {
@@ -88,21 +88,21 @@ typedef struct op_sss_stats {
     double seconds;      /* the build's wall time */
 } op_sss_stats;
 
-/* Builds the cache for the translucent shapes of scene (see above for which parts). */
-op_status op_sss_cache_build(const op_scene *scene, const op_sss_build_options *opt,
-                             op_sss_cache **out, op_error *err);
-void op_sss_cache_free(op_sss_cache *c);
+/* Runs the pre-pass over the translucent shapes of scene (see above for which parts). */
+op_status op_sss_prepass_run(const op_scene *scene, const op_sss_prepass_options *opt,
+                             op_sss_prepass **out, op_error *err);
+void op_sss_prepass_free(op_sss_prepass *c);
 
 /* Exitance M at surface point p (shading normal n) of the shape with subsurface index sss,
  * interpolated between the points near p. Returns 0 (and *m black) when some of those points
  * have no computed exitance, or when no point is near p (the part of a windowed shape that was
  * not laid); then the caller uses the diffuse stand-in. */
-int op_sss_lookup(const op_sss_cache *c, int sss, op_v3 p, op_v3 n, op_v3 *m);
+int op_sss_lookup(const op_sss_prepass *c, int sss, op_v3 p, op_v3 n, op_v3 *m);
 /* op_sss_lookup's M, black where it has none. */
-op_v3 op_sss_exitance(const op_sss_cache *c, int sss, op_v3 p, op_v3 n);
+op_v3 op_sss_exitance(const op_sss_prepass *c, int sss, op_v3 p, op_v3 n);
 
 /* How many irradiance points a translucent shape got (for tests and logs). */
-int op_sss_cache_points(const op_sss_cache *c, int sss);
-void op_sss_cache_stats(const op_sss_cache *c, op_sss_stats *st);
+int op_sss_prepass_points(const op_sss_prepass *c, int sss);
+void op_sss_prepass_stats(const op_sss_prepass *c, op_sss_stats *st);
 
 #endif
