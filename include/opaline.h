@@ -315,6 +315,9 @@ op_status op_image_exr_attr(const char *path, const char *name, char *out, size_
                             op_error *err);
 /* Portable float map, little-endian. */
 op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
+/* Radiance RGBE (.hdr): shared-exponent RGB, 4 bytes a pixel (a grey image repeats its
+ * channel, alpha is dropped). */
+op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err);
 /* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */
 op_status op_image_read(const char *path, op_image *img, op_error *err);
 /* The same, but 8-bit files (PNG) keep their stored values (byte / 255) instead of being

@@ -165,7 +165,7 @@ const op_image *op_renderer_image(const op_renderer *r);
  * another extension. */
 const char *op_scene_image_format(const op_scene *scene, const char *path);
 
-/* Writes img to path through op_image_write_* (or the RGBE writer), the format chosen by
+/* Writes img to path through op_image_write_*, the format chosen by
  * op_scene_image_format, applying the film's settings: hdrfilm's
  * componentFormat (float16 or float32 EXR) and pixelFormat (rgb, rgba, luminance), ldrfilm's
  * tonemapping (gamma with exposure, or reinhard) and gamma for PNG. */

@@ -1,6 +1,6 @@
 /* image.c - linear float images and their files: PNG (libpng, 8-bit sRGB), OpenEXR (the
- * OpenEXRCore C API), and portable float maps. Every file is written through op_output, so a
- * failed write leaves nothing behind. */
+ * OpenEXRCore C API), portable float maps, and Radiance RGBE (.hdr, written only). Every file
+ * is written through op_output, so a failed write leaves nothing behind. */
 #include "opaline.h"
 
 #include <errno.h>
@@ -528,6 +528,66 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
 done:
     exr_finish(&ctx);
     return st;
+}
+
+/* ---------------------------------------------------------------- Radiance RGBE */
+
+/* One linear RGB value in Greg Ward's shared-exponent encoding (negative and non-finite
+ * channels count as 0; values beyond the format's range become its largest). */
+static void rgbe_encode(const float rgb[3], unsigned char out[4])
+{
+    float c[3];
+    for (int k = 0; k < 3; k++)
+        c[k] = isfinite(rgb[k]) && rgb[k] > 0.0f ? rgb[k] : 0.0f;
+    float v = fmaxf(c[0], fmaxf(c[1], c[2]));
+    if (v < 1e-32f) {
+        out[0] = out[1] = out[2] = out[3] = 0;
+        return;
+    }
+    int e;
+    float m = frexpf(v, &e); /* v = m 2^e, m in [0.5, 1) */
+    if (e > 127) {
+        out[0] = out[1] = out[2] = 255;
+        out[3] = 255;
+        return;
+    }
+    float scale = m * 256.0f / v;
+    for (int k = 0; k < 3; k++) {
+        float b = c[k] * scale;
+        out[k] = (unsigned char)(b >= 255.0f ? 255 : (int)b);
+    }
+    out[3] = (unsigned char)(e + 128);
+}
+
+/* Flat (uncompressed) scanlines, which every RGBE reader accepts, rows from the top. */
+op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err)
+{
+    op_status st = check_image(path, img, err);
+    if (st != OP_OK)
+        return st;
+    op_output *out;
+    if ((st = op_output_open(path, &out, err)) != OP_OK)
+        return st;
+    char header[128];
+    int hn = snprintf(header, sizeof header, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n",
+                      img->height, img->width);
+    op_output_write(out, header, (size_t)hn);
+    unsigned char *row = malloc((size_t)img->width * 4);
+    if (!row) {
+        op_output_abort(out);
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    int ch = img->channels;
+    for (int y = 0; y < img->height; y++) {
+        for (int x = 0; x < img->width; x++) {
+            const float *p = img->pixels + ((size_t)y * img->width + x) * (size_t)ch;
+            float rgb[3] = {p[0], ch >= 3 ? p[1] : p[0], ch >= 3 ? p[2] : p[0]};
+            rgbe_encode(rgb, row + 4 * (size_t)x);
+        }
+        op_output_write(out, row, (size_t)img->width * 4);
+    }
+    free(row);
+    return op_output_commit(out, err);
 }
 
 /* ---------------------------------------------------------------- PFM */

@@ -7,7 +7,6 @@
 
 #include "integrator/integrator.h"
 #include "opaline_render.h"
-#include "light/rgbe.h"
 #include "scene/scene_build.h"
 #include "scene/scene_color.h"
 #include "sss/cache_file.h"
@@ -412,7 +411,7 @@ op_status op_scene_write_image(const op_scene *s, const op_image *img, const cha
     else if (is_pfm)
         st = op_image_write_pfm(path, &out, err);
     else if (is_hdr)
-        st = op_rgbe_write(path, &out, err);
+        st = op_image_write_hdr(path, &out, err);
     else
         st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
     op_image_free(&out);
