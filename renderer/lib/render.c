@@ -1,14 +1,13 @@
-/* render.c - the public renderer API of opaline_render.h: scene loading, tiled multithreaded
- * rendering, image output. */
+/* render.c - the public renderer API of opaline_render.h: scene loading, the subsurface
+ * pre-pass through its cache file, tiled multithreaded rendering; writing the image is the
+ * film's (camera/film.h). */
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #include "integrator/integrator.h"
 #include "opaline_render.h"
 #include "scene/scene_build.h"
-#include "scene/scene_color.h"
 #include "sss/cache_file.h"
 #include "sss/prepass.h"
 
@@ -340,80 +339,13 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     return st;
 }
 
-static int has_ext(const char *path, const char *ext)
-{
-    size_t n = strlen(path), e = strlen(ext);
-    return n > e && strcasecmp(path + n - e, ext) == 0;
-}
-
 const char *op_scene_image_format(const op_scene *s, const char *path)
 {
-    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr"};
-    for (size_t i = 0; i < sizeof formats / sizeof formats[0]; i++)
-        if (has_ext(path, formats[i]))
-            return formats[i];
-    const char *slash = strrchr(path, '/');
-    return strchr(slash ? slash + 1 : path, '.') ? NULL : s->film.extension;
+    return op_film_image_format(&s->film, path);
 }
 
 op_status op_scene_write_image(const op_scene *s, const op_image *img, const char *path,
                                op_error *err)
 {
-    const op_film *film = &s->film;
-    if (!img || img->channels != 4)
-        return op_error_set(err, OP_ERR_INPUT, "%s: no RGBA image to write", path);
-    const char *ext = op_scene_image_format(s, path);
-    if (!ext)
-        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm or "
-                            ".hdr)", path);
-    int is_exr = !strcmp(ext, ".exr"), is_png = !strcmp(ext, ".png"), is_pfm = !strcmp(ext, ".pfm");
-    int is_hdr = !strcmp(ext, ".hdr");
-    int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
-    if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
-        oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */
-    op_image out;
-    op_status st = op_image_alloc(&out, img->width, img->height, oc, err);
-    if (st)
-        return st;
-    size_t n = (size_t)img->width * img->height;
-    int reinhard = is_png && film->ldr && film->reinhard;
-    op_reinhard rh;
-    if (reinhard)
-        op_reinhard_prepare(film, img->pixels, n, &rh);
-    /* Reinhard replaces the exposure */
-    double exposure = film->ldr && !reinhard ? film->exposure : 0.0;
-    for (size_t i = 0; i < n; i++) {
-        const float *p = img->pixels + 4 * i;
-        float *q = out.pixels + (size_t)oc * i;
-        float rgb[3] = {p[0], p[1], p[2]};
-        if (reinhard)
-            op_reinhard_apply(&rh, rgb);
-        if (is_png && film->ldr && film->gamma > 0.0) {
-            /* op_image_write_png encodes sRGB; pre-warp so the stored value is x^(1/gamma) */
-            float sc = (float)exp2(exposure);
-            for (int c = 0; c < 3; c++) {
-                float v = fmaxf(rgb[c] * sc, 0.0f);
-                rgb[c] = (float)op_srgb_to_linear(pow(fmin(v, 1.0), 1.0 / film->gamma));
-            }
-        }
-        if (oc == 1) {
-            q[0] = 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
-        } else {
-            q[0] = rgb[0];
-            q[1] = rgb[1];
-            q[2] = rgb[2];
-            if (oc == 4)
-                q[3] = p[3];
-        }
-    }
-    if (is_exr)
-        st = op_image_write_exr(path, &out, film->half_float, err);
-    else if (is_pfm)
-        st = op_image_write_pfm(path, &out, err);
-    else if (is_hdr)
-        st = op_image_write_hdr(path, &out, err);
-    else
-        st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
-    op_image_free(&out);
-    return st;
+    return op_film_write_image(&s->film, img, path, err);
 }

@@ -1,11 +1,14 @@
-/* film.c - films, reconstruction filters and samplers (see film.h). */
+/* film.c - films, reconstruction filters, samplers, and developing and writing the image (see
+ * film.h). */
 #include "camera/film.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 
 #include "math/vec.h"
+#include "scene/scene_color.h"
 
 static op_status build_filter(op_node *f, op_film *out, op_error *err)
 {
@@ -216,7 +219,16 @@ op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
     return OP_OK;
 }
 
-void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_reinhard *r)
+/* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's
+ * log-average luminance (log(1e-3 + Y) averaged) and maximum Y set the scale key / avg and the
+ * white point; each pixel's Y becomes Lp (1 + Lp / (Lwhite^2 b^4)) / (1 + Lp) with Lp = Y scale
+ * and b = clamp(1 - burn, 1e-8, 1), chromaticity kept. */
+typedef struct reinhard_op {
+    float scale, inv_wp2; /* scale 0: a black image, left black */
+} reinhard_op;
+
+/* The operator's parameters for the RGBA image pixels[0..n) under film's key and burn. */
+static void reinhard_prepare(const op_film *film, const float *rgba, size_t n, reinhard_op *r)
 {
     double log_sum = 0.0, max_lum = 0.0;
     for (size_t i = 0; i < n; i++) {
@@ -238,7 +250,8 @@ void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_re
     r->inv_wp2 = (float)(1.0 / (white * white * pow(burn, 4.0)));
 }
 
-void op_reinhard_apply(const op_reinhard *r, float rgb[3])
+/* Tonemaps one linear Rec. 709 RGB value in place (black stays black). */
+static void reinhard_apply(const reinhard_op *r, float rgb[3])
 {
     float X = rgb[0] * 0.412453f + rgb[1] * 0.357580f + rgb[2] * 0.180423f;
     float Y = rgb[0] * 0.212671f + rgb[1] * 0.715160f + rgb[2] * 0.072169f;
@@ -286,4 +299,81 @@ void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, f
         break;
     }
     }
+}
+
+static int has_ext(const char *path, const char *ext)
+{
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && strcasecmp(path + n - e, ext) == 0;
+}
+
+const char *op_film_image_format(const op_film *film, const char *path)
+{
+    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr"};
+    for (size_t i = 0; i < sizeof formats / sizeof formats[0]; i++)
+        if (has_ext(path, formats[i]))
+            return formats[i];
+    const char *slash = strrchr(path, '/');
+    return strchr(slash ? slash + 1 : path, '.') ? NULL : film->extension;
+}
+
+op_status op_film_write_image(const op_film *film, const op_image *img, const char *path,
+                              op_error *err)
+{
+    if (!img || img->channels != 4)
+        return op_error_set(err, OP_ERR_INPUT, "%s: no RGBA image to write", path);
+    const char *ext = op_film_image_format(film, path);
+    if (!ext)
+        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm or "
+                            ".hdr)", path);
+    int is_exr = !strcmp(ext, ".exr"), is_png = !strcmp(ext, ".png"), is_pfm = !strcmp(ext, ".pfm");
+    int is_hdr = !strcmp(ext, ".hdr");
+    int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
+    if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
+        oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */
+    op_image out;
+    op_status st = op_image_alloc(&out, img->width, img->height, oc, err);
+    if (st)
+        return st;
+    size_t n = (size_t)img->width * img->height;
+    int reinhard = is_png && film->ldr && film->reinhard;
+    reinhard_op rh;
+    if (reinhard)
+        reinhard_prepare(film, img->pixels, n, &rh);
+    /* Reinhard replaces the exposure */
+    double exposure = film->ldr && !reinhard ? film->exposure : 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = img->pixels + 4 * i;
+        float *q = out.pixels + (size_t)oc * i;
+        float rgb[3] = {p[0], p[1], p[2]};
+        if (reinhard)
+            reinhard_apply(&rh, rgb);
+        if (is_png && film->ldr && film->gamma > 0.0) {
+            /* op_image_write_png encodes sRGB; pre-warp so the stored value is x^(1/gamma) */
+            float sc = (float)exp2(exposure);
+            for (int c = 0; c < 3; c++) {
+                float v = fmaxf(rgb[c] * sc, 0.0f);
+                rgb[c] = (float)op_srgb_to_linear(pow(fmin(v, 1.0), 1.0 / film->gamma));
+            }
+        }
+        if (oc == 1) {
+            q[0] = 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
+        } else {
+            q[0] = rgb[0];
+            q[1] = rgb[1];
+            q[2] = rgb[2];
+            if (oc == 4)
+                q[3] = p[3];
+        }
+    }
+    if (is_exr)
+        st = op_image_write_exr(path, &out, film->half_float, err);
+    else if (is_pfm)
+        st = op_image_write_pfm(path, &out, err);
+    else if (is_hdr)
+        st = op_image_write_hdr(path, &out, err);
+    else
+        st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
+    op_image_free(&out);
+    return st;
 }

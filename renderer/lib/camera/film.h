@@ -1,7 +1,8 @@
 /* film.h - the film (hdrfilm / ldrfilm: size, crop window, output settings), its
- * reconstruction filter and the sampler. The filter is applied by filter importance sampling:
- * each sample's position within its pixel is drawn from the filter's own distribution and the
- * sample is given weight 1, so pixels never share samples and tiles are independent. */
+ * reconstruction filter, the sampler, and developing its image into an image file (tone
+ * mapping, pixel format, the file format by name). The filter is applied by filter importance
+ * sampling: each sample's position within its pixel is drawn from the filter's own distribution
+ * and the sample is given weight 1, so pixels never share samples and tiles are independent. */
 #ifndef OP_FILM_H
 #define OP_FILM_H
 
@@ -44,23 +45,21 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err);
  * film is OP_ERR_INPUT, the message starting with `where`. */
 op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
                            const char *where, op_error *err);
-/* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's
- * log-average luminance (log(1e-3 + Y) averaged) and maximum Y set the scale key / avg and the
- * white point; each pixel's Y becomes Lp (1 + Lp / (Lwhite^2 b^4)) / (1 + Lp) with Lp = Y scale
- * and b = clamp(1 - burn, 1e-8, 1), chromaticity kept. */
-typedef struct op_reinhard {
-    float scale, inv_wp2; /* scale 0: a black image, left black */
-} op_reinhard;
-/* The operator's parameters for the RGBA image pixels[0..n) under film's key and burn. */
-void op_reinhard_prepare(const op_film *film, const float *rgba, size_t n, op_reinhard *r);
-/* Tonemaps one linear Rec. 709 RGB value in place (black stays black). */
-void op_reinhard_apply(const op_reinhard *r, float rgb[3]);
-
 /* Reads a <sampler> (NULL: independent, 4 samples, Mitsuba's default). sampleCount is rounded
  * up to a square for stratified and to a power of two for ldsampler, as Mitsuba does. */
 op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
 
 /* The offset of a sample from its pixel's centre, in pixels, drawn from the filter. */
 void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
+
+/* The image format of an output path (".exr", ".png", ".pfm" or ".hdr"): by its extension,
+ * else the film's when the file name has no dot; NULL for an unknown extension. */
+const char *op_film_image_format(const op_film *film, const char *path);
+/* Develops the RGBA image under the film's settings and writes it to path in its format
+ * (op_film_image_format): hdrfilm's pixelFormat and componentFormat; ldrfilm's tonemapMethod
+ * (gamma with exposure, or reinhard), gamma and pixelFormat. PFM, RGBE and an hdrfilm's PNG
+ * (a preview, opaque) drop alpha. */
+op_status op_film_write_image(const op_film *film, const op_image *img, const char *path,
+                              op_error *err);
 
 #endif
