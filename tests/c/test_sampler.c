@@ -1,6 +1,6 @@
-/* test_sampler.c - the hash-scrambled Sobol sampler (renderer/lib/sampler.h): values in [0, 1),
- * stratification of every dimension, the (0, k, 2)-net of the first two dimensions of a key,
- * prefixes of any length, determinism, decorrelation of keys and pixels, and a lower
+/* test_sampler.c - the hash-scrambled Sobol sampler (renderer/lib/camera/sampler.h): values in
+ * [0, 1), stratification of every dimension, the (0, k, 2)-net of the first two dimensions of a
+ * key, prefixes of any length, determinism, decorrelation of keys and pixels, and a lower
  * integration error than independent numbers; Mitsuba's sampler types. */
 #include <math.h>
 #include <stdio.h>

@@ -1,5 +1,4 @@
-/* film.c - films, reconstruction filters, samplers, and developing and writing the image (see
- * film.h). */
+/* film.c - films, reconstruction filters, and developing and writing the image (see film.h). */
 #include "camera/film.h"
 
 #include <math.h>
@@ -170,53 +169,6 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
         out->height = out->full_height;
     }
     return build_filter(filter, out, err);
-}
-
-op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
-{
-    out->type = OP_SAMPLER_INDEPENDENT;
-    out->spp = 4;
-    if (!sampler)
-        return OP_OK;
-    sampler->used = 1;
-    static const char *const ld[] = {"stratified", "ldsampler", "sobol", "halton", "hammersley"};
-    int known = strcmp(sampler->type, "independent") == 0;
-    for (size_t i = 0; i < sizeof ld / sizeof ld[0] && !known; i++)
-        if (strcmp(sampler->type, ld[i]) == 0) {
-            out->type = OP_SAMPLER_LD;
-            known = 1;
-        }
-    if (!known)
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler type=\"%s\">: unknown sampler "
-                            "(independent, stratified, ldsampler, sobol, halton, hammersley)",
-                            sampler->file, sampler->line, sampler->type);
-    long long n;
-    GET_OR_FAIL(op_node_int(sampler, "sampleCount", 4, &n, err));
-    if (n < 1 || n > (1 << 24))
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler>: sampleCount %lld is not in "
-                            "1..16777216", sampler->file, sampler->line, n);
-    if (strcmp(sampler->type, "stratified") == 0) {
-        long long r = (long long)ceil(sqrt((double)n));
-        if (r * r != n)
-            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"stratified\">: sampleCount %lld rounded "
-                   "up to %lld (a square)", sampler->file, sampler->line, n, r * r);
-        n = r * r;
-    } else if (strcmp(sampler->type, "ldsampler") == 0) {
-        long long p = 1;
-        while (p < n)
-            p *= 2;
-        if (p != n)
-            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"ldsampler\">: sampleCount %lld rounded "
-                   "up to %lld (a power of two)", sampler->file, sampler->line, n, p);
-        n = p;
-    }
-    /* Mitsuba's dimension (stratified, ldsampler) and scramble (sobol, halton, hammersley) are
-     * accepted and not needed: every dimension is low-discrepancy, scrambled per pixel */
-    long long dim, scramble;
-    GET_OR_FAIL(op_node_int(sampler, "dimension", 4, &dim, err));
-    GET_OR_FAIL(op_node_int(sampler, "scramble", -1, &scramble, err));
-    out->spp = (int)n;
-    return OP_OK;
 }
 
 /* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's

@@ -1,8 +1,8 @@
 /* film.h - the film (hdrfilm / ldrfilm: size, crop window, output settings), its
- * reconstruction filter, the sampler, and developing its image into an image file (tone
- * mapping, pixel format, the file format by name). The filter is applied by filter importance
- * sampling: each sample's position within its pixel is drawn from the filter's own distribution
- * and the sample is given weight 1, so pixels never share samples and tiles are independent. */
+ * reconstruction filter, and developing its image into an image file (tone mapping, pixel
+ * format, the file format by name). The filter is applied by filter importance sampling:
+ * each sample's position within its pixel is drawn from the filter's own distribution and the
+ * sample is given weight 1, so pixels never share samples and tiles are independent. */
 #ifndef OP_FILM_H
 #define OP_FILM_H
 
@@ -29,15 +29,6 @@ typedef struct op_film {
     float stddev;
 } op_film;
 
-/* independent: plain random numbers; ld: the Owen-scrambled Sobol numbers of sampler.h (Mitsuba's
- * stratified, ldsampler, sobol, halton and hammersley all map to it). */
-typedef enum op_sampler_type { OP_SAMPLER_INDEPENDENT, OP_SAMPLER_LD } op_sampler_type;
-
-typedef struct op_sampler {
-    op_sampler_type type;
-    int spp;
-} op_sampler;
-
 /* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
 op_status op_film_build(op_node *film, op_film *out, op_error *err);
 /* Sets the crop window (Mitsuba's cropOffsetX/Y, cropWidth/Height: the pixels rendered, a
@@ -45,10 +36,6 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err);
  * film is OP_ERR_INPUT, the message starting with `where`. */
 op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
                            const char *where, op_error *err);
-/* Reads a <sampler> (NULL: independent, 4 samples, Mitsuba's default). sampleCount is rounded
- * up to a square for stratified and to a power of two for ldsampler, as Mitsuba does. */
-op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
-
 /* The offset of a sample from its pixel's centre, in pixels, drawn from the filter. */
 void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
 

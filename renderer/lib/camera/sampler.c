@@ -1,4 +1,5 @@
-/* sampler.c - hash-scrambled Sobol points and the per-path-sample numbers (see sampler.h).
+/* sampler.c - the scene's <sampler>, hash-scrambled Sobol points and the per-path-sample
+ * numbers (see sampler.h).
  *
  * Everything works on bit-reversed 32-bit words: a number x in [0, 1) with binary digits
  * 0.b1 b2 b3 ... is held as the word whose bit 0 is b1, bit 1 is b2, and so on. An Owen
@@ -9,6 +10,9 @@
  * it maps every aligned block of 2^k indices onto an aligned block of 2^k indices, and every
  * such block of the first two Sobol dimensions is a (0, k, 2)-net. */
 #include "camera/sampler.h"
+
+#include <math.h>
+#include <string.h>
 
 static inline uint32_t reverse_bits(uint32_t x)
 {
@@ -150,4 +154,51 @@ void op_path_sample_k(op_path_sampler *ps, uint32_t key, uint32_t j, uint32_t m,
         return;
     }
     ld_point(ps->seed, key, m == 1 ? ps->index_rev : reverse_bits(ps->index * m + j), n, u);
+}
+
+op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
+{
+    out->type = OP_SAMPLER_INDEPENDENT;
+    out->spp = 4;
+    if (!sampler)
+        return OP_OK;
+    sampler->used = 1;
+    static const char *const ld[] = {"stratified", "ldsampler", "sobol", "halton", "hammersley"};
+    int known = strcmp(sampler->type, "independent") == 0;
+    for (size_t i = 0; i < sizeof ld / sizeof ld[0] && !known; i++)
+        if (strcmp(sampler->type, ld[i]) == 0) {
+            out->type = OP_SAMPLER_LD;
+            known = 1;
+        }
+    if (!known)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler type=\"%s\">: unknown sampler "
+                            "(independent, stratified, ldsampler, sobol, halton, hammersley)",
+                            sampler->file, sampler->line, sampler->type);
+    long long n;
+    GET_OR_FAIL(op_node_int(sampler, "sampleCount", 4, &n, err));
+    if (n < 1 || n > (1 << 24))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler>: sampleCount %lld is not in "
+                            "1..16777216", sampler->file, sampler->line, n);
+    if (strcmp(sampler->type, "stratified") == 0) {
+        long long r = (long long)ceil(sqrt((double)n));
+        if (r * r != n)
+            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"stratified\">: sampleCount %lld rounded "
+                   "up to %lld (a square)", sampler->file, sampler->line, n, r * r);
+        n = r * r;
+    } else if (strcmp(sampler->type, "ldsampler") == 0) {
+        long long p = 1;
+        while (p < n)
+            p *= 2;
+        if (p != n)
+            op_log(OP_LOG_WARN, "%s:%d: <sampler type=\"ldsampler\">: sampleCount %lld rounded "
+                   "up to %lld (a power of two)", sampler->file, sampler->line, n, p);
+        n = p;
+    }
+    /* Mitsuba's dimension (stratified, ldsampler) and scramble (sobol, halton, hammersley) are
+     * accepted and not needed: every dimension is low-discrepancy, scrambled per pixel */
+    long long dim, scramble;
+    GET_OR_FAIL(op_node_int(sampler, "dimension", 4, &dim, err));
+    GET_OR_FAIL(op_node_int(sampler, "scramble", -1, &scramble, err));
+    out->spp = (int)n;
+    return OP_OK;
 }

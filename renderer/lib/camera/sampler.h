@@ -1,6 +1,7 @@
-/* sampler.h - the random numbers of one path sample (one pixel, one sample index).
+/* sampler.h - the scene's <sampler> and the random numbers of one path sample (one pixel, one
+ * sample index).
  *
- * Two kinds (the scene's <sampler>, see film.h):
+ * Two kinds:
  * - independent: every number comes from the hashed PCG32 stream of (seed, pixel, sample)
  *   (math/rng.h), in the order the integrator asks for them;
  * - low discrepancy (ld): a draw names a dimension key (below) and gets 1 to 4 numbers from
@@ -24,6 +25,20 @@
 #include <stdint.h>
 
 #include "math/rng.h"
+#include "scene/scene_desc.h"
+
+/* independent: plain random numbers; ld: the Owen-scrambled Sobol numbers above (Mitsuba's
+ * stratified, ldsampler, sobol, halton and hammersley all map to it). */
+typedef enum op_sampler_type { OP_SAMPLER_INDEPENDENT, OP_SAMPLER_LD } op_sampler_type;
+
+typedef struct op_sampler {
+    op_sampler_type type;
+    int spp;
+} op_sampler;
+
+/* Reads a <sampler> (NULL: independent, 4 samples, Mitsuba's default). sampleCount is rounded
+ * up to a square for stratified and to a power of two for ldsampler, as Mitsuba does. */
+op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
 
 /* Dimension keys of the integrator's layout: the pixel position (filter offset, 2 numbers),
  * then per path vertex `depth` (0 = the camera ray's hit) the light sample of emitter `sub`

@@ -9,6 +9,7 @@
 #include "sss/dipole_profile.h"
 #include "light/emitter.h"
 #include "camera/film.h"
+#include "camera/sampler.h"
 #include "opaline_render.h"
 #include "geometry/shape.h"
 
