@@ -1,6 +1,7 @@
-/* shape_points.h - what the subsurface pre-pass (sss/prepass.c) and the layout of its irradiance
- * points (sss/layout.c) share: a translucent shape's points and pre-pass state (its grids:
- * sss/grid.h), and the camera segments' hits. Private to those modules. */
+/* shape_points.h - what the parts of the subsurface pre-pass share (prepass.c, the layout of its
+ * irradiance points layout.c, the scatter scatter.c, the lookups lookup.c): a translucent
+ * shape's points and pre-pass state (its grids: grid.h), and the camera segments' hits. Private
+ * to sss/. */
 #ifndef OP_SSS_SHAPE_POINTS_H
 #define OP_SSS_SHAPE_POINTS_H
 
