@@ -2,6 +2,7 @@
  * OpenEXRCore C API), and portable float maps. Every file is written through op_output, so a
  * failed write leaves nothing behind. */
 #include "opaline.h"
+#include "opaline_image.h"
 
 #include <errno.h>
 #include <math.h>

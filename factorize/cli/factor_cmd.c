@@ -4,6 +4,9 @@
 #include "commands.h"
 #include "fit_table.h"
 #include "opaline.h"
+#include "opaline_image.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 #include "preprocess.h"
 #include "report.h"
 

@@ -5,6 +5,8 @@
 #define OP_FACTOR_FIT_H
 
 #include "opaline.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 #include "preprocess.h"
 #include "report.h"
 #include "rsvd.h"

@@ -5,6 +5,7 @@
 #define OP_EMITTER_H
 
 #include "opaline.h"
+#include "opaline_image.h"
 #include "rvec.h"
 #include "scene_desc.h"
 #include "shape.h"

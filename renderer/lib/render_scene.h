@@ -9,6 +9,7 @@
 #include "dipole.h"
 #include "emitter.h"
 #include "film.h"
+#include "opaline_material.h"
 #include "opaline_render.h"
 #include "shape.h"
 

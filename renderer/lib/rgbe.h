@@ -5,6 +5,7 @@
 #define OP_RGBE_H
 
 #include "opaline.h"
+#include "opaline_image.h"
 
 /* Encodes one linear RGB value (negative and non-finite channels count as 0). */
 void op_rgbe_encode(const float rgb[3], unsigned char out[4]);

@@ -12,6 +12,7 @@
 #ifndef OP_TEXTURE_H
 #define OP_TEXTURE_H
 
+#include "opaline_image.h"
 #include "rvec.h"
 #include "scene_desc.h"
 

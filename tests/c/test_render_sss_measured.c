@@ -17,6 +17,8 @@
 #include <string.h>
 
 #include "integrator.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 #include "opaline_render.h"
 #include "render_scene.h"
 #include "sss_measured.h"

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "commands.h"
+#include "opaline_material.h"
 #include "opaline_render.h"
 #include "render_scene.h"
 #include "integrator.h"

@@ -2,6 +2,8 @@
 #include "test_support.h"
 
 #include "integrator.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 #include "subsurface.h"
 
 #include <dirent.h>
