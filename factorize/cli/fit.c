@@ -21,7 +21,9 @@ op_status op_fit_matrix(const dataset *ds, float **mat, op_error *err)
     return OP_OK;
 }
 
-op_status op_fit_alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
+/* Allocates the per-row shifts and maxima of ds into *shift and *max when a->shift; else sets
+ * both NULL. */
+static op_status alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
                              float **max, op_error *err)
 {
     *shift = NULL;
@@ -111,7 +113,7 @@ op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c,
                                  float *mat, uint32_t **shift, float **max, uint64_t *nonfinite,
                                  uint64_t *negative, op_error *err)
 {
-    op_status st = op_fit_alloc_peaks(a, ds, shift, max, err);
+    op_status st = alloc_peaks(a, ds, shift, max, err);
     if (st != OP_OK)
         return st;
     double log_a = with_log ? a->log_a : 0;

@@ -80,10 +80,6 @@ typedef struct fit_method {
 void *op_fit_alloc(uint64_t bytes);
 /* Allocates one rows x cols float matrix of ds into *mat. */
 op_status op_fit_matrix(const dataset *ds, float **mat, op_error *err);
-/* Allocates the per-row shifts and maxima of ds into *shift and *max when a->shift; else sets
- * both NULL. */
-op_status op_fit_alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
-                             float **max, op_error *err);
 /* The error for channel c's non-finite values without --sanitize: n counts them and names the
  * first (op_prep_scan). */
 op_status op_fit_nonfinite_error(const factor_args *a, const dataset *ds, int c,
