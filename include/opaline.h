@@ -1,19 +1,16 @@
 /*
- * opaline.h - the opaline library.
+ * opaline.h - the base of the opaline library: what every opaline program shares.
  *
- * Reads, writes and evaluates factored heterogeneous subsurface-scattering materials
- * (".opm" files), and holds the support that every opaline program shares: error reporting,
- * logging, progress reporting, input and crash-safe output files, and image files.
+ * Error reporting, logging, progress reporting, threads, input and crash-safe output files,
+ * interruption, checksums and the table of scattering media. The rest of the library has a
+ * header per audience: opaline_image.h (image files), opaline_material.h (reading and
+ * evaluating materials) and opaline_material_write.h (writing them: the factorizer's).
  *
- * Conventions
+ * Conventions (of every opaline header)
  *  - Every fallible function returns an op_status and, when it fails, fills the caller's
  *    op_error (which may be NULL) with a message that names the file, line or index at fault.
  *  - Objects are opaque; whoever opens or creates one closes it. Pointers returned by getters
  *    stay valid until the owning object is closed.
- *  - A material is read-only once open and may be evaluated from any number of threads.
- *  - Units: a material's physical size is in centimetres; Rd values are dimensionless (the
- *    fraction of the power entering through one incident pixel that leaves through one exit
- *    pixel). docs/formats.md is the one place that defines them.
  */
 #ifndef OPALINE_H
 #define OPALINE_H
@@ -138,6 +135,11 @@ static inline void op_put_le64(unsigned char *p, uint64_t v)
 
 /* Seconds on the monotonic clock (CLOCK_MONOTONIC) from an arbitrary origin: for durations. */
 double op_monotonic_seconds(void);
+
+/* CRC-32 (zlib's) of a buffer, continuing from crc (start with 0). */
+uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
+/* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */
+uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b);
 
 /* ---------------------------------------------------------------- threads */
 
@@ -281,201 +283,6 @@ void op_file_unmap(op_file_view *map);
 /* Installs the SIGBUS handler behind op_file_map's promise; other faults keep their default
  * action. Programs call it once, first thing in main(); calling it again does nothing. */
 void op_file_guard_faults(void);
-
-/* ---------------------------------------------------------------- images */
-
-/* Pixels are linear-light floats, row-major from the top row, `channels` interleaved per pixel
- * (1 = grey, 3 = RGB, 4 = RGBA). */
-typedef struct op_image {
-    int width, height, channels;
-    float *pixels;
-} op_image;
-
-/* The largest image opaline holds: each side at most OP_IMAGE_MAX_SIDE, width x height at most
- * OP_IMAGE_MAX_PIXELS (far above any render, far below overflow). A scene's film is refused
- * beyond them when it loads. */
-#define OP_IMAGE_MAX_SIDE 65536
-#define OP_IMAGE_MAX_PIXELS ((size_t)1 << 30)
-
-/* A zeroed image; a size beyond the limits above or a channel count not 1, 3 or 4 is
- * OP_ERR_INPUT. */
-op_status op_image_alloc(op_image *img, int width, int height, int channels, op_error *err);
-void op_image_free(op_image *img);
-/* 8-bit sRGB PNG after multiplying by 2^exposure_stops; values are clamped to [0, 1]. */
-op_status op_image_write_png(const char *path, const op_image *img, float exposure_stops,
-                             op_error *err);
-/* OpenEXR (via its C API), half floats when half_float != 0, else 32-bit floats. */
-op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err);
-/* op_image_write_exr with one more header attribute, the string attr_name = attr_value. */
-op_status op_image_write_exr_attr(const char *path, const op_image *img, int half_float,
-                                  const char *attr_name, const char *attr_value, op_error *err);
-/* The string attribute name of an OpenEXR file's first part into out (n bytes, truncated),
- * "" when it has none; OP_ERR_FORMAT when path is not a readable OpenEXR file. */
-op_status op_image_exr_attr(const char *path, const char *name, char *out, size_t n,
-                            op_error *err);
-/* Portable float map, little-endian. */
-op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
-/* Radiance RGBE (.hdr): shared-exponent RGB, 4 bytes a pixel (a grey image repeats its
- * channel, alpha is dropped). */
-op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err);
-/* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */
-op_status op_image_read(const char *path, op_image *img, op_error *err);
-/* The same, but 8-bit files (PNG) keep their stored values (byte / 255) instead of being
- * sRGB-decoded, so that a caller can apply another transfer curve; *encoded is set to 1 for
- * those and to 0 for float files (OpenEXR, PFM), whose values both functions return as stored. */
-op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err);
-/* The most pixels (width x height) the two readers above accept: 2^27 (16384 x 8192). */
-#define OP_IMAGE_DEFAULT_MAX_PIXELS ((uint64_t)1 << 27)
-/* op_image_read (decode != 0) or op_image_read_stored (decode == 0; encoded may be NULL) with
- * another pixel limit: an image whose header says it has more than max_pixels pixels is refused
- * (OP_ERR_INPUT naming the limit "image-pixels") before anything is decoded or allocated. */
-op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
-                                int *encoded, op_error *err);
-
-/* ---------------------------------------------------------------- materials */
-
-typedef enum op_method {
-    OP_METHOD_RAW = 0, /* the dataset itself: the reference */
-    OP_METHOD_SVD,     /* log-transformed truncated SVD per channel (Onel, Kurt, Ozturk) */
-    OP_METHOD_TUCKER,  /* Tucker of the channel mean + per-row polynomial colour regression */
-    OP_METHOD_KCTA,    /* K-clustered tensor approximation (Tsai and Shih 2012) */
-    OP_METHOD_NMF,     /* non-negative matrix factorization baseline (Peers et al. 2006) */
-    OP_METHOD_COUNT
-} op_method;
-
-const char *op_method_name(op_method m);
-/* Returns OP_METHOD_COUNT for an unknown name. */
-op_method op_method_from_name(const char *name);
-
-/* What a material is. Rows are incident pixels (row index y * width + x), columns are kernel
- * offsets (column index (dy + kernel/2) * kernel + (dx + kernel/2)). */
-typedef struct op_material_info {
-    op_method method;
-    int width, height;         /* incident pixels */
-    int kernel;                /* odd kernel side K: offsets range over [-K/2, K/2] */
-    int channels;              /* 1 or 3 (R, G, B) */
-    double size_x_cm, size_y_cm; /* physical size of the sample */
-    int terms;                 /* T (svd, tucker, kcta, nmf), 0 for raw */
-    int degree;                /* P (tucker), 0 otherwise */
-    int clusters;              /* C (kcta), 0 otherwise */
-    int shifted;               /* rows were shifted and normalized (paper section 4.1) */
-    double log_a, log_b;       /* svd: R''' = ln(R'/A + B) */
-    uint32_t dataset_crc;      /* CRC-32 of the source dataset's Rd values */
-    char name[128];            /* e.g. "Chess4x4" */
-    char generator[128];       /* how the source data was made, free text */
-    char tool_version[32];
-} op_material_info;
-
-typedef struct op_material op_material;
-
-/* Opens and fully validates a material file (header, section table, checksums, dimensions,
- * method-specific invariants). A truncated, corrupt or hostile file gives OP_ERR_FORMAT. */
-op_status op_material_open(const char *path, op_material **out, op_error *err);
-void op_material_close(op_material *m);
-const op_material_info *op_material_get_info(const op_material *m);
-/* Bytes the material occupies on disk. */
-uint64_t op_material_file_size(const op_material *m);
-
-/* Rd for `channel` at incident pixel (x, y) and offset (dx, dy); 0 outside the kernel.
- * Coordinates must be in range (checked only by assertions). Never negative or NaN. */
-float op_material_eval(const op_material *m, int channel, int x, int y, int dx, int dy);
-/* The whole kernel row of incident pixel (x, y): K*K values in column order. */
-void op_material_eval_row(const op_material *m, int channel, int x, int y, float *out);
-/* Albedo map: for every channel and incident pixel the row sum, as channels*width*height
- * floats, channel-major. */
-op_status op_material_albedo_map(const op_material *m, float *out, op_error *err);
-
-/* A named section's bytes (e.g. "RD.R" of a raw material), or NULL when absent. Sections are
- * aligned to 64 bytes in the file and in memory. */
-const void *op_material_section(const op_material *m, const char *tag, uint64_t *bytes);
-/* The checksum stored for a section (verified when the file was opened), or 0 when absent. */
-uint32_t op_material_section_crc(const op_material *m, const char *tag);
-/* The tag of a per-channel section: prefix + "R"/"G"/"B", or + "Y" for one channel. */
-void op_channel_tag(char *tag, size_t n, const char *prefix, const op_material_info *info, int c);
-/* Rows (incident pixels, width * height) and columns (kernel offsets, K * K) of a material. */
-int64_t op_material_rows(const op_material *m);
-int op_material_cols(const op_material *m);
-
-/* Opens a file's container and META only (header, section table, checksums, dimensions) without
- * the method's checks: sections may be read with op_material_section, but eval, eval_row and
- * albedo must not be called. The factorizer reads datasets this way, so that NaN or negative
- * noise in a dataset gets its own clear report. Close with op_material_close. */
-op_status op_material_open_container(const char *path, op_material **out, op_error *err);
-/* op_material_open_container for a file larger than memory, read in passes: each section's
- * pages are dropped from memory once its checksum is verified (in pieces, so the resident size
- * stays bounded), and readers drop the rows they are done with by op_material_release. */
-op_status op_material_open_streaming(const char *path, op_material **out, op_error *err);
-/* op_file_release on m's file: [p, p + n) lies within one of its sections. */
-void op_material_release(const op_material *m, const void *p, size_t n);
-
-/* Writing: open, add each section once, commit. Section tags are 1 to 8 printable characters;
- * "META" is written by the library from info. The file is an op_output: it appears whole at
- * path on commit, or not at all. */
-typedef struct op_material_writer op_material_writer;
-
-op_status op_material_writer_open(const char *path, const op_material_info *info,
-                                  op_material_writer **out, op_error *err);
-op_status op_material_writer_add(op_material_writer *w, const char *tag, const void *data,
-                                 uint64_t bytes, op_error *err);
-/* A section written in pieces: reserve gives it its place and size (the sections after it go
- * beyond), fill appends its next n bytes (its checksum follows along), in any interleaving with
- * other reserved sections; commit refuses a section not filled to its size. */
-op_status op_material_writer_reserve(op_material_writer *w, const char *tag, uint64_t bytes,
-                                     op_error *err);
-op_status op_material_writer_fill(op_material_writer *w, const char *tag, const void *data,
-                                  size_t n, op_error *err);
-/* Rewrites META from info, which must give text of the same length (fixed-width fields such as
- * dataset_crc may change: a checksum known only once the data is written). */
-op_status op_material_writer_set_info(op_material_writer *w, const op_material_info *info,
-                                      op_error *err);
-/* Completes the file under its temporary name (section table and header) without putting it in
- * place, and gives that name in *tmp_path, valid until commit or abort: the file can be read
- * back with op_material_open to verify it. Sections may still be added after. */
-op_status op_material_writer_finish(op_material_writer *w, const char **tmp_path, op_error *err);
-/* Writes the section table and puts the file in place; frees w whatever the result. */
-op_status op_material_writer_commit(op_material_writer *w, op_error *err);
-/* Removes the temporary file and frees w. Accepts NULL. */
-void op_material_writer_abort(op_material_writer *w);
-
-/* Each method's section layout has one home, libopaline/method_<name>.c, which writes the
- * sections (these functions) and reads them back (op_material_open); docs/formats.md is the
- * specification. info is the META w was opened with; every array holds the count info implies
- * (rows = width * height, n = kernel * kernel, T = terms, C = clusters), row-major. shift (rows
- * u32) and max (rows float32) are each row's shift and maximum, required exactly when
- * info->shifted. Call them in the order given for a method: the file's layout follows it. */
-/* The prefix of a raw material's (a dataset's) per-channel Rd sections (op_channel_tag). */
-#define OP_RAW_SECTION "RD."
-/* raw: channel c's Rd values, rows x n. */
-op_status op_write_raw_channel(op_material_writer *w, const op_material_info *info, int c,
-                               const float *rd, op_error *err);
-/* svd: channel c's U (rows x T, scaled by the singular values) and V (n x T). */
-op_status op_write_svd_channel(op_material_writer *w, const op_material_info *info, int c,
-                               const float *u, const float *v, const uint32_t *shift,
-                               const float *max, op_error *err);
-/* tucker: U (rows x T), V (n x T), RANGE (rows x 2), BETA (channels x rows x (degree + 1)). */
-op_status op_write_tucker(op_material_writer *w, const op_material_info *info, const float *u,
-                          const float *v, const float *range, const float *beta,
-                          const uint32_t *shift, const float *max, op_error *err);
-/* kcta, per channel: BASIS (C x n x T), KIDX (rows x km indices of index_bytes, 2 or 4, each),
- * KCOEF (rows x km x T); after the channels op_write_kcta_params. */
-op_status op_write_kcta_channel(op_material_writer *w, const op_material_info *info, int c,
-                                int km, int index_bytes, const float *basis, const void *idx,
-                                const float *coef, const uint32_t *shift, const float *max,
-                                op_error *err);
-op_status op_write_kcta_params(op_material_writer *w, int km, int index_bytes, op_error *err);
-/* nmf: channel c's PROF (n), SCALE (rows), W (rows x T) and H (n x T). */
-op_status op_write_nmf_channel(op_material_writer *w, const op_material_info *info, int c,
-                               const float *prof, const float *scale, const float *wf,
-                               const float *h, op_error *err);
-/* Any factored method, last: the row sums of the reconstruction (channels x rows), which
- * op_material_albedo_map then copies. */
-op_status op_write_albedo(op_material_writer *w, const op_material_info *info,
-                          const float *albedo, op_error *err);
-
-/* CRC-32 (zlib's) of a buffer, continuing from crc (start with 0). */
-uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
-/* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */
-uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b);
 
 /* ---------------------------------------------------------------- scattering media */
 /* The one table of named scattering media, shared by the dataset generator and the renderer's

@@ -18,6 +18,7 @@
 #include <stdatomic.h>
 
 #include "opaline.h"
+#include "opaline_image.h"
 
 #ifdef __cplusplus
 extern "C" {

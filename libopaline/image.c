@@ -2,6 +2,7 @@
  * OpenEXRCore C API), portable float maps, and Radiance RGBE (.hdr, written only). Every file
  * is written through op_output, so a failed write leaves nothing behind. */
 #include "opaline.h"
+#include "opaline_image.h"
 
 #include <errno.h>
 #include <math.h>

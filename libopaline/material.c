@@ -1,6 +1,7 @@
 /* material.c - a material: its container (material_file.c) with its method's evaluation
  * (method_<name>.c, through the op_method_ops of material_internal.h) behind the public
- * op_material API. The only module that knows every method. */
+ * op_material API. The only module that knows every method: its table comes from
+ * OP_METHOD_LIST. */
 #include "material_internal.h"
 
 #include <stdlib.h>
@@ -9,16 +10,13 @@
 /* The row sums of a factored material's reconstruction (channels x rows float32). */
 #define ALBEDO_TAG "ALBEDO"
 
+#define METHOD_OPS(id, name) [OP_METHOD_##id] = &op_method_##name##_ops,
+static const op_method_ops *const method_table[OP_METHOD_COUNT] = {OP_METHOD_LIST(METHOD_OPS)};
+#undef METHOD_OPS
+
 static const op_method_ops *method_ops(op_method m)
 {
-    switch (m) {
-    case OP_METHOD_RAW: return &op_method_raw_ops;
-    case OP_METHOD_SVD: return &op_method_svd_ops;
-    case OP_METHOD_TUCKER: return &op_method_tucker_ops;
-    case OP_METHOD_KCTA: return &op_method_kcta_ops;
-    case OP_METHOD_NMF: return &op_method_nmf_ops;
-    default: return NULL;
-    }
+    return (unsigned)m < OP_METHOD_COUNT ? method_table[m] : NULL;
 }
 
 op_status op_material_open(const char *path, op_material **out, op_error *err)

@@ -76,7 +76,9 @@ uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b)
     return (uint32_t)crc32_combine(crc_a, crc_b, (z_off_t)bytes_b); /* z_off_t: 64 bits on LP64 */
 }
 
-static const char *const method_names[OP_METHOD_COUNT] = {"raw", "svd", "tucker", "kcta", "nmf"};
+#define METHOD_NAME(id, name) [OP_METHOD_##id] = #name,
+static const char *const method_names[OP_METHOD_COUNT] = {OP_METHOD_LIST(METHOD_NAME)};
+#undef METHOD_NAME
 
 const char *op_method_name(op_method m)
 {

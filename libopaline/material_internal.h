@@ -3,6 +3,8 @@
 #define OP_MATERIAL_INTERNAL_H
 
 #include "opaline.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 
 #include <string.h>
 
@@ -64,7 +66,7 @@ op_status op_material_channel_floats(const op_material *m, const char *prefix, i
  * the channel-less "SHIFT" and "MAX" when c < 0. *shift and *max are set only when valid. */
 op_status op_material_shift_sections(const op_material *m, int c, const uint32_t **shift,
                                      const float **max, op_error *err);
-/* Writing, the other half of each method's layout (opaline.h's op_write_* functions): channel
+/* Writing, the other half of each method's layout (opaline_material_write.h's op_write_*): channel
  * c's section prefix + "R"/"G"/"B" (or "Y") of `bytes` bytes. */
 op_status op_material_write_channel(op_material_writer *w, const op_material_info *info,
                                     const char *prefix, int c, const void *data, uint64_t bytes,
@@ -101,10 +103,9 @@ void op_method_free_state(op_material *m);
 /* Frees a material whose method state is gone (or was never made): its mapping and itself. */
 void op_material_free_container(op_material *m);
 
-extern const op_method_ops op_method_raw_ops;
-extern const op_method_ops op_method_svd_ops;
-extern const op_method_ops op_method_tucker_ops;
-extern const op_method_ops op_method_kcta_ops;
-extern const op_method_ops op_method_nmf_ops;
+/* Each method's evaluation, op_method_<name>_ops of method_<name>.c (OP_METHOD_LIST). */
+#define OP_METHOD_OPS_(id, name) extern const op_method_ops op_method_##name##_ops;
+OP_METHOD_LIST(OP_METHOD_OPS_)
+#undef OP_METHOD_OPS_
 
 #endif

@@ -6,6 +6,7 @@
  * and for the marble's Vein; the blends keep 1.3 (docs/datasets.md). */
 #include "opaline.h"
 
+#include <pthread.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -66,14 +67,18 @@ const op_medium *op_medium_lookup(const char *name)
     return 0;
 }
 
+static char names[512];
+static pthread_once_t names_once = PTHREAD_ONCE_INIT;
+
+static void join_names(void)
+{
+    size_t n = 0;
+    for (int i = 0; i < op_medium_count() && n < sizeof names; i++)
+        n += (size_t)snprintf(names + n, sizeof names - n, "%s%s", i ? ", " : "", media[i].name);
+}
+
 const char *op_medium_names(void)
 {
-    static char names[512];
-    if (!names[0]) {
-        size_t n = 0;
-        for (int i = 0; i < op_medium_count() && n < sizeof names; i++)
-            n += (size_t)snprintf(names + n, sizeof names - n, "%s%s", i ? ", " : "",
-                                  media[i].name);
-    }
+    pthread_once(&names_once, join_names);
     return names;
 }

@@ -21,7 +21,9 @@ op_status op_fit_matrix(const dataset *ds, float **mat, op_error *err)
     return OP_OK;
 }
 
-op_status op_fit_alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
+/* Allocates the per-row shifts and maxima of ds into *shift and *max when a->shift; else sets
+ * both NULL. */
+static op_status alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
                              float **max, op_error *err)
 {
     *shift = NULL;
@@ -107,22 +109,21 @@ static void prep_counted_task(void *user, int task, int thread)
     op_prep_fetch(&p->src, r0, n, p->mat + r0 * p->src.cols, NULL);
 }
 
-op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c, int with_log,
-                                 float *mat, uint32_t **shift, float **max, uint64_t *nonfinite,
+op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c, float *mat,
+                                 uint32_t **shift, float **max, uint64_t *nonfinite,
                                  uint64_t *negative, op_error *err)
 {
-    op_status st = op_fit_alloc_peaks(a, ds, shift, max, err);
+    op_status st = alloc_peaks(a, ds, shift, max, err);
     if (st != OP_OK)
         return st;
-    double log_a = with_log ? a->log_a : 0;
     if (ds->block_rows) /* the command counted the values */
-        st = op_prep_rows(ds->rd[c], ds->rows, ds->cols, *shift, *max, log_a, a->log_b,
+        st = op_prep_rows(ds->rd[c], ds->rows, ds->cols, *shift, *max, 0, a->log_b,
                           a->threads, mat, err);
     else {
         /* Blocks of about 256 KiB, as op_prep_rows's. */
         int64_t per = (int64_t)(65536 / (ds->cols > 0 ? ds->cols : 1));
         prep_counted p = {.src = {.src = ds->rd[c], .rows = ds->rows, .cols = ds->cols,
-                                  .shift = *shift, .max = *max, .log_a = log_a,
+                                  .shift = *shift, .max = *max, .log_a = 0,
                                   .log_b = a->log_b, .sanitize = a->sanitize},
                           .mat = mat, .rows_per_task = per > 0 ? per : 1};
         atomic_init(&p.src.nonfinite, 0);

@@ -5,6 +5,8 @@
 #define OP_FACTOR_FIT_H
 
 #include "opaline.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 #include "preprocess.h"
 #include "report.h"
 #include "rsvd.h"
@@ -78,10 +80,6 @@ typedef struct fit_method {
 void *op_fit_alloc(uint64_t bytes);
 /* Allocates one rows x cols float matrix of ds into *mat. */
 op_status op_fit_matrix(const dataset *ds, float **mat, op_error *err);
-/* Allocates the per-row shifts and maxima of ds into *shift and *max when a->shift; else sets
- * both NULL. */
-op_status op_fit_alloc_peaks(const factor_args *a, const dataset *ds, uint32_t **shift,
-                             float **max, op_error *err);
 /* The error for channel c's non-finite values without --sanitize: n counts them and names the
  * first (op_prep_scan). */
 op_status op_fit_nonfinite_error(const factor_args *a, const dataset *ds, int c,
@@ -98,15 +96,15 @@ op_status op_fit_channel_nonfinite(const factor_args *a, const dataset *ds, int 
                                    op_error *err);
 /* Logs the non-finite and negative values rep counts. */
 void op_fit_log_counts(const factor_args *a, const op_factor_report *rep);
-/* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, and
- * log-transformed as the svd method does when with_log, into mat (rows x cols). The per-row
- * shifts and maxima go to *shift and *max, owned by the caller (both NULL when not shifted).
+/* Writes channel c of ds, rows shifted and normalized (paper section 4.1) when a->shift, into
+ * mat (rows x cols). The per-row shifts and maxima go to *shift and *max, owned by the caller
+ * (both NULL when not shifted).
  * For a method with counts_values: unless ds is streamed (ds->block_rows, counted by the
  * command), the same pass counts the channel's values into *nonfinite and *negative
  * (op_prep_fetch); non-finite ones without --sanitize then fail with OP_ERR_INPUT, err unset,
  * for op_fit_channel_nonfinite to name the first. */
-op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c, int with_log,
-                                 float *mat, uint32_t **shift, float **max, uint64_t *nonfinite,
+op_status op_fit_prepare_channel(const factor_args *a, const dataset *ds, int c, float *mat,
+                                 uint32_t **shift, float **max, uint64_t *nonfinite,
                                  uint64_t *negative, op_error *err);
 
 #endif

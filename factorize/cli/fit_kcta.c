@@ -37,7 +37,7 @@ static op_status kcta_fit(fit_job *job, op_error *err)
         float *max = NULL;
         double t0 = op_monotonic_seconds();
         uint64_t nf = 0, neg = 0;
-        st = op_fit_prepare_channel(a, ds, c, 0, mat, &shift, &max, &nf, &neg, err);
+        st = op_fit_prepare_channel(a, ds, c, mat, &shift, &max, &nf, &neg, err);
         nonfinite += nf;
         negative += neg;
         if (nf && !a->sanitize)

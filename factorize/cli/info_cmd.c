@@ -1,6 +1,7 @@
 /* info_cmd.c - `opaline-factor info FILE`: prints what a material or dataset file holds. */
 #include "commands.h"
 #include "opaline.h"
+#include "opaline_material.h"
 
 #include <string.h>
 

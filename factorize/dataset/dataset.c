@@ -1,5 +1,7 @@
 /* dataset.c - dataset specifications, the paper presets, energy checks and writing. */
 #include "dataset.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 
 
 #include <math.h>

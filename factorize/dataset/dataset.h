@@ -15,7 +15,6 @@
 
 #include "dataset_layout.h"
 #include "opaline.h"
-#include "opaline.h"
 
 #include <stdint.h>
 

@@ -4,6 +4,7 @@
 #define OP_TILE_MERGE_H
 
 #include "opaline.h"
+#include "opaline_image.h"
 
 /* The OpenEXR string attribute of a tile (--raw-exr): "key=K film=WxH crop=X,Y,W,H", the
  * scene's content key (inputs.h), its whole film and the tile's crop. */

@@ -8,6 +8,9 @@
 #include "test_support.h"
 
 #include "commands.h"
+#include "opaline_image.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 
 #include <fcntl.h>
 #include <math.h>

@@ -7,6 +7,7 @@
 #include "dataset_generate.h"
 #include "dataset_diffusion.h"
 #include "opaline.h"
+#include "opaline_material.h"
 
 #include <math.h>
 #include <stdlib.h>

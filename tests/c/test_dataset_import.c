@@ -4,6 +4,7 @@
 #include "test_support.h"
 
 #include "commands.h"
+#include "opaline_material.h"
 
 #include <math.h>
 #include <stdio.h>

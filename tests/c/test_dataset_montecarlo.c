@@ -8,6 +8,7 @@
 #include "dataset_diffusion.h"
 #include "dataset_montecarlo.h"
 #include "opaline.h"
+#include "opaline_material.h"
 
 #include <math.h>
 #include <stdlib.h>

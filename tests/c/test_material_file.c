@@ -3,6 +3,9 @@
  * an independent implementation of docs/formats.md, so the tests also check the specification. */
 #include "test_support.h"
 
+#include "opaline_material.h"
+#include "opaline_material_write.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -17,6 +17,8 @@
 #include <string.h>
 
 #include "integrator/integrator.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 #include "opaline_render.h"
 #include "scene/render_scene.h"
 #include "sss/measured_points.h"

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "commands.h"
+#include "opaline_material.h"
 #include "opaline_render.h"
 #include "scene/render_scene.h"
 #include "integrator/integrator.h"

@@ -8,6 +8,9 @@
 #define _XOPEN_SOURCE 700
 #include "test_support.h"
 
+#include "opaline_material.h"
+#include "opaline_material_write.h"
+
 #include <ftw.h>
 #include <math.h>
 #include <stdarg.h>

@@ -3,6 +3,8 @@
 
 #include "integrator/integrator.h"
 #include "sss/prepass.h"
+#include "opaline_material.h"
+#include "opaline_material_write.h"
 
 #include <dirent.h>
 #include <math.h>

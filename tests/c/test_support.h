@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "opaline.h"
+#include "opaline_image.h"
 #include "opaline_render.h"
 
 /* A fresh path under the test build's tmp folder: "<tmp>/<test name>-<counter>-<suffix>". */

@@ -3,6 +3,7 @@
 #include "fuzz_support.h"
 
 #include "opaline.h"
+#include "opaline_image.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

@@ -3,6 +3,7 @@
 #include "fuzz_support.h"
 
 #include "opaline.h"
+#include "opaline_material.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -14,6 +14,7 @@
 
 #include "math/vec.h"
 #include "scene/scene_desc.h"
+#include "opaline_image.h"
 
 typedef enum op_tex_type { OP_TEX_NONE = 0, OP_TEX_BITMAP, OP_TEX_CHECKERBOARD } op_tex_type;
 

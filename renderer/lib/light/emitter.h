@@ -8,6 +8,7 @@
 #include "math/vec.h"
 #include "scene/scene_desc.h"
 #include "geometry/shape.h"
+#include "opaline_image.h"
 
 typedef enum op_emitter_type {
     OP_EM_POINT,

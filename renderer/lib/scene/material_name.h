@@ -4,7 +4,7 @@
 
 #include <stddef.h>
 
-#include "opaline.h"
+#include "opaline_material.h"
 
 /* The long material names of the Blender/Mitsuba plugin (Onel, Kurt, Ozturk), e.g.
  * "SVD S10 Div100 Add1 for Rd Chess4x4 v1(277x277x39x39)": "<METHOD> <params> for Rd <Name> ...",

@@ -10,6 +10,7 @@
 #include "light/emitter.h"
 #include "camera/film.h"
 #include "camera/sampler.h"
+#include "opaline_material.h"
 #include "opaline_render.h"
 #include "geometry/shape.h"
 

@@ -1,0 +1,68 @@
+/*
+ * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR or PFM and
+ * read from any of them. Errors and conventions: opaline.h.
+ */
+#ifndef OPALINE_IMAGE_H
+#define OPALINE_IMAGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "opaline.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Pixels are linear-light floats, row-major from the top row, `channels` interleaved per pixel
+ * (1 = grey, 3 = RGB, 4 = RGBA). */
+typedef struct op_image {
+    int width, height, channels;
+    float *pixels;
+} op_image;
+
+/* The largest image opaline holds: each side at most OP_IMAGE_MAX_SIDE, width x height at most
+ * OP_IMAGE_MAX_PIXELS (far above any render, far below overflow). A scene's film is refused
+ * beyond them when it loads. */
+#define OP_IMAGE_MAX_SIDE 65536
+#define OP_IMAGE_MAX_PIXELS ((size_t)1 << 30)
+
+/* A zeroed image; a size beyond the limits above or a channel count not 1, 3 or 4 is
+ * OP_ERR_INPUT. */
+op_status op_image_alloc(op_image *img, int width, int height, int channels, op_error *err);
+void op_image_free(op_image *img);
+/* 8-bit sRGB PNG after multiplying by 2^exposure_stops; values are clamped to [0, 1]. */
+op_status op_image_write_png(const char *path, const op_image *img, float exposure_stops,
+                             op_error *err);
+/* OpenEXR (via its C API), half floats when half_float != 0, else 32-bit floats. */
+op_status op_image_write_exr(const char *path, const op_image *img, int half_float, op_error *err);
+/* op_image_write_exr with one more header attribute, the string attr_name = attr_value. */
+op_status op_image_write_exr_attr(const char *path, const op_image *img, int half_float,
+                                  const char *attr_name, const char *attr_value, op_error *err);
+/* The string attribute name of an OpenEXR file's first part into out (n bytes, truncated),
+ * "" when it has none; OP_ERR_FORMAT when path is not a readable OpenEXR file. */
+op_status op_image_exr_attr(const char *path, const char *name, char *out, size_t n,
+                            op_error *err);
+/* Portable float map, little-endian. */
+op_status op_image_write_pfm(const char *path, const op_image *img, op_error *err);
+/* Radiance RGBE (.hdr): shared-exponent RGB, 4 bytes a pixel (a grey image repeats its
+ * channel, alpha is dropped). */
+op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err);
+/* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */
+op_status op_image_read(const char *path, op_image *img, op_error *err);
+/* The same, but 8-bit files (PNG) keep their stored values (byte / 255) instead of being
+ * sRGB-decoded, so that a caller can apply another transfer curve; *encoded is set to 1 for
+ * those and to 0 for float files (OpenEXR, PFM), whose values both functions return as stored. */
+op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err);
+/* The most pixels (width x height) the two readers above accept: 2^27 (16384 x 8192). */
+#define OP_IMAGE_DEFAULT_MAX_PIXELS ((uint64_t)1 << 27)
+/* op_image_read (decode != 0) or op_image_read_stored (decode == 0; encoded may be NULL) with
+ * another pixel limit: an image whose header says it has more than max_pixels pixels is refused
+ * (OP_ERR_INPUT naming the limit "image-pixels") before anything is decoded or allocated. */
+op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
+                                int *encoded, op_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
