@@ -1,11 +1,24 @@
-# Sourced by the end-to-end tests: what several of them share.
+# Sourced by the end-to-end tests: their preamble (e2e_setup) and what several of them share.
+# A test skips (exit 77, which ctest shows as "Skipped") only for what this build does not make
+# or this machine lacks, after printing why; a program or preset that the build makes but that
+# is missing fails it.
 
-# e2e_setup NAME PROGRAM...: exits 77 (skip) unless every PROGRAM is built in $OPALINE_BIN_DIR
-# and python3 is found; then sets BIN, R (opaline-render), C (opaline-cluster) and T, a fresh
-# temp folder NAME.XXXXXX that the caller's trap removes.
+# e2e_skip REASON: the test skips.
+e2e_skip() {
+  echo "skip: $*"
+  exit 77
+}
+
+# e2e_setup NAME [PROGRAM...]: fails unless every PROGRAM is built in $OPALINE_BIN_DIR; skips
+# unless python3 is found; then sets SRC (the checkout), BIN, R (opaline-render), C
+# (opaline-cluster), F (opaline-factor) and T, a fresh temporary folder NAME.XXXXXX, and puts
+# tests/ on PYTHONPATH (python3 parts `import pfm`, the tests' PFM reader). On exit the
+# script's own `cleanup` function runs when it defines one, then T is removed (unless KEEP is
+# set).
 e2e_setup() {
   local name=$1 p
   shift
+  SRC=${OPALINE_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}
   BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
   R=$BIN/opaline-render
   C=$BIN/opaline-cluster
@@ -24,9 +37,9 @@ fail() {
   exit 1
 }
 
-# dipole_sphere_scene DIR [FLOOR-XML]: writes DIR/scene.xml, a 48 x 40 film (2 spp, Gaussian filter) of a
-# sphere of radius 0.5 resting at z = 0.5 with a dipole subsurface medium, on a grey 6 x 6
-# floor (DIR/floor.obj, a mesh file), lit by a point light at (1, -2, lightz), seen from
+# dipole_sphere_scene DIR [FLOOR-XML]: writes DIR/scene.xml, a 48 x 40 film (2 spp, Gaussian
+# filter) of a sphere of radius 0.5 resting at z = 0.5 with a dipole subsurface medium, on a
+# grey 6 x 6 floor (DIR/floor.obj, a mesh file), lit by a point light at (1, -2, lightz), seen from
 # (camx, -4, 2); camx (0), lightz (4) and medium (Skin1) are scene defaults (-D name=value).
 # FLOOR-XML (optional) goes into the floor's <bsdf>.
 dipole_sphere_scene() {

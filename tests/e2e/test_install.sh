@@ -9,13 +9,12 @@
 # add-on without a renderer: the shipped presets stay listed and the errors blame the renderer.
 # Skips (77) only when Blender is not installed (or the build has no presets to install).
 set -euo pipefail
-. "$(dirname "$0")/e2e_support.sh"
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup install opaline-render opaline-factor opaline-cluster
 BUILD=$(cd "$BIN/.." && pwd)
 PRESET=SVD_S10_Chess4x4
-command -v blender >/dev/null || { echo "skip: blender is not installed"; exit 77; }
-[ -f "$BUILD/presets/$PRESET.opm" ] ||
-  { echo "skip: the build made no presets ($BUILD/presets/$PRESET.opm; OPALINE_BUILD_PRESETS=OFF?)"; exit 77; }
+e2e_need blender
+e2e_preset $PRESET
 for f in "$BUILD/opaline-blender-addon.zip" "$BUILD/opaline-blender-extension.zip"; do
   [ -f "$f" ] || { echo "FAIL: the build made no $f"; exit 1; }
 done
@@ -243,7 +242,7 @@ except RuntimeError as e:
 print("OK")
 sys.exit(0)  # a failed render (above, on purpose) would otherwise make Blender's status 1
 PY
-"${benv[@]}" "$BLENDER" --background --python-exit-code 1 --python "$T/f12.py" -- "$P" "$T" "$PRESET" \
+"${benv[@]}" "$BLENDER" --background --python-exit-code 1 --python "$T/f12.py" -- "$P" "$T" "$PRESET" "$SRC/tests" \
   >"$T/f12.log" 2>&1 || { cat "$T/f12.log"; echo "FAIL: F12 in Blender $version"; exit 1; }
 grep -E "^(add-on|F12 vs|OK)" "$T/f12.log"
 

@@ -9,9 +9,8 @@
 # two renders writing one cache at once each leave a complete file; a large dipole square laid in
 # levels around the view gives the uncached image from a fresh, reused and moved camera's cache.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup render_sss_cache opaline-render
-trap 'rm -rf "$T"' EXIT
 
 dipole_sphere_scene "$T"
 render() { "$R" -v -t 2 --limit sss-max-points=2000 "$@" "$T/scene.xml" 2>"$T/err"; }

@@ -7,9 +7,8 @@
 # LOG record). --crop renders only a window of the film, each pixel bit-identical to the full
 # render's (a translucent scene: the pre-pass too); a window outside the film exits 2.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup render_stream_stages opaline-render
-trap 'rm -rf "$T"' EXIT
 
 dipole_sphere_scene "$T" '<float name="intIOR" value="1.5"/>' # unused: a warning to log
 

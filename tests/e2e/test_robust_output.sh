@@ -12,17 +12,9 @@
 #    temporary file exists) exit 130 with one line, no sanitizer report, no temporary file left
 #    and the previous output unchanged.
 set -uo pipefail
-. "$(dirname "$0")/e2e_support.sh" # hold_lock
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-F=$BIN/opaline-factor
-[ -x "$F" ] || { echo "skip: $F not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_output.XXXXXX")
-cleanup() {
-  jobs -p | xargs -r kill -KILL 2>/dev/null
-  rm -rf "$T"
-}
-trap cleanup EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup robust_output opaline-factor
+cleanup() { jobs -p | xargs -r kill -KILL 2>/dev/null; }
 # Job control: background commands then get SIGINT (a non-interactive shell makes them ignore it).
 set -m
 export TMPDIR=$T/tmpdir # where outputs written through keep their data until commit

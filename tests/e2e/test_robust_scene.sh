@@ -8,12 +8,8 @@
 # --estimate (exit 2 naming the limit), 2,500 spheres in 60 KB are checked in bounded memory
 # (one shared mesh), a zero up is refused. Needs the built opaline-render and python3.
 set -euo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-R="$BIN/opaline-render"
-[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_scene.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup robust_scene opaline-render
 
 fail() { echo "FAIL: $*"; exit 1; }
 
@@ -23,10 +19,8 @@ max_ms=2000
 expect() {
   local code=$1 words=$2
   shift 3
-  local t0 t1 rc=0
-  t0=$(date +%s%N)
+  local rc=0
   "$R" -q "$@" >"$T/out" 2>"$T/err" || rc=$?
-  t1=$(date +%s%N)
   [ "$rc" = "$code" ] || { cat "$T/err"; fail "opaline-render $*: exit $rc, expected $code"; }
   # words may list alternatives separated by ' || ' (a newer libxml2 refuses some files itself)
   local w found=0

@@ -4,14 +4,8 @@
 # the image: nothing NaN, the floor's radiance against its closed form and the object's against
 # its measured figures. Needs only the built commands and python3.
 set -euo pipefail
-. "$(dirname "$0")/e2e_support.sh"
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-for exe in opaline-factor opaline-render; do
-  [ -x "$BIN/$exe" ] || { echo "skip: $BIN/$exe not built"; exit 77; }
-done
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/thin_path.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup thin_path opaline-factor opaline-render
 
 "$BIN/opaline-factor" dataset chess4x4 --pixels 24x24 --kernel 9 -o "$T/d.opm"
 "$BIN/opaline-factor" factor "$T/d.opm" --method svd -T 4 -o "$T/m.opm"
