@@ -17,8 +17,10 @@ import bpy
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE_DIR = os.environ.get("OPALINE_SOURCE_DIR") or os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(SOURCE_DIR, "blender_addon"))
+sys.path.insert(0, os.path.dirname(HERE))
 
 import opaline  # noqa: E402
+import pfm  # noqa: E402
 
 
 def register():
@@ -208,29 +210,12 @@ def render_cli(test, xml, out, samples=None, threads=2, extra=()):
 # Images without NumPy.
 
 def read_pfm(path):
-    """(width, height, list of rows top to bottom, each a flat list of RGB floats)."""
-    with open(path, "rb") as f:
-        data = f.read()
-    parts = []
-    pos = 0
-    while len(parts) < 4:
-        while data[pos:pos + 1].isspace():
-            pos += 1
-        end = pos
-        while not data[end:end + 1].isspace():
-            end += 1
-        parts.append(data[pos:end])
-        pos = end
-    pos += 1
-    kind, w, h, scale = parts[0], int(parts[1]), int(parts[2]), float(parts[3])
-    ch = 3 if kind == b"PF" else 1
-    fmt = "<" if scale < 0 else ">"
-    n = w * h * ch
-    vals = struct.unpack_from(fmt + "%df" % n, data, pos)
-    rows = [list(vals[(h - 1 - r) * w * ch:(h - r) * w * ch]) for r in range(h)]
-    if ch == 1:
-        rows = [[v for v in row for _ in range(3)] for row in rows]
-    return w, h, rows
+    """(width, height, list of rows top to bottom, each a flat list of RGB floats) of a PFM file
+    (tests/pfm.py reads it)."""
+    im = pfm.read(path)
+    rows = [list(row) if im.channels == 3 else [v for v in row for _ in range(3)]
+            for row in reversed(im.rows())]
+    return im.width, im.height, rows
 
 
 def load_image_rgba(path):

@@ -103,17 +103,15 @@ for c in 0,0,24,20 24,0,24,20 0,20,24,20 24,20,24,20; do
     grep -q "computed 0 new" "$T/err" || fail "tile $c computed something new"
 done
 python3 - "$T" <<'PY' || fail "tiles differ from the full render"
-import struct, sys
-def pfm(path):
-    data = open(path, "rb").read()
-    parts = data.split(b"\n", 3)
-    w, h = map(int, parts[1].split())
-    vals = struct.unpack("<%df" % (3 * w * h), parts[3][:12 * w * h])
-    return w, h, [vals[3 * w * y:3 * w * (y + 1)] for y in range(h)]  # rows bottom first
-fw, fh, full = pfm(sys.argv[1] + "/full.pfm")
+import sys
+import pfm
+def rows(path):  # width, height, rows bottom first
+    im = pfm.read(path)
+    return im.width, im.height, im.rows()
+fw, fh, full = rows(sys.argv[1] + "/full.pfm")
 for c in ["0,0,24,20", "24,0,24,20", "0,20,24,20", "24,20,24,20"]:
     x0, top, cw, ch = map(int, c.split(","))
-    w, h, tile = pfm(sys.argv[1] + "/tile_%s.pfm" % c)
+    w, h, tile = rows(sys.argv[1] + "/tile_%s.pfm" % c)
     for y in range(ch):
         assert tile[y] == full[fh - top - ch + y][3 * x0:3 * (x0 + cw)], (c, y)
 PY

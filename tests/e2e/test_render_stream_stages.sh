@@ -64,15 +64,12 @@ PY
     "$T/scene.xml" >"$T/cstream" 2>"$T/err" || fail "the crop run exited $?"
 python3 - "$T/full.pfm" "$T/crop.pfm" "$T/cstream" <<'PY' || fail "crop pixels differ"
 import struct, sys
-def pfm(path):
-    data = open(path, "rb").read()
-    parts = data.split(b"\n", 3)
-    w, h = map(int, parts[1].split())
-    assert float(parts[2]) < 0
-    vals = struct.unpack("<%df" % (3 * w * h), parts[3][:12 * w * h])
-    return w, h, [vals[3 * w * y:3 * w * (y + 1)] for y in range(h)]  # rows bottom first
-fw, fh, full = pfm(sys.argv[1])
-cw, ch, crop = pfm(sys.argv[2])
+import pfm
+def rows(path):  # width, height, rows bottom first
+    im = pfm.read(path)
+    return im.width, im.height, im.rows()
+fw, fh, full = rows(sys.argv[1])
+cw, ch, crop = rows(sys.argv[2])
 assert (fw, fh, cw, ch) == (48, 40, 20, 25), (fw, fh, cw, ch)
 x0, top = 13, 7
 for y in range(ch):          # crop row y (from the bottom) is full row fh - top - ch + y

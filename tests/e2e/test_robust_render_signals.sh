@@ -48,15 +48,11 @@ echo "complete render: $full s (loading $t_load s, irradiance $t_irr s, scatteri
 # (bit for bit: rendering is deterministic) or black, and that N of them are finished.
 check_partial() {
   python3 - "$T/ref.pfm" "$T/out.partial.pfm" "$1" <<'PY'
-import struct, sys
-def pfm(path):
-    data = open(path, "rb").read()
-    tag, dims, scale, rest = data.split(b"\n", 3)
-    assert tag == b"PF", (path, tag)
-    w, h = map(int, dims.split())
-    return w, h, struct.unpack("<%df" % (w * h * 3), rest[:w * h * 12])
-w, h, ref = pfm(sys.argv[1])
-pw, ph, part = pfm(sys.argv[2])
+import sys
+import pfm
+r, p = pfm.read(sys.argv[1]), pfm.read(sys.argv[2])
+w, h, ref = r.width, r.height, r.samples
+pw, ph, part = p.width, p.height, p.samples
 done = int(sys.argv[3])
 assert (pw, ph) == (w, h), "partial image is %dx%d, expected %dx%d" % (pw, ph, w, h)
 same = black = lit_black = 0
@@ -128,7 +124,7 @@ for i in "${!points[@]}"; do
   [ "$rc" -eq 130 ] || fail "SIG$sig at $at: exit $rc, expected 130"
   interrupted=$((interrupted + 1))
   cmp -s "$T/out.pfm" "$T/ref.pfm" || fail "SIG$sig at $at: the complete out.pfm was changed"
-  leftover=$(cd "$T" && ls -A | grep -Ev '^(scene\.xml|ref\.pfm|out\.pfm|out\.partial\.pfm|err)$')
+  leftover=$(cd "$T" && ls -A | grep -Ev '^(scene\.xml|ref\.pfm|out\.pfm|out\.partial\.pfm|err|stream)$')
   [ -z "$leftover" ] || fail "SIG$sig at $at: left behind: $leftover"
   grep -q "interrupted (SIG$sig)" "$T/err" || fail "SIG$sig at $at: no 'interrupted' message"
   done_tiles=$(sed -n 's/.*interrupted (SIG[A-Z]*) after \([0-9]*\) of 12 tiles.*/\1/p' "$T/err" | head -1)

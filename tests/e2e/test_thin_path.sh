@@ -23,15 +23,11 @@ sphere_scene "$T/scene.xml" 64 48 4 \
 # measured when this test was written (0.3075 0.2406 0.2080 per channel at 4 spp; a diffuse
 # sphere of reflectance 0.5 gives 0.243 there), within 15 %.
 python3 - "$T/out.pfm" <<'PY'
-import math, struct, sys
-data = open(sys.argv[1], "rb").read()
-header, dims, scale, rest = data.split(b"\n", 3)
-assert header == b"PF", header
-w, h = map(int, dims.split())
-px = struct.unpack("<%df" % (w * h * 3), rest[: w * h * 12])
-def at(x, y):  # y from the top; PFM rows run bottom to top
-    i = ((h - 1 - y) * w + x) * 3
-    return px[i:i + 3]
+import math, sys
+import pfm
+im = pfm.read(sys.argv[1])
+assert im.channels == 3, im.channels
+w, h, px, at = im.width, im.height, im.samples, im.pixel  # at(x, y): y from the top
 assert all(math.isfinite(v) for v in px), "NaN or inf in the image"
 assert min(px) >= 0.0, "negative radiance"
 def mean(region):
