@@ -147,7 +147,6 @@ sphere_scene "$T/slow.xml" 48 36 2048 '<bsdf type="roughplastic"/>'
 "$C" submit "$T/slow.xml" -o "$T/out_slow" --threads 1 --retries 1 >"$T/sub7" 2>"$T/err" ||
   fail "submit (slow) exited $?"
 wait_until 30 test -s "$T/out_slow/.cluster/pids/slow" || fail "the slow task did not start"
-sleep 0.5
 read -r pid attempt _ < "$T/out_slow/.cluster/pids/slow"
 [ "$attempt" = 1 ] || fail "first attempt is $attempt"
 kill -9 "$pid" || fail "the render had finished before it could be killed"

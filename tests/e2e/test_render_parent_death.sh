@@ -21,7 +21,7 @@ cat > "$T/scene.xml" <<'XML'
   <sensor type="perspective">
     <float name="fov" value="40"/>
     <transform name="toWorld"><lookat origin="0, -4, 2" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sampleCount" value="100000"/></sampler>
+    <sampler type="independent"><integer name="sampleCount" value="10000"/></sampler>
     <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="64"/></film>
   </sensor>
   <emitter type="point"><point name="position" x="0" y="-1" z="4"/><spectrum name="intensity" value="20"/></emitter>
@@ -30,19 +30,15 @@ cat > "$T/scene.xml" <<'XML'
 </scene>
 XML
 
-sh -c '"$1" --stream -t 1 -o "$2/out.exr" "$2/scene.xml" >/dev/null 2>"$2/err" &
-       echo $! >"$2/pid"; wait' sh "$R" "$T" &
+sh -c '"$1" --stream -t 1 -o "$2/out.exr" "$2/scene.xml" >"$2/stream" 2>"$2/err" &
+       echo $! >"$2/pid.tmp"; mv "$2/pid.tmp" "$2/pid"; wait' sh "$R" "$T" &
 SHPID=$!
-for _ in $(seq 50); do [ -s "$T/pid" ] && break; sleep 0.1; done
-RPID=$(cat "$T/pid" 2>/dev/null) || fail "the intermediate shell did not start the renderer"
-sleep 1
-kill -0 "$RPID" 2>/dev/null || fail "the renderer ended before its parent was killed"
+e2e_wait "$SHPID" file "$T/pid" || fail "the intermediate shell did not start the renderer"
+RPID=$(cat "$T/pid")
+e2e_wait "$RPID" stream "$T/stream" begin || fail "the renderer ended before its parent was killed"
 kill -KILL "$SHPID"
 wait "$SHPID" 2>/dev/null
-for _ in $(seq 50); do kill -0 "$RPID" 2>/dev/null || break; sleep 0.1; done
-if kill -0 "$RPID" 2>/dev/null; then
-    fail "the renderer (pid $RPID) still runs 5 s after its parent died"
-fi
+e2e_wait "$RPID" ended
 RPID=
 grep -q "interrupted (SIGTERM)" "$T/err" || fail "the renderer did not cancel as on SIGTERM"
 ls "$T" | grep -q "tmp-opaline" && fail "a temporary output was left: $(ls "$T")"

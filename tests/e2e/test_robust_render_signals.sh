@@ -23,26 +23,9 @@ fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | he
 sphere_scene "$T/scene.xml" 128 96 96 \
   "<subsurface type=\"svd\"><string name=\"material\" value=\"$MAT\"/><float name=\"scale\" value=\"80\"/><integer name=\"irrSamples\" value=\"128\"/></subsurface>"
 
-# The complete image of an earlier run, and how long its stages take: loading (until the
-# "irradiance points" line), irradiance (until its final progress line), scattering (until the
-# "subsurface pre-pass:" line), the tiles (the "camera pass:" line).
-t0=$EPOCHREALTIME
+# The complete image of an earlier run.
 "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" || fail "the complete render failed"
-full=$(python3 -c "print($EPOCHREALTIME - $t0)")
 cp "$T/out.pfm" "$T/ref.pfm"
-read -r t_irr t_scat t_tiles < <(python3 - "$T/err" <<'PY'
-import re, sys
-log = open(sys.argv[1]).read()
-m = re.search(r"irradiance ([0-9.]+) s, scattering ([0-9.]+) s", log)
-c = re.search(r"camera pass: ([0-9.]+) s", log)
-print(m.group(1), m.group(2), c.group(1))
-PY
-) || fail "no stage times in the complete render's log"
-t0=$EPOCHREALTIME
-"$R" --check "$T/scene.xml" 2>"$T/err" || fail "--check failed"
-t_load=$(python3 -c "print($EPOCHREALTIME - $t0)")
-echo "complete render: $full s (loading $t_load s, irradiance $t_irr s, scattering $t_scat s," \
-  "tiles $t_tiles s)"
 
 # Checks that every 32 x 32 tile of the partial image is either the complete render's tile
 # (bit for bit: rendering is deterministic) or black, and that N of them are finished.
@@ -77,43 +60,41 @@ print("partial: %d tiles as in the complete render, %d black (unfinished)" % (sa
 PY
 }
 
-# Each point: the log line that starts a stage ("" = the start), and how far into the stage
-# (a fraction of its time in the complete run) the signal goes. Anchoring to the log keeps the
-# points in their stages on a loaded machine.
+# Each point: what the render has reached by its own account (e2e_wait's WHAT; $E is its stderr,
+# $S the tile stream it writes) when the signal goes: its handlers installed (scene loading),
+# the log line that starts a stage, a progress record within one, a number of finished tiles.
+E=$T/err S=$T/stream
 points=(
-  "|0.6|$t_load"
-  "irradiance points|0.2|$t_irr"
-  "irradiance points|0.6|$t_irr"
-  "irradiance: 100|0.1|$t_scat"
-  "irradiance: 100|0.4|$t_scat"
-  "irradiance: 100|0.7|$t_scat"
-  "subsurface pre-pass:|0.15|$t_tiles"
-  "subsurface pre-pass:|0.3|$t_tiles"
-  "subsurface pre-pass:|0.45|$t_tiles"
-  "subsurface pre-pass:|0.6|$t_tiles"
-  "camera pass:|0|0"
+  "handler SIG"
+  "line $E|irradiance points"
+  "stream $S stage irradiance"
+  "stream $S done irradiance"
+  "stream $S stage subsurface"
+  "line $E|subsurface pre-pass:"
+  "stream $S tiles 2"
+  "stream $S tiles 5"
+  "stream $S tiles 7"
+  "stream $S tiles 9"
+  "line $E|camera pass:"
 )
 sigs=(INT TERM HUP)
 in_prepass=0 in_tiles=0 interrupted=0
 for i in "${!points[@]}"; do
-  IFS='|' read -r marker frac span <<<"${points[$i]}"
   sig=${sigs[$((i % 3))]}
-  delay=$(python3 -c "print($frac * $span)")
+  IFS='|' read -r -a what <<<"${points[$i]//SIG/$sig}"
+  read -r -a head <<<"${what[0]}"
+  what=("${head[@]}" "${what[@]:1}")
   partial=(); [ "$i" -eq 8 ] && partial=(--partial none) # the finished tiles go nowhere
-  : >"$T/err" # not the last run's log: the markers are looked for in it
-  "${DFL[@]}" "$R" -t 2 "${partial[@]}" -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
+  rm -f "$E" "$S" # not the last run's: the points are looked for in them
+  "${DFL[@]}" "$R" --stream -t 2 "${partial[@]}" -o "$T/out.pfm" "$T/scene.xml" >"$S" 2>"$E" &
   pid=$!
-  if [ -n "$marker" ]; then
-    until grep -q "$marker" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
-    at="\"$marker\" + $delay s"
-  else
-    at="$delay s"
-  fi
-  sleep "$delay"
+  at="${what[*]:2}" # what it had reached, without the file
+  [ "${what[0]}" = handler ] && at="its handlers installed"
+  e2e_wait "$pid" "${what[@]}"
   kill -s "$sig" "$pid" 2>/dev/null
   wait "$pid"
   rc=$?
-  pid=
+  ended=$pid pid=
   if grep -Eq "AddressSanitizer|LeakSanitizer|runtime error|double free|corrupted" "$T/err"; then
     fail "SIG$sig at $at: a sanitizer or allocator report"
   fi
@@ -145,7 +126,7 @@ for i in "${!points[@]}"; do
     [ ! -e "$T/out.partial.pfm" ] || fail "SIG$sig at $at: a partial image of no tile"
     if ! grep -q "irradiance points" "$T/err"; then
       stage="pre-pass: point laying"
-    elif ! grep -q "irradiance: 100" "$T/err"; then
+    elif ! e2e_wait "$ended" stream "$S" done irradiance; then
       stage="pre-pass: irradiance"
     elif ! grep -q "subsurface pre-pass:" "$T/err"; then
       stage="pre-pass: scattering"
@@ -165,7 +146,7 @@ done
 : >"$T/err"
 env --ignore-signal=HUP "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" &
 pid=$!
-until grep -q "irradiance points" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
+e2e_wait "$pid" line "$T/err" "irradiance points"
 kill -s HUP "$pid" 2>/dev/null
 wait "$pid"
 rc=$?
@@ -181,24 +162,19 @@ if [ "$(id -u)" = 0 ] && id nobody >/dev/null 2>&1; then
   echo precious >"$T/precious"
   ln -s "$T/precious" "$T/shared/out.partial.pfm"
   chown -h nobody "$T/shared/out.partial.pfm"
-  for try in 1 2 3; do
-    : >"$T/err"
-    "${DFL[@]}" "$R" -t 2 -o "$T/shared/out.pfm" "$T/scene.xml" 2>"$T/err" &
-    pid=$!
-    until grep -q "subsurface pre-pass:" "$T/err" || ! kill -0 "$pid" 2>/dev/null; do sleep 0.01; done
-    sleep "$(python3 -c "print(0.45 * $t_tiles)")"
-    kill -s INT "$pid" 2>/dev/null
-    wait "$pid"
-    rc=$?
-    pid=
-    grep -q "of 12 tiles" "$T/err" || continue # interrupted before or after the tiles: again
-    [ "$rc" -eq 1 ] || fail "a planted partial link: exit $rc, expected 1 (the partial refused)"
-    grep -q "protected_symlinks" "$T/err" || fail "a planted partial link: no refusal"
-    [ "$(cat "$T/precious")" = precious ] || fail "the partial image went through a planted link"
-    planted="refused"
-    break
-  done
-  [ "$planted" = refused ] || fail "no run was interrupted between tiles for the planted link"
+  rm -f "$S"
+  "${DFL[@]}" "$R" --stream -t 2 -o "$T/shared/out.pfm" "$T/scene.xml" >"$S" 2>"$T/err" &
+  pid=$!
+  e2e_wait "$pid" stream "$S" tiles 5
+  kill -s INT "$pid" 2>/dev/null
+  wait "$pid"
+  rc=$?
+  pid=
+  grep -q "of 12 tiles" "$T/err" || fail "a planted partial link: not interrupted between tiles"
+  [ "$rc" -eq 1 ] || fail "a planted partial link: exit $rc, expected 1 (the partial refused)"
+  grep -q "protected_symlinks" "$T/err" || fail "a planted partial link: no refusal"
+  [ "$(cat "$T/precious")" = precious ] || fail "the partial image went through a planted link"
+  planted="refused"
 fi
 
 echo "ok: $interrupted interrupted runs ($in_prepass in the pre-pass, $in_tiles between tiles);" \
