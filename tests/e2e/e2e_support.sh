@@ -32,6 +32,7 @@ e2e_setup() {
   trap e2e_exit EXIT
 }
 
+# e2e_setup's EXIT trap; keeps the script's exit status.
 e2e_exit() {
   local rc=$?
   if declare -F cleanup >/dev/null; then cleanup; fi
@@ -62,9 +63,9 @@ e2e_preset() {
   [ -f "$OPM" ] || { echo "FAIL: the preset $OPM is not built"; exit 1; }
 }
 
-# e2e_wait PID WHAT...: waits until process PID (a child of this shell) has reached WHAT, by its
-# own account, and returns 0; returns 1 when it ended first. No delay: a signal or a kill sent
-# after it lands in the stage it names. WHAT is one of
+# e2e_wait PID WHAT...: waits until process PID has reached WHAT, by its own account, and
+# returns 0; returns 1 when it ended first. No delay: a signal or a kill sent after it lands in
+# the stage it names. WHAT is one of
 #   handler SIG            its handler of SIG is installed (SigCgt of /proc/PID/status);
 #   file FILE              FILE exists;
 #   line FILE TEXT         FILE, its standard error, holds the fixed string TEXT;

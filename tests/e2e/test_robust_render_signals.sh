@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # opaline-render stopped by SIGINT, SIGTERM or SIGHUP at many points of a render of a
-# translucent material: scene loading, the subsurface pre-pass (irradiance points, irradiance,
-# scattering), the tiles, the writing. Each run must exit 130 with no sanitizer report and no
+# translucent material, each point one the render reports (its stream or its log): as soon as
+# its handlers are in, the subsurface pre-pass (irradiance points, irradiance, scattering), the
+# tiles, the writing. Each run must exit 130 with no sanitizer report and no
 # temporary file left, keep the complete image an earlier run wrote (never replace it with
 # less), and put the finished tiles, exactly as the complete render has them, in OUT.partial.pfm.
 set -uo pipefail
