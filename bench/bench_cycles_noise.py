@@ -30,8 +30,10 @@ import time
 import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "addon"))
+sys.path[:0] = [os.path.join(os.path.dirname(HERE), "tests", "addon"),
+                os.path.join(os.path.dirname(HERE), "tests")]
 import addon_support as S  # noqa: E402
+import pfm  # noqa: E402
 
 
 def args():
@@ -98,9 +100,7 @@ def opaline(renderer, xml, path, spp, threads):
     subprocess.run([renderer, "-q", "-t", str(threads), "-s", str(spp), "-o", path, xml],
                    check=True, timeout=3600)
     t = time.perf_counter() - t0
-    w, h, rows = S.read_pfm(path)
-    rows.reverse()  # bottom row first, like Blender's pixels
-    return t, [v for row in rows for v in row]
+    return t, list(pfm.read(path).samples)  # bottom row first, like Blender's pixels
 
 
 def rmse(a, b):

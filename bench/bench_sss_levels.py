@@ -18,10 +18,11 @@ AFTER_BUILD/bench-sss-levels) keeps the scenes and images."""
 
 import os
 import statistics
-import struct
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+_BENCH = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [_BENCH, os.path.join(os.path.dirname(_BENCH), "tests")]
+import pfm  # noqa: E402
 from bench_sss_scaling import render  # noqa: E402
 
 CAMERA = """<sensor type="perspective"><float name="fov" value="{fov}"/>
@@ -64,18 +65,9 @@ DEFAULT = ("sss-points=1e9",)
 EVERY = ("sss-points=1e9", "sss-max-points=1e7")
 
 
-def pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        little = float(f.readline()) < 0
-        data = f.read()
-    return struct.unpack(("<" if little else ">") + "%df" % (3 * w * h), data)
-
-
 def image_error(path, ref):
     """Per channel: relative RMSE against ref, and the worst relative pixel difference."""
-    a, b = pfm(path), pfm(ref)
+    a, b = pfm.read(path).samples, pfm.read(ref).samples
     out = []
     for c in range(3):
         num = den = worst = 0.0

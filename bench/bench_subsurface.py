@@ -51,8 +51,11 @@ import subprocess
 import sys
 import time
 
-from paper_scene import compare, parse_time_v, pfm, scene_xml
-from paper_scene import render as render_once
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                "tests"))
+import pfm  # noqa: E402
+from paper_scene import compare, parse_time_v, scene_xml  # noqa: E402
+from paper_scene import render as render_once  # noqa: E402
 
 BOARDS = {"chess4x4": ("Chess4x4", 7), "chess8x8": ("Chess8x8", 4)}
 GOAL_SECONDS, GOAL_PSNR, GOAL_T = 3.0, 47.8, 10
@@ -190,7 +193,7 @@ def converge(board, label, method, material):
     ref_spp = 16 * A.spp
     log("  %s: reference at %d spp ..." % (label, ref_spp))
     ref_img, ref_f = render(label + "_ref", method, material, ref_spp, 1)
-    ref = pfm(ref_img)
+    ref = pfm.read(ref_img).samples
     mean = sum(ref) / len(ref)
     target = 0.01 * mean
     runs, peer_runs, spp = [], [], max(1, A.spp // 8)
@@ -198,7 +201,7 @@ def converge(board, label, method, material):
     while spp < ref_spp:
         got = render(label, method, material, spp, A.repeat, peer=with_peer)
         img, f = got[0], got[1]
-        e = compare(pfm(img), ref)[0]
+        e = compare(pfm.read(img).samples, ref)[0]
         f.update(board=board, label=label, spp=spp, rmse_vs_reference=e,
                  noise=e / math.sqrt(1.0 - spp / ref_spp))
         runs.append(f)
@@ -253,7 +256,7 @@ def main():
         log(head)
         ds = dataset(board)
         raw_img, f = render("RAW_" + name, "raw", ds, A.spp, A.repeat)
-        raw = pfm(raw_img)
+        raw = pfm.read(raw_img).samples
         rows.append({"board": name, "method": "raw", "T": "", "P": "", "spp": A.spp,
                      "res": A.res, "label": "RAW_" + name, "factor_s": 0.0,
                      "prepass_s": f["prepass_s"], "render_s": f["render_s"],
@@ -267,7 +270,7 @@ def main():
             for t in A.terms:
                 label, mat, fs = factor(board, method, t)
                 img, f = render(label, method, mat, A.spp, A.repeat)
-                r = compare(pfm(img), raw)
+                r = compare(pfm.read(img).samples, raw)
                 rows.append({"board": name, "method": method, "T": t,
                              "P": degree if method == "tucker" else "", "spp": A.spp,
                              "res": A.res, "label": label, "factor_s": fs,

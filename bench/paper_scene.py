@@ -12,7 +12,6 @@ its figures; compare() gives the image error against a reference of the same siz
 import math
 import os
 import resource
-import struct
 import subprocess
 import time
 
@@ -121,16 +120,6 @@ def render(renderer, xml, images, threads, prefix=()):
             "cpu_s": (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime),
             "prepass_s": grab(p.stderr, "subsurface pre-pass: ") or 0.0,
             "render_s": grab(p.stderr, "camera pass: "), "stderr": p.stderr}
-
-
-def pfm(path):
-    """The samples of a PFM image as a flat tuple (rows bottom-up, channels interleaved)."""
-    with open(path, "rb") as f:
-        kind = f.readline().strip()
-        w, h = map(int, f.readline().split())
-        s = float(f.readline())
-        n = w * h * (3 if kind == b"PF" else 1)
-        return struct.unpack(("<" if s < 0 else ">") + "%df" % n, f.read(4 * n))
 
 
 def compare(a, ref):

@@ -11,8 +11,9 @@ import os
 import sys
 
 # paper_scene.py lives in bench/, the shared .opm reader in the add-on's folder (imported as the
-# plain module `opm`: the add-on package's __init__ needs Blender).
+# plain module `opm`: the add-on package's __init__ needs Blender), the PFM reader in tests/.
 _BENCH = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-for _p in (_BENCH, os.path.join(os.path.dirname(_BENCH), "blender_addon", "opaline")):
+_ROOT = os.path.dirname(_BENCH)
+for _p in (_BENCH, os.path.join(_ROOT, "blender_addon", "opaline"), os.path.join(_ROOT, "tests")):
     if _p not in sys.path:
         sys.path.insert(0, _p)

@@ -9,8 +9,8 @@ import shutil
 import statistics
 import subprocess
 
+import pfm
 from paper_scene import SCALE
-from paper_scene import pfm
 from paper_scene import scene_xml
 from paper_scene import compare as image_compare
 from paper_scene import render as render_once
@@ -54,7 +54,7 @@ def render_dataset(renderer, name, ds_path, recs, rs, repeats, work, log):
             if not runs and r["wall_s"] * n > SLOW_SECONDS:
                 n = max(1, min(n, int(SLOW_SECONDS // r["wall_s"])))
             runs.append(r)
-        image = pfm(img)
+        image = pfm.read(img).samples
         if ref is None:
             ref = image
         rmse, rel, psnr = image_compare(image, ref)

@@ -7,7 +7,6 @@ checkout), registers it, finds opaline-render (OPALINE_BIN_DIR) and the presets
 
 import array
 import os
-import struct
 import subprocess
 import sys
 import tempfile
@@ -18,8 +17,10 @@ import bpy
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE_DIR = os.environ.get("OPALINE_SOURCE_DIR") or os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(SOURCE_DIR, "blender_addon"))
+sys.path.insert(0, os.path.dirname(HERE))
 
 import opaline  # noqa: E402
+import pfm  # noqa: E402
 
 
 def register():
@@ -35,20 +36,23 @@ def prefs():
     return bpy.context.preferences.addons["opaline"].preferences
 
 
+def built(name):
+    """Path of the built program `name` (OPALINE_BIN_DIR, else this checkout's build/bin), or None
+    when it is not there."""
+    d = os.environ.get("OPALINE_BIN_DIR") or os.path.join(SOURCE_DIR, "build", "bin")
+    path = os.path.join(d, name)
+    return path if os.path.isfile(path) and os.access(path, os.X_OK) else None
+
+
 def renderer():
     """Path of opaline-render, or None when it is not built."""
-    d = os.environ.get("OPALINE_BIN_DIR")
-    cands = [os.path.join(d, "opaline-render")] if d else []
-    cands.append(os.path.join(SOURCE_DIR, "build", "bin", "opaline-render"))
-    for c in cands:
-        if os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    return None
+    return built("opaline-render")
 
 
 def presets_dir():
-    d = os.environ.get("OPALINE_PRESETS_DIR")
-    return d if d and os.path.isdir(d) else None
+    """The build's presets folder, or None when the build makes none (OPALINE_PRESETS_DIR empty:
+    OPALINE_BUILD_PRESETS=OFF)."""
+    return os.environ.get("OPALINE_PRESETS_DIR") or None
 
 
 def tmpdir(name):
@@ -57,19 +61,44 @@ def tmpdir(name):
     return d
 
 
+def need_built(test, name):
+    """Path of the built program `name`; fails the test when it is missing (the build under test
+    is broken)."""
+    path = built(name)
+    if path is None:
+        test.fail("%s is not built (OPALINE_BIN_DIR=%s)" % (name,
+                                                            os.environ.get("OPALINE_BIN_DIR")))
+    return path
+
+
 def need_renderer(test):
-    if renderer() is None:
-        raise unittest.SkipTest("opaline-render is not built (OPALINE_BIN_DIR has none)")
-    return renderer()
+    return need_built(test, "opaline-render")
+
+
+def need_preset(test, name):
+    """Path of the built preset name.opm; skips the test when the build makes no presets, fails
+    it when the build made them but not this one."""
+    d = presets_dir()
+    if d is None:
+        raise unittest.SkipTest("the build makes no presets (OPALINE_BUILD_PRESETS=OFF)")
+    path = os.path.join(d, name + ".opm")
+    if not os.path.isfile(path):
+        test.fail("the preset %s is not built in %s" % (name, d))
+    return path
 
 
 def run_tests(*cases):
+    """Runs the cases and exits Blender: 1 when a test failed, else 77 (ctest's SKIP_RETURN_CODE)
+    when a test was skipped, after printing why, else 0."""
     suite = unittest.TestSuite()
     for c in cases:
         suite.addTests(unittest.defaultTestLoader.loadTestsFromTestCase(c))
     result = unittest.TextTestRunner(verbosity=2, stream=sys.stdout).run(suite)
+    if result.wasSuccessful() and result.skipped:
+        for test, reason in result.skipped:
+            print("skipped: %s: %s" % (test.id(), reason))
     sys.stdout.flush()
-    sys.exit(0 if result.wasSuccessful() else 1)
+    sys.exit(1 if not result.wasSuccessful() else 77 if result.skipped else 0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -181,29 +210,12 @@ def render_cli(test, xml, out, samples=None, threads=2, extra=()):
 # Images without NumPy.
 
 def read_pfm(path):
-    """(width, height, list of rows top to bottom, each a flat list of RGB floats)."""
-    with open(path, "rb") as f:
-        data = f.read()
-    parts = []
-    pos = 0
-    while len(parts) < 4:
-        while data[pos:pos + 1].isspace():
-            pos += 1
-        end = pos
-        while not data[end:end + 1].isspace():
-            end += 1
-        parts.append(data[pos:end])
-        pos = end
-    pos += 1
-    kind, w, h, scale = parts[0], int(parts[1]), int(parts[2]), float(parts[3])
-    ch = 3 if kind == b"PF" else 1
-    fmt = "<" if scale < 0 else ">"
-    n = w * h * ch
-    vals = struct.unpack_from(fmt + "%df" % n, data, pos)
-    rows = [list(vals[(h - 1 - r) * w * ch:(h - r) * w * ch]) for r in range(h)]
-    if ch == 1:
-        rows = [[v for v in row for _ in range(3)] for row in rows]
-    return w, h, rows
+    """(width, height, list of rows top to bottom, each a flat list of RGB floats) of a PFM file
+    (tests/pfm.py reads it)."""
+    im = pfm.read(path)
+    rows = [list(row) if im.channels == 3 else [v for v in row for _ in range(3)]
+            for row in reversed(im.rows())]
+    return im.width, im.height, rows
 
 
 def load_image_rgba(path):

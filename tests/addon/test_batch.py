@@ -54,8 +54,7 @@ class TestBatch(unittest.TestCase):
             m = [float(v) for v in s.find("transform").find("matrix").get("value").split()]
             xs.append(m[3])
         self.assertLess(xs[0], xs[1])
-        if S.renderer() is not None:
-            S.check_xml(self, os.path.join(out, xmls[0]))
+        S.check_xml(self, os.path.join(out, xmls[0]))
 
     def test_all_frames(self):
         out = os.path.join(self.dir, "all")

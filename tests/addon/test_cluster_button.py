@@ -18,12 +18,8 @@ import bpy  # noqa: E402
 class TestClusterButton(unittest.TestCase):
     def setUp(self):
         S.need_renderer(self)
-        self.cluster = os.path.join(os.path.dirname(S.renderer()), "opaline-cluster")
-        if not os.access(self.cluster, os.X_OK):
-            raise unittest.SkipTest("opaline-cluster is not built")
-        pdir = S.presets_dir()
-        if pdir is None or not os.path.isfile(os.path.join(pdir, "SVD_S10_Chess4x4.opm")):
-            raise unittest.SkipTest("the presets are not built (OPALINE_PRESETS_DIR)")
+        self.cluster = S.need_built(self, "opaline-cluster")
+        S.need_preset(self, "SVD_S10_Chess4x4")
         self.dir = S.tmpdir("cluster")
         sc = S.empty_scene((16, 12))
         sc.render.engine = 'OPALINE'

@@ -184,8 +184,6 @@ class TestCyclesMatch(unittest.TestCase):
         self.assertLess(S.approx_rel(ana, cyc), expect_tol,
                         "%s: export evaluated analytically %.5f vs Cycles %.5f" %
                         (name, ana, cyc))
-        if S.renderer() is None:
-            return
         out = S.render_cli(self, xml, os.path.join(self.dir, "opaline.pfm"), samples=16)
         ren = S.mean_rgb_rows(S.read_pfm(out)[2])
         print("%-10s opaline %.5f  ratio to Cycles %.4f" % (name, ren, ren / cyc))
@@ -240,8 +238,7 @@ class TestCyclesMatch(unittest.TestCase):
         S.export(xml, samples=16)
         text = open(xml).read()
         self.assertEqual('name="visibleToCamera" value="false"' in text, not visible)
-        if S.renderer() is None:
-            self.skipTest("opaline-render is not built")
+        S.need_renderer(self)
         cyc = S.mean_rgb_rgba(S.load_image_rgba(S.render_cycles(
             os.path.join(self.dir, "cycles.exr"), samples=16))[2])
         out = S.render_cli(self, xml, os.path.join(self.dir, "opaline.pfm"), samples=16)

@@ -640,9 +640,7 @@ class TestCheck(Base):
         'ma$terials', itself named 'm$a.opm') is written `$$`, so opaline-render reads it back as
         the path instead of as a $parameter."""
         S.need_renderer(self)
-        presets = S.presets_dir()
-        if presets is None or not os.path.isfile(os.path.join(presets, "SVD_S10_Chess4x4.opm")):
-            self.skipTest("the SVD_S10_Chess4x4 preset is not built (OPALINE_PRESETS_DIR)")
+        presets = os.path.dirname(S.need_preset(self, "SVD_S10_Chess4x4"))
         folder = os.path.join(self.dir, "ma$terials")
         os.makedirs(folder)
         opm = os.path.join(folder, "m$a.opm")

@@ -109,9 +109,7 @@ class TestOptions(Base):
         """The exported folder, moved elsewhere with the material's original deleted, still
         passes opaline-render --check; the file is named relatively, with `$` escaped."""
         S.need_renderer(self)
-        src_dir = S.presets_dir()
-        if src_dir is None or not os.path.isfile(os.path.join(src_dir, "SVD_S10_Chess4x4.opm")):
-            raise unittest.SkipTest("the presets are not built (OPALINE_PRESETS_DIR)")
+        src_dir = os.path.dirname(S.need_preset(self, "SVD_S10_Chess4x4"))
         own = os.path.join(self.dir, "own")
         os.makedirs(own)
         opm = os.path.join(own, "my$chess.opm")

@@ -65,13 +65,11 @@ class TestSlidesScene(unittest.TestCase):
         real = S.presets_dir()
         if real and os.path.isfile(os.path.join(real, PRESET + ".opm")):
             self.folder = None  # found through OPALINE_PRESETS_DIR
-            self.real = True
         else:
             self.folder = os.path.join(self.dir, "presets")
             os.makedirs(self.folder)
             with open(os.path.join(self.folder, PRESET + ".opm"), "wb") as f:
                 f.write(b"stand-in: only the export is checked with it")
-            self.real = False
 
     def test_export(self):
         sc, ob = build(self.folder)
@@ -94,8 +92,7 @@ class TestSlidesScene(unittest.TestCase):
 
     def test_render(self):
         S.need_renderer(self)
-        self.assertTrue(self.real, "opaline-render is built but the preset %s is not in "
-                        "OPALINE_PRESETS_DIR (%s)" % (PRESET, S.presets_dir()))
+        S.need_preset(self, PRESET)
         sc, ob = build(None)
         S.export(self.xml)
         S.check_xml(self, self.xml)

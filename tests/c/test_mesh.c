@@ -478,5 +478,5 @@ int main(void)
         cmocka_unit_test(normals_helper), cmocka_unit_test(mutations_never_crash),
         cmocka_unit_test(shared_meshes),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return op_test_exit_status(cmocka_run_group_tests(tests, NULL, NULL));
 }

@@ -84,7 +84,7 @@ static void test_behind_camera_costs_nothing(void **state)
     assert_true(st.sss_points == 0 && st.sss_sources == 0 && st.sss_receivers == 0);
     const op_image *img = op_renderer_image(r);
     assert_true(img->pixels[4 * (12 * 24 + 12)] > 0.0f); /* the floor is lit and rendered */
-    assert_true(st.render_seconds > 0.0 && st.render_seconds < 60.0); /* the camera pass ran */
+    assert_true(st.render_seconds > 0.0); /* the camera pass ran */
     op_renderer_free(r);
 }
 

@@ -27,6 +27,14 @@ const char *op_test_tmp_path(const char *suffix)
     return out;
 }
 
+static int skipped;
+
+void op_test_skipping(const char *why)
+{
+    fprintf(stderr, "skipping: %s\n", why);
+    skipped = 1;
+}
+
 const char *op_test_shared_path(const char *rel)
 {
     static char buf[4][1024];
@@ -36,11 +44,18 @@ const char *op_test_shared_path(const char *rel)
     struct stat st;
     snprintf(out, sizeof buf[0], "%s/%s", dir ? dir : "../shared", rel);
     if (stat(out, &st) != 0) {
-        fprintf(stderr, "skipping: %s is absent (shared test material is not beside the "
-                        "checkout)\n", out);
+        char why[1200];
+        snprintf(why, sizeof why, "%s is absent (shared test material is not beside the checkout)",
+                 out);
+        op_test_skipping(why);
         return NULL;
     }
     return out;
+}
+
+int op_test_exit_status(int failures)
+{
+    return failures ? 1 : skipped ? 77 : 0;
 }
 
 int op_test_count_prefix(const char *dir, const char *prefix)

@@ -15,8 +15,14 @@
 
 /* A fresh path under the test build's tmp folder: "<tmp>/<test name>-<counter>-<suffix>". */
 const char *op_test_tmp_path(const char *suffix);
-/* The shared folder's path + rel, or NULL (after printing why) when it is absent. */
+/* Prints "skipping: why" and marks the program as skipped (see op_test_exit_status); the caller
+ * then skips (cmocka's skip()). */
+void op_test_skipping(const char *why);
+/* The shared folder's path + rel, or NULL (after op_test_skipping) when it is absent. */
 const char *op_test_shared_path(const char *rel);
+/* A test program's exit status from cmocka_run_group_tests's result: 1 when a test failed,
+ * else 77 (ctest's SKIP_RETURN_CODE) after op_test_skipping, else 0. */
+int op_test_exit_status(int failures);
 /* How many entries of folder dir have names starting with prefix. */
 int op_test_count_prefix(const char *dir, const char *prefix);
 /* Writes text to path, failing the test when it cannot. */

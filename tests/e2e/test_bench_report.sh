@@ -3,7 +3,7 @@
 # synthetic records: tests/bench/test_*.py, Python unittest, standard library only (seconds).
 # The quick run itself is tests/e2e/test_bench_quick.sh. Exit 77 (skip) when python3 is absent.
 set -euo pipefail
-command -v python3 >/dev/null || { echo "python3 not installed: skipped"; exit 77; }
-src=${OPALINE_SOURCE_DIR:-$(cd "$(dirname "$0")/../.." && pwd)}
-cd "$src"
-exec python3 -m unittest discover -s tests/bench -p "test_*.py" -v
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup bench_report
+cd "$SRC"
+python3 -m unittest discover -s tests/bench -p "test_*.py" -v

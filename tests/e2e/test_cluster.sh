@@ -7,12 +7,10 @@
 # names a file outside the shared folder refused. Daemons stopped and the folder removed on any
 # exit; the test fails when a process of its own is left. Skips (77) without root or packages.
 set -uo pipefail
-SRC=${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}
-source "$SRC/tests/e2e/e2e_support.sh"
-[ -f "${OPALINE_PRESETS_DIR:-}/SVD_S10_Chess4x4.opm" ] ||
-  { echo "skip: the preset SVD_S10_Chess4x4 is not built"; exit 77; }
-source "$SRC/cluster/local_cluster.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup cluster opaline-render opaline-cluster
+e2e_preset SVD_S10_Chess4x4
+source "$SRC/cluster/local_cluster.sh"
 chmod 755 "$T"
 # Processes of this test: every one names $T in its command line (daemons, tasks, renders).
 ours() { pgrep -f -- "$T/"; }
@@ -32,9 +30,7 @@ cleanup() {
     rm -rf "$T"
     exit 1
   fi
-  rm -rf "$T"
 }
-trap cleanup EXIT
 trap 'exit 130' INT TERM
 fail() {
   echo "FAIL: $*"
@@ -151,7 +147,6 @@ sphere_scene "$T/slow.xml" 48 36 2048 '<bsdf type="roughplastic"/>'
 "$C" submit "$T/slow.xml" -o "$T/out_slow" --threads 1 --retries 1 >"$T/sub7" 2>"$T/err" ||
   fail "submit (slow) exited $?"
 wait_until 30 test -s "$T/out_slow/.cluster/pids/slow" || fail "the slow task did not start"
-sleep 0.5
 read -r pid attempt _ < "$T/out_slow/.cluster/pids/slow"
 [ "$attempt" = 1 ] || fail "first attempt is $attempt"
 kill -9 "$pid" || fail "the render had finished before it could be killed"

@@ -5,9 +5,8 @@
 # merge job depending afterok on the render job's array); opaline-render --estimate prints
 # the film and a memory estimate; --merge-tiles refuses a gap and an overlap by line.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup cluster_local opaline-render opaline-cluster
-trap 'rm -rf "$T"' EXIT
 
 sphere_scene "$T/still.xml" 30 22 3 '<bsdf type="roughplastic"/>'
 "$R" --estimate -q "$T/still.xml" > "$T/est" || fail "--estimate exited $?"

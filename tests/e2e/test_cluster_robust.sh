@@ -6,9 +6,8 @@
 # writes its state before its first task (status during the run), SIGTERM stops its renderer
 # and exits 130, and SIGKILL leaves no renderer writing.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup cluster_robust opaline-render opaline-cluster
-trap 'rm -rf "$T"' EXIT
 
 mkdir -p "$T/s" "$T/elsewhere"
 sphere_scene "$T/s/still.xml" 12 10 1 '<bsdf type="diffuse"/>'

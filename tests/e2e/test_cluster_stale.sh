@@ -7,9 +7,8 @@
 # animation submitted into one folder keep every part's frames; the state is not written
 # through a link planted at its name.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup cluster_stale opaline-render opaline-cluster
-trap 'rm -rf "$T"' EXIT
 
 # look SCENE-DIR RGB: the sphere's <bsdf id="look">, in the file the scene includes.
 look() {

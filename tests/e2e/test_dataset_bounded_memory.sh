@@ -3,11 +3,8 @@
 # pixels, K 29, five 64 MiB blocks) must peak (VmHWM, as the command logs it) well under the
 # dataset's size, where holding it whole peaked above it. The file is then checked whole.
 set -euo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-F=$BIN/opaline-factor
-[ -x "$F" ] || { echo "skip: $F not built"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/dataset_memory.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup dataset_memory opaline-factor
 
 "$F" dataset chess4x4 --pixels 170 --kernel 29 --size-cm 7.7x7.7 -o "$T/d.opm" 2> "$T/log"
 bytes=$(stat -c %s "$T/d.opm")

@@ -3,12 +3,8 @@
 # that started it: run from a parent that holds 600 MiB, a small factorization must still report
 # far less (getrusage's ru_maxrss carries the parent's peak across execve).
 set -euo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-F=$BIN/opaline-factor
-[ -x "$F" ] || { echo "skip: $F not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/peak_memory.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup peak_memory opaline-factor
 
 "$F" dataset chess4x4 --pixels 16x16 --kernel 7 -o "$T/d.opm" 2>/dev/null
 python3 - "$F" "$T" <<'PY'

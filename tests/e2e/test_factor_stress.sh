@@ -4,14 +4,11 @@
 # impossible values, at T = 1 to above the rank and P = 0 to 20. Each case must give finite
 # output within its documented bound or a clear refusal; the table is written to stress.md.
 set -euo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-[ -x "$BIN/opaline-factor" ] || { echo "skip: $BIN/opaline-factor not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/factor_stress.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup factor_stress opaline-factor
 # The table's header, any failing rows and the summary: a failure names its case in the log.
 rc=0
-python3 "${OPALINE_SOURCE_DIR:-$(dirname "$0")/../..}/bench/stress_factor.py" --bin "$BIN" \
+python3 "$SRC/bench/stress_factor.py" --bin "$BIN" \
   --out "$T" >"$T/table.txt" || rc=$?
 head -n 2 "$T/table.txt"
 grep -F '| FAIL |' "$T/table.txt" || true

@@ -9,24 +9,22 @@
 # add-on without a renderer: the shipped presets stay listed and the errors blame the renderer.
 # Skips (77) only when Blender is not installed (or the build has no presets to install).
 set -euo pipefail
-. "$(dirname "$0")/e2e_support.sh"
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup install opaline-render opaline-factor opaline-cluster
 BUILD=$(cd "$BIN/.." && pwd)
 PRESET=SVD_S10_Chess4x4
-command -v blender >/dev/null || { echo "skip: blender is not installed"; exit 77; }
-[ -f "$BUILD/presets/$PRESET.opm" ] ||
-  { echo "skip: the build made no presets ($BUILD/presets/$PRESET.opm; OPALINE_BUILD_PRESETS=OFF?)"; exit 77; }
+e2e_need blender
+e2e_preset $PRESET
 for f in "$BUILD/opaline-blender-addon.zip" "$BUILD/opaline-blender-extension.zip"; do
   [ -f "$f" ] || { echo "FAIL: the build made no $f"; exit 1; }
 done
 BLENDER=$(command -v blender)
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/install.XXXXXX")
-[ -n "${KEEP:-}" ] || trap 'rm -rf "$T"' EXIT
 
-# Every OPALINE_* variable of the harness unset: the installed tree must need none.
+# Every OPALINE_* variable of the harness and its PYTHONPATH unset: the installed tree must need
+# none.
 clean=(env)
 for v in $(compgen -e); do
-  case $v in OPALINE_*) clean+=(-u "$v") ;; esac
+  case $v in OPALINE_*|PYTHONPATH) clean+=(-u "$v") ;; esac
 done
 
 cmake --install "$BUILD" --prefix "$T/first" >"$T/install.log" ||
@@ -64,15 +62,13 @@ sphere_scene "$T/cli/scene.xml" 48 36 2 \
 grep -qF "material preset \"$PRESET\" is $P/share/opaline/presets/$PRESET.opm" "$T/cli/log" ||
   { cat "$T/cli/log"; echo "FAIL: the preset was not taken from the moved prefix"; exit 1; }
 python3 - "$T/cli/out.pfm" <<'PY'
-import math, struct, sys
-data = open(sys.argv[1], "rb").read()
-head = data.split(b"\n", 3)
-w, h = map(int, head[1].split())
-px = struct.unpack("<%df" % (3 * w * h), head[3][:12 * w * h])
-assert all(math.isfinite(v) for v in px), "NaN or inf in the image"
-def lum(x, y):  # rows bottom to top in PFM
-    i = 3 * ((h - 1 - y) * w + x)
-    return sum(px[i:i + 3]) / 3
+import math, sys
+import pfm
+im = pfm.read(sys.argv[1])
+w, h = im.width, im.height
+assert all(math.isfinite(v) for v in im.samples), "NaN or inf in the image"
+def lum(x, y):  # y from the top
+    return sum(im.pixel(x, y)) / 3
 sphere, corner = lum(w // 2, h // 2), lum(0, 0)
 print("CLI render: sphere %.4f, corner %.4f" % (sphere, corner))
 assert sphere > 0.02 and sphere > corner, "the sphere is not lit"
@@ -116,7 +112,9 @@ cat > "$T/f12.py" <<'PY'
 import importlib, math, os, subprocess, sys, traceback
 import bpy
 
-P, T, PRESET = sys.argv[-3:]
+P, T, PRESET, TESTS = sys.argv[-4:]
+sys.path.insert(0, TESTS)
+import pfm
 renderer_want = os.path.join(P, "bin", "opaline-render")
 key = next((k for k in bpy.context.preferences.addons.keys()
             if k == "opaline" or k.endswith(".opaline")), None)
@@ -188,11 +186,9 @@ assert r.returncode == 0, r.stderr.decode(errors="replace")
 im = bpy.data.images.load(sc.render.filepath)
 w, h = im.size
 f12 = list(im.pixels)  # RGBA, bottom row first
-data = open(cli, "rb").read()
-head = data.split(b"\n", 3)
-cw, ch = map(int, head[1].split())
-import struct
-ref = struct.unpack("<%df" % (3 * cw * ch), head[3][:12 * cw * ch])  # RGB, bottom row first
+cli_image = pfm.read(cli)
+cw, ch = cli_image.width, cli_image.height
+ref = cli_image.samples  # RGB, bottom row first
 assert (w, h) == (cw, ch) == (40, 30), (w, h, cw, ch)
 worst = 0.0
 total = 0.0
@@ -243,7 +239,7 @@ except RuntimeError as e:
 print("OK")
 sys.exit(0)  # a failed render (above, on purpose) would otherwise make Blender's status 1
 PY
-"${benv[@]}" "$BLENDER" --background --python-exit-code 1 --python "$T/f12.py" -- "$P" "$T" "$PRESET" \
+"${benv[@]}" "$BLENDER" --background --python-exit-code 1 --python "$T/f12.py" -- "$P" "$T" "$PRESET" "$SRC/tests" \
   >"$T/f12.log" 2>&1 || { cat "$T/f12.log"; echo "FAIL: F12 in Blender $version"; exit 1; }
 grep -E "^(add-on|F12 vs|OK)" "$T/f12.log"
 

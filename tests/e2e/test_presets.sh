@@ -5,16 +5,11 @@
 # the build made (the category: the recipe's, copied beside the preset as NAME.recipe). Reads
 # the built presets only (the build makes them), so it is fast.
 set -euo pipefail
-SRC=${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-DIR=${OPALINE_PRESETS_DIR:-}
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-[ -x "$BIN/opaline-factor" ] || { echo "skip: $BIN/opaline-factor not built"; exit 77; }
-if [ -z "$DIR" ] || ! ls "$DIR"/*.opm >/dev/null 2>&1; then
-  echo "skip: no presets built in '$DIR' (OPALINE_BUILD_PRESETS=OFF?)"; exit 77
-fi
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/presets.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup presets opaline-factor
+e2e_presets
+DIR=$PRESETS
+ls "$DIR"/*.opm >/dev/null 2>&1 || { echo "FAIL: no presets built in $DIR"; exit 1; }
 
 for opm in "$DIR"/*.opm; do
   "$BIN/opaline-factor" info "$opm" > "$T/$(basename "$opm" .opm).info"

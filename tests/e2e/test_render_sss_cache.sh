@@ -9,9 +9,8 @@
 # two renders writing one cache at once each leave a complete file; a large dipole square laid in
 # levels around the view gives the uncached image from a fresh, reused and moved camera's cache.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup render_sss_cache opaline-render
-trap 'rm -rf "$T"' EXIT
 
 dipole_sphere_scene "$T"
 render() { "$R" -v -t 2 --limit sss-max-points=2000 "$@" "$T/scene.xml" 2>"$T/err"; }
@@ -104,17 +103,15 @@ for c in 0,0,24,20 24,0,24,20 0,20,24,20 24,20,24,20; do
     grep -q "computed 0 new" "$T/err" || fail "tile $c computed something new"
 done
 python3 - "$T" <<'PY' || fail "tiles differ from the full render"
-import struct, sys
-def pfm(path):
-    data = open(path, "rb").read()
-    parts = data.split(b"\n", 3)
-    w, h = map(int, parts[1].split())
-    vals = struct.unpack("<%df" % (3 * w * h), parts[3][:12 * w * h])
-    return w, h, [vals[3 * w * y:3 * w * (y + 1)] for y in range(h)]  # rows bottom first
-fw, fh, full = pfm(sys.argv[1] + "/full.pfm")
+import sys
+import pfm
+def rows(path):  # width, height, rows bottom first
+    im = pfm.read(path)
+    return im.width, im.height, im.rows()
+fw, fh, full = rows(sys.argv[1] + "/full.pfm")
 for c in ["0,0,24,20", "24,0,24,20", "0,20,24,20", "24,20,24,20"]:
     x0, top, cw, ch = map(int, c.split(","))
-    w, h, tile = pfm(sys.argv[1] + "/tile_%s.pfm" % c)
+    w, h, tile = rows(sys.argv[1] + "/tile_%s.pfm" % c)
     for y in range(ch):
         assert tile[y] == full[fh - top - ch + y][3 * x0:3 * (x0 + cw)], (c, y)
 PY

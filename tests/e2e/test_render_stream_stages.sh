@@ -7,9 +7,8 @@
 # LOG record). --crop renders only a window of the film, each pixel bit-identical to the full
 # render's (a translucent scene: the pre-pass too); a window outside the film exits 2.
 set -uo pipefail
-source "${OPALINE_SOURCE_DIR:?OPALINE_SOURCE_DIR is not set}/tests/e2e/e2e_support.sh"
+source "$(dirname "$0")/e2e_support.sh"
 e2e_setup render_stream_stages opaline-render
-trap 'rm -rf "$T"' EXIT
 
 dipole_sphere_scene "$T" '<float name="intIOR" value="1.5"/>' # unused: a warning to log
 
@@ -65,15 +64,12 @@ PY
     "$T/scene.xml" >"$T/cstream" 2>"$T/err" || fail "the crop run exited $?"
 python3 - "$T/full.pfm" "$T/crop.pfm" "$T/cstream" <<'PY' || fail "crop pixels differ"
 import struct, sys
-def pfm(path):
-    data = open(path, "rb").read()
-    parts = data.split(b"\n", 3)
-    w, h = map(int, parts[1].split())
-    assert float(parts[2]) < 0
-    vals = struct.unpack("<%df" % (3 * w * h), parts[3][:12 * w * h])
-    return w, h, [vals[3 * w * y:3 * w * (y + 1)] for y in range(h)]  # rows bottom first
-fw, fh, full = pfm(sys.argv[1])
-cw, ch, crop = pfm(sys.argv[2])
+import pfm
+def rows(path):  # width, height, rows bottom first
+    im = pfm.read(path)
+    return im.width, im.height, im.rows()
+fw, fh, full = rows(sys.argv[1])
+cw, ch, crop = rows(sys.argv[2])
 assert (fw, fh, cw, ch) == (48, 40, 20, 25), (fw, fh, cw, ch)
 x0, top = 13, 7
 for y in range(ch):          # crop row y (from the bottom) is full row fh - top - ch + y

@@ -4,13 +4,8 @@
 # file that is missing), 130 interrupted (tested by the signal tests). Each error is printed once,
 # as "opaline: error: ...", and names the file at fault.
 set -uo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-for exe in opaline-factor opaline-render; do
-  [ -x "$BIN/$exe" ] || { echo "skip: $BIN/$exe not built"; exit 77; }
-done
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/exit_codes.XXXXXX")
-trap 'chmod -R u+w "$T" 2>/dev/null; rm -rf "$T"' EXIT
-F="$BIN/opaline-factor" R="$BIN/opaline-render"
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup exit_codes opaline-factor opaline-render
 failed=0 passed=0
 
 # expect CODE NEEDLE DESCRIPTION -- COMMAND...: runs COMMAND, checks its exit code, that stderr

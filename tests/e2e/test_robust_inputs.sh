@@ -6,17 +6,11 @@
 # raw Rd values and escape sequences in names get clear messages, and escapes never reach the
 # terminal. Needs the built commands and python3.
 set -uo pipefail
-. "$(dirname "$0")/e2e_support.sh"
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-for exe in opaline-factor opaline-render; do
-  [ -x "$BIN/$exe" ] || { echo "skip: $BIN/$exe not built"; exit 77; }
-done
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-command -v mkfifo >/dev/null || { echo "skip: mkfifo not found"; exit 77; }
-[ -c /dev/zero ] || { echo "skip: no /dev/zero"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_inputs.XXXXXX")
-trap 'rm -rf "$T"' EXIT
-FACTOR=$BIN/opaline-factor RENDER=$BIN/opaline-render
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup robust_inputs opaline-factor opaline-render
+e2e_need mkfifo
+[ -c /dev/zero ] || e2e_skip "no /dev/zero"
+FACTOR=$F RENDER=$R
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 

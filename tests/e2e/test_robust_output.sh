@@ -12,17 +12,9 @@
 #    temporary file exists) exit 130 with one line, no sanitizer report, no temporary file left
 #    and the previous output unchanged.
 set -uo pipefail
-. "$(dirname "$0")/e2e_support.sh" # hold_lock
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-F=$BIN/opaline-factor
-[ -x "$F" ] || { echo "skip: $F not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_output.XXXXXX")
-cleanup() {
-  jobs -p | xargs -r kill -KILL 2>/dev/null
-  rm -rf "$T"
-}
-trap cleanup EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup robust_output opaline-factor
+cleanup() { jobs -p | xargs -r kill -KILL 2>/dev/null; }
 # Job control: background commands then get SIGINT (a non-interactive shell makes them ignore it).
 set -m
 export TMPDIR=$T/tmpdir # where outputs written through keep their data until commit
@@ -173,23 +165,9 @@ else
 fi
 no_temps "SIGKILL"
 
-# Waits (at most 30 s) until process $1 catches signal $2 (its handlers are installed: before
-# that a signal would kill it the default way, which is not what is tested).
-wait_for_handler() {
-  local n m
-  n=$(kill -l "$2")
-  for _ in $(seq 3000); do
-    m=$(awk '/^SigCgt:/ { print $2 }' "/proc/$1/status" 2>/dev/null) || return 1
-    [ -n "$m" ] && (( (16#$m >> (n - 1)) & 1 )) && return 0
-    kill -0 "$1" 2>/dev/null || return 1
-    sleep 0.01
-  done
-  return 1
-}
-
-# ---- signals: $1 signal, $2 point (S: S seconds after the program installed its handlers;
-# ---- temp: once the temporary file exists; temp+N: once it holds N bytes), $3 output, then
-# ---- the command
+# ---- signals: $1 signal, $2 point (handler: once the program has installed its handlers, before
+# ---- which a signal would kill it the default way, which is not what is tested; temp: once
+# ---- the temporary file exists; temp+N: once it holds N bytes), $3 output, then the command
 interrupt() {
   local sig=$1 point=$2 out=$3
   shift 3
@@ -202,8 +180,7 @@ interrupt() {
     [ "$point" = temp ] || min=${point#temp+}
     wait_for_temp "$out" $pid $min || fail "$* made no temporary file of $min bytes before it ended"
   else
-    wait_for_handler $pid "$sig" || fail "$* never installed its $sig handler"
-    sleep "$point"
+    e2e_wait $pid handler "$sig" || fail "$* never installed its $sig handler"
   fi
   kill -"$sig" $pid 2>/dev/null
   wait $pid
@@ -215,18 +192,19 @@ interrupt() {
   cmp -s "$out" "$T/previous" || fail "$what: the previous output was changed"
   no_temps "$what"
 }
-# While computing: a Monte Carlo dataset of seconds on any machine (so the signal, 0.15 s after
-# the handlers are in, always finds it working), which the signal ends at once.
+# While computing: a Monte Carlo dataset of seconds on any machine, whose temporary file (its
+# header) is made before the photons are traced, which the signal ends at once.
 slow=(chess4x4 --pixels 16x16 --kernel 7 -t 2 --generator montecarlo --photons 2000)
-interrupt INT 0.15 "$T/out.opm" "$F" dataset "${slow[@]}" -o "$T/out.opm"
+interrupt INT temp "$T/out.opm" "$F" dataset "${slow[@]}" -o "$T/out.opm"
 interrupt TERM temp "$T/out.opm" "$F" dataset "${big[@]}" -o "$T/out.opm"
 interrupt HUP temp "$T/out.opm" "$F" dataset "${big[@]}" -o "$T/out.opm"
 interrupt TERM temp "$T/out.opm" "$F" import "$T/big.npy" -o "$T/out.opm"
 interrupt INT temp+1 "$T/out.opm" "$F" import "$T/big.npy" -o "$T/out.opm"
 factor=(factor "$T/big.opm" --method svd -T 4 -t 2 -o "$T/out.opm" --report "$T/out.json"
         --albedo-png "$T/out.png")
-# factor: loading; factoring (the material's temporary file holds its header); verifying it
-interrupt HUP 0.3 "$T/out.opm" "$F" "${factor[@]}"
+# factor: starting (handlers in, loading); factoring (the material's temporary file holds its
+# header); verifying it
+interrupt HUP handler "$T/out.opm" "$F" "${factor[@]}"
 interrupt INT temp "$T/out.opm" "$F" "${factor[@]}"
 interrupt TERM temp+100000 "$T/out.opm" "$F" "${factor[@]}"
 [ -e "$T/out.json" ] || [ -e "$T/out.png" ] && fail "an interrupted factor left its report or png"

@@ -8,10 +8,8 @@
 # (their shadow memory reserves terabytes of address space): in such a build this test skips
 # (77) and says so; a build without OPALINE_SANITIZE runs it. Needs python3.
 set -euo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-R="$BIN/opaline-render"
-[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup robust_scene_memory opaline-render
 # Read whole, not piped into grep -q (which, under pipefail, fails the pipeline when it stops
 # reading early); the binary is also asked itself, as sid's gcc 15 links the sanitizers so that
 # neither ldd nor nm shows them.
@@ -19,12 +17,9 @@ linked=$(ldd "$R" 2>/dev/null || true)
 symbols=$(nm "$R" 2>/dev/null || true)
 limited=$( (ulimit -v 1000000; "$R" --help 2>&1 >/dev/null) || true)
 if [[ $linked =~ lib(a|t|ub)san || $symbols == *" __asan_init"* || $limited == *Sanitizer* ]]; then
-  echo "skip: $R is built with sanitizers, which cannot run under ulimit -v; configure a build"
-  echo "      without -DOPALINE_SANITIZE=ON to run this test"
-  exit 77
+  e2e_skip "$R is built with sanitizers, which cannot run under ulimit -v; configure a build" \
+    "without -DOPALINE_SANITIZE=ON to run this test"
 fi
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_scene_memory.XXXXXX")
-trap 'rm -rf "$T"' EXIT
 
 fail() { echo "FAIL: $*"; exit 1; }
 

@@ -4,14 +4,9 @@
 # must exit 1 with a message naming stdout and the system's reason, and stop rendering early.
 # Also: the stream of a good run ends with an END record holding exit status 0.
 set -uo pipefail
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-R=$BIN/opaline-render
-[ -x "$R" ] || { echo "skip: $R not built"; exit 77; }
-[ -w /dev/full ] || { echo "skip: no /dev/full"; exit 77; }
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/robust_stream.XXXXXX")
-trap 'rm -rf "$T"' EXIT
-fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | head -20; exit 1; }
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup robust_stream opaline-render
+[ -w /dev/full ] || e2e_skip "no /dev/full"
 
 # 256 x 256 pixels: 64 tiles of 16 KiB each, far more than a pipe holds.
 cat > "$T/scene.xml" <<'XML'

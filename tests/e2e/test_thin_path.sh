@@ -4,14 +4,8 @@
 # the image: nothing NaN, the floor's radiance against its closed form and the object's against
 # its measured figures. Needs only the built commands and python3.
 set -euo pipefail
-. "$(dirname "$0")/e2e_support.sh"
-BIN=${OPALINE_BIN_DIR:?OPALINE_BIN_DIR is not set}
-for exe in opaline-factor opaline-render; do
-  [ -x "$BIN/$exe" ] || { echo "skip: $BIN/$exe not built"; exit 77; }
-done
-command -v python3 >/dev/null || { echo "skip: python3 not found"; exit 77; }
-T=$(mktemp -d "${OPALINE_TEST_TMP:-/tmp}/thin_path.XXXXXX")
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/e2e_support.sh"
+e2e_setup thin_path opaline-factor opaline-render
 
 "$BIN/opaline-factor" dataset chess4x4 --pixels 24x24 --kernel 9 -o "$T/d.opm"
 "$BIN/opaline-factor" factor "$T/d.opm" --method svd -T 4 -o "$T/m.opm"
@@ -29,15 +23,11 @@ sphere_scene "$T/scene.xml" 64 48 4 \
 # measured when this test was written (0.3075 0.2406 0.2080 per channel at 4 spp; a diffuse
 # sphere of reflectance 0.5 gives 0.243 there), within 15 %.
 python3 - "$T/out.pfm" <<'PY'
-import math, struct, sys
-data = open(sys.argv[1], "rb").read()
-header, dims, scale, rest = data.split(b"\n", 3)
-assert header == b"PF", header
-w, h = map(int, dims.split())
-px = struct.unpack("<%df" % (w * h * 3), rest[: w * h * 12])
-def at(x, y):  # y from the top; PFM rows run bottom to top
-    i = ((h - 1 - y) * w + x) * 3
-    return px[i:i + 3]
+import math, sys
+import pfm
+im = pfm.read(sys.argv[1])
+assert im.channels == 3, im.channels
+w, h, px, at = im.width, im.height, im.samples, im.pixel  # at(x, y): y from the top
 assert all(math.isfinite(v) for v in px), "NaN or inf in the image"
 assert min(px) >= 0.0, "negative radiance"
 def mean(region):
