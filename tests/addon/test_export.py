@@ -469,14 +469,14 @@ class TestMaterials(Base):
             f.write('{"method": "svd", "terms": 10, "size_bytes": 1234567, '
                     '"relative_rmse": 0.0123}')
         S.prefs().preset_folders.add().path = folder
-        import opaline.presets
-        opaline.presets.clear()
+        import opaline.chooser
+        opaline.chooser.clear()
         return folder
 
     def test_subsurface_kinds(self):
         folder = self.fake_presets()
-        import opaline.presets as P
-        p = P.find("SVD_S10_Test")
+        import opaline.chooser as C
+        p = C.find("SVD_S10_Test")
         self.assertIsNotNone(p)
         self.assertEqual(p.summary(), "SVD, 10 terms, 1.2 MB, error 1.23 % (rel. RMSE), "
                                       "sample size unknown")
@@ -485,7 +485,7 @@ class TestMaterials(Base):
         o = mat.opaline
         o.enabled = True
         o.preset = "SVD_S10_Test"
-        self.assertIn("SVD_S10_Test", [i[0] for i in P.enum_items(o, bpy.context)])
+        self.assertIn("SVD_S10_Test", [i[0] for i in C.enum_items(o, bpy.context)])
         o.scale = 10.0
         o.ior = 1.4
         s, _ = self.shape()
@@ -518,7 +518,7 @@ class TestMaterials(Base):
         the file Method menu, and every dipole medium reach the scene as their type."""
         folder = self.fake_presets()
         import struct
-        import opaline.presets as P
+        import opaline.chooser as C
 
         def opm(name, method):
             # a container with only a META section: header, META at 64, table after it
@@ -537,7 +537,7 @@ class TestMaterials(Base):
         opm("NMF_T8_Test", "nmf")
         opm("TUCKER_T4_P2_Test", "tucker")
         opm("RAW_Test", "raw")
-        P.clear()
+        C.clear()
         expect = {"KCTA_C8_T4_Test": "kcta", "NmfFromMeta": "nmf", "NMF_T8_Test": "nmf",
                   "TUCKER_T4_P2_Test": "tucker", "RAW_Test": "raw", "SVD_S10_Test": "svd"}
         mat = bpy.data.materials.new("sss")
@@ -545,7 +545,7 @@ class TestMaterials(Base):
         o = mat.opaline
         o.enabled = True
         for name, typ in expect.items():
-            self.assertEqual(P.find(name).method, typ, name)
+            self.assertEqual(C.find(name).method, typ, name)
             o.kind = 'PRESET'
             o.preset = name
             s, _ = self.shape()

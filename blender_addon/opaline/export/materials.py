@@ -28,7 +28,7 @@ import os
 
 from . import textures as textures_mod
 from .xml_writer import Element
-from .. import compat
+from .. import chooser, compat, presets
 from ..errors import OpalineError
 
 DEFAULT_GREY = (0.8, 0.8, 0.8)
@@ -189,12 +189,12 @@ def bsdf_for(mat, warn, textures=None):
     return _twosided(b), None
 
 
-def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None,
+def subsurface_for(mat, find_preset, renderer_finds, xml_dir, warn, prepass=None,
                    material_ref=None):
     """The <subsurface> element of a material with opaline subsurface enabled, else None.
 
-    find_preset(name) -> presets.Preset or None; renderer_knows(folder) -> whether
-    opaline-render finds presets of that folder by name (else the .opm path is written);
+    find_preset(name) -> presets.Preset or None; renderer_finds(preset) -> whether
+    opaline-render finds that preset by its name (else the .opm path is written);
     prepass: (irrSamples, maxPoints; 0: none written) of the scene's render settings, or None
     for the renderer's defaults; material_ref(opm_path) -> the value that names a material file in the
     XML (default: the absolute path; collecting exports give a path relative to the XML).
@@ -212,13 +212,12 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None
                                % label)
         p = find_preset(s.preset)
         if p is None:
-            from .. import presets
-            raise OpalineError("%s: %s" % (label, presets.missing_message(s.preset)))
+            raise OpalineError("%s: %s" % (label, chooser.missing_message(s.preset)))
         typ = p.method
         if material_ref is not None:
             value = material_ref(p.opm)
         else:
-            value = p.name if renderer_knows(p.folder) else p.opm
+            value = p.name if renderer_finds(p) else p.opm
     elif s.kind == 'DIPOLE':
         typ = "dipole"
         value = s.dipole_material
@@ -276,5 +275,4 @@ def sheen_for(mat, warn):
 
 
 def _method_of_file(path):
-    from ..presets import method_of
-    return method_of(path)
+    return presets.method_of(path)

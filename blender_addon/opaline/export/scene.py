@@ -25,7 +25,7 @@ from . import materials as materials_mod
 from . import meshes as meshes_mod
 from . import textures as textures_mod
 from .xml_writer import Element, scene_element, serialize, transform_matrix, write_file
-from .. import compat
+from .. import chooser, compat, presets
 from ..errors import OpalineError
 
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
@@ -219,7 +219,6 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     only the selected objects (the camera is always written); collect_materials: copy the
     material files into materials/ beside the XML and name them relatively
     (MaterialCollector)."""
-    from .. import presets
     res = ExportResult()
     res.xml_path = os.path.abspath(xml_path)
     warn = res.warnings.append
@@ -257,11 +256,11 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
 
     def find_preset(name):
         if name not in pcache:
-            pcache[name] = presets.find(name, context)
+            pcache[name] = chooser.find(name, context)
         return pcache[name]
 
-    def knows(folder):
-        return presets.renderer_knows(folder, renderer_path)
+    def knows(preset):
+        return presets.renderer_finds(preset, renderer_path, xml_dir)
 
     prepass = prepass_settings(scene_orig)
     collector = MaterialCollector(xml_dir) if collect_materials else None
