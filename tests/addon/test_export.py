@@ -14,6 +14,7 @@ import addon_support as S  # noqa: E402
 import bpy  # noqa: E402
 from mathutils import Matrix, Vector  # noqa: E402
 
+from opaline import compat  # noqa: E402
 from opaline.errors import OpalineError  # noqa: E402
 from opaline.export import camera as cam_mod  # noqa: E402
 from opaline.export import lights as L  # noqa: E402
@@ -124,8 +125,9 @@ class TestConversions(unittest.TestCase):
         self.assertEqual(L.sun_irradiance(3.0, (1, 0.5, 0)), (3.0, 1.5, 0.0))
 
     def test_area(self):
-        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, blender_version=(3, 4, 1))[0], 12.5)
-        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, blender_version=(4, 2, 0))[0],
+        d34, d42 = compat.area_light_divisor((3, 4, 1)), compat.area_light_divisor((4, 2, 0))
+        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, divisor=d34)[0], 12.5)
+        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, divisor=d42)[0],
                                100.0 / (2 * math.pi))
         self.assertAlmostEqual(L.area_shape_area('SQUARE', 2, 9), 4.0)
         self.assertAlmostEqual(L.area_shape_area('RECTANGLE', 2, 3), 6.0)
@@ -263,7 +265,8 @@ class TestLights(Base):
             self.assertClose(m.col[2].xyz, -mw.col[2].xyz, 1e-5, shape)
             self.assertClose(m.col[3].xyz, mw.translation, 1e-5, shape)
             world_area = area * 2.0  # object scale 2 in x
-            exp = L.area_radiance(100.0, world_area, blender_version=bpy.app.version)
+            exp = L.area_radiance(100.0, world_area,
+                                  divisor=compat.area_light_divisor(bpy.app.version))
             self.assertClose(value(s.find("emitter"), "rgb", "radiance"), exp, 1e-5, shape)
             if bpy.app.version < (4, 0, 0):
                 self.assertClose([exp[0]], [100.0 / (4 * world_area)], 1e-9)

@@ -91,16 +91,9 @@ def _surface_node(mat):
 
 
 def principled_f0(node, warn, label):
-    """Normal-incidence reflectance F0 of a Principled BSDF's dielectric layer: Blender 3.x
-    'Specular' s gives F0 = 0.08 s; Blender 4.0+ (Principled v2) gives F0 from 'IOR' scaled by
-    2 x 'Specular IOR Level' (0.5 leaves the IOR's own F0)."""
-    level = node.inputs.get("Specular IOR Level")
-    if level is not None:
-        ior = float(_input(node, ["IOR"], warn, label) or 1.5)
-        lev = float(_input(node, ["Specular IOR Level"], warn, label))
-        return ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * lev
-    spec = _input(node, ["Specular"], warn, label)
-    return 0.08 * (0.5 if spec is None else float(spec))
+    """Normal-incidence reflectance F0 of a Principled BSDF's dielectric layer
+    (compat.principled_f0)."""
+    return compat.principled_f0(lambda name: _input(node, [name], warn, label))
 
 
 def ior_from_f0(f0):
@@ -147,7 +140,8 @@ def bsdf_for(mat, warn, textures=None):
         base = _rgb(base_sock.default_value)
         metallic = float(_input(node, ["Metallic"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
-        trans = float(_input(node, ["Transmission", "Transmission Weight"], warn, label) or 0.0)
+        trans = float(_input(node, [compat.principled_transmission_input()], warn, label) or
+                      0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
         f0 = principled_f0(node, warn, label)
         if trans >= 0.5:

@@ -230,7 +230,6 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                            "(Scene properties > Camera)" % scene_orig.name)
     xml_dir = os.path.dirname(res.xml_path)
     mesh_dir = os.path.join(xml_dir, MESH_FOLDER)
-    bversion = tuple(bpy.app.version)
 
     spp, bounces = render_samples(scene_orig)
     if samples is not None:
@@ -281,7 +280,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
             continue
         mw = _rows(inst.matrix_world)
         if ob.type == 'LIGHT':
-            el = lights_mod.export_light(ob.data, mw, bversion, warn,
+            el = lights_mod.export_light(ob.data, mw, compat.area_light_divisor(), warn,
                                           bool(getattr(ob, "visible_camera", True)))
             if el is not None:
                 root.add(el)
