@@ -250,8 +250,10 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         e = root.add(Element("emitter", {"type": "constant"}, comment="world background"))
         e.rgb("radiance", rad)
 
-    # Preset lookups are shared by every material of the export.
+    # Preset lookups (and whether the renderer finds them by name) are shared by every
+    # material of the export.
     pcache = {}
+    finds = {}
 
     def find_preset(name):
         if name not in pcache:
@@ -259,7 +261,9 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         return pcache[name]
 
     def knows(preset):
-        return presets.renderer_finds(preset, renderer_path, xml_dir)
+        if preset.name not in finds:
+            finds[preset.name] = presets.renderer_finds(preset, renderer_path, xml_dir)
+        return finds[preset.name]
 
     prepass = prepass_settings(scene_orig)
     collector = MaterialCollector(xml_dir) if collect_materials else None
