@@ -163,9 +163,10 @@ static int merge_tiles(const run *r)
     return code;
 }
 
-/* Writes what the render made: the image when complete, else what an interrupted render
- * leaves. Returns code as op_write_images does. */
-static int write_result(const run *r, op_renderer *rend, op_status st, int code)
+/* Writes what the render made (its stats rs): the image when complete, else what an
+ * interrupted render leaves. Returns code as op_write_images does. */
+static int write_result(const run *r, op_renderer *rend, const op_render_stats *rs, op_status st,
+                        int code)
 {
     const op_cli_options *o = r->o;
     const char *raw_tag = o->raw_exr ? r->tile_tag : NULL;
@@ -177,23 +178,16 @@ static int write_result(const run *r, op_renderer *rend, op_status st, int code)
     }
     if (st != OP_OK && st != OP_ERR_CANCELLED)
         return code;
-    op_render_stats rs;
-    op_renderer_get_stats(rend, &rs);
     const op_image *img = op_renderer_image(rend);
-    int sig = atomic_load(&g_signal);
-    if (rs.tiles_done == rs.tiles) {
-        code = op_write_images(r->scene, img, r->outputs, r->noutputs, raw_tag, code);
-        if (sig)
-            op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete",
-                   signal_name(sig));
-        return code;
-    }
+    if (rs->tiles_done == rs->tiles)
+        return op_write_images(r->scene, img, r->outputs, r->noutputs, raw_tag, code);
     char what[64];
+    int sig = atomic_load(&g_signal);
     if (sig)
         snprintf(what, sizeof what, "interrupted (%s)", signal_name(sig));
     else
         snprintf(what, sizeof what, "stopped");
-    return op_write_partial(r->scene, img, &rs, r->outputs, r->noutputs, o->partial_beside,
+    return op_write_partial(r->scene, img, rs, r->outputs, r->noutputs, o->partial_beside,
                             what, raw_tag, code);
 }
 
@@ -230,16 +224,19 @@ static int render(run *r)
     } else if (st && st != OP_ERR_CANCELLED) {
         code = failed(&err);
     }
-    code = write_result(r, rend, st, code);
-    if (code == 0 && (atomic_load(&g_signal) || st == OP_ERR_CANCELLED))
+    op_render_stats rs;
+    op_renderer_get_stats(rend, &rs);
+    code = write_result(r, rend, &rs, st, code);
+    int sig = atomic_load(&g_signal); /* read once: the message and the exit code agree */
+    int complete = rs.tiles_done == rs.tiles && (st == OP_OK || st == OP_ERR_CANCELLED);
+    if (sig && complete && !o->sss_cache_only)
+        op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete", signal_name(sig));
+    if (code == 0 && (sig || st == OP_ERR_CANCELLED))
         code = op_exit_code(OP_ERR_CANCELLED);
     if (r->stream) {
         int failed_before = op_stream_error(r->stream) != 0;
-        if (o->stream_log) {
-            op_render_stats rs;
-            op_renderer_get_stats(rend, &rs);
+        if (o->stream_log)
             op_stream_stats(r->stream, &rs);
-        }
         op_stream_end(r->stream, code);
         if (op_stream_error(r->stream) && !failed_before) {
             op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream's end (%s)",
