@@ -318,14 +318,11 @@ def within(path, root):
 
 
 def preset_dirs(renderer):
-    """The folders where the renderer finds a material preset given by name (as
-    op_resolve_material in renderer/lib/scene_build.c searches them after the scene's folder):
-    $OPALINE_PRESETS_PATH, PREFIX/share/opaline/presets of an installed renderer, the build's
-    presets folder. Each node's renderer has its own; they need not be shared."""
-    prefix = os.path.dirname(os.path.dirname(os.path.realpath(renderer)))
-    dirs = [d for d in os.environ.get("OPALINE_PRESETS_PATH", "").split(":") if d]
-    return dirs + [os.path.join(prefix, "share", "opaline", "presets"),
-                   os.path.join(prefix, "presets")]
+    """The folders where the renderer finds a material preset given by name after the scene's
+    own, as it says (opaline-render --preset-folders). Each node's renderer has its own; they
+    need not be shared."""
+    out = run_renderer(renderer, ["--preset-folders", "-q", "-q"], "--preset-folders")
+    return [d for d in out.splitlines() if d]
 
 
 def check_travels(renderer, scene, extra, shared):

@@ -81,6 +81,23 @@ op_status op_scene_load(const char *path, const op_scene_define *defines, int nd
                         op_scene **out, op_error *err);
 void op_scene_free(op_scene *scene);
 
+/* Called with each folder, in order; a non-zero return stops the walk. */
+typedef int (*op_folder_fn)(void *user, const char *folder);
+/* Walks the folders a material preset name (<subsurface material="NAME">) is looked up in, in
+ * the order searched: scene_dir ("" for the current folder; NULL leaves the scene's folder
+ * out), each folder of OPALINE_PRESETS_PATH, the installed presets (share/opaline/presets above
+ * the running program's bin folder), then the build tree's presets. Folders need not exist.
+ * Fails only when out of memory. */
+op_status op_preset_folders(const char *scene_dir, op_folder_fn each, void *user,
+                            op_error *err);
+/* Finds a subsurface material as a scene in scene_dir (NULL or "": the current folder) does:
+ * an .opm path (relative to scene_dir; not checked here, since opening it says what is wrong
+ * with it) as it is, a preset name in the first folder of op_preset_folders holding NAME.opm.
+ * Writes the file into out (n bytes). each, when not NULL, is told every folder searched (its
+ * return value is ignored). A name in no folder is OP_ERR_INPUT listing the folders. */
+op_status op_find_material(const char *name, const char *scene_dir, op_folder_fn each,
+                           void *user, char *out, size_t n, op_error *err);
+
 /* What the scene's film asks for. Strings stay owned by the scene. */
 typedef struct op_scene_info {
     int width, height;        /* the image rendered (the crop window when there is one) */
@@ -112,10 +129,12 @@ typedef struct op_render_tile {
 /* Called once per finished tile, never concurrently with itself (the renderer serializes). */
 typedef void (*op_tile_fn)(void *user, const op_render_tile *tile);
 
+enum { OP_RENDER_TILE_SIZE = 32 }; /* the tiles' side unless op_render_options says */
+
 typedef struct op_render_options {
     int threads;             /* worker threads; 0 = all cores */
     int spp;                 /* samples per pixel; 0 = the scene's sampler */
-    int tile_size;           /* tile side in pixels; 0 = 32 */
+    int tile_size;           /* tile side in pixels; 0 = OP_RENDER_TILE_SIZE */
     uint64_t seed;           /* mixed into every random stream (default 0) */
     op_progress_fn progress; /* NULL: op_progress's own report on stderr */
     void *progress_user;
@@ -150,6 +169,8 @@ typedef struct op_render_stats {
     long long sss_receivers; /* points whose exitance was computed */
     long long sss_sources_reused, sss_receivers_reused; /* taken from the pre-pass cache */
     int sss_shapes_reached;  /* translucent shapes some camera segment reaches */
+    int sss_shapes_capped;   /* of those, shapes given fewer irradiance points than they need:
+                                capped at their maxPoints (each also warned) */
     double sss_seconds;      /* the pre-pass's wall time */
     double render_seconds;   /* the camera pass's wall time (after the pre-pass) */
     int tiles;               /* the image's tiles */

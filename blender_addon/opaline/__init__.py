@@ -20,9 +20,10 @@ bl_info = {
 
 import bpy  # noqa: E402
 
-from . import cluster, engine, preferences, presets, properties, ui  # noqa: E402
+from . import chooser, cluster, engine, preferences, properties, ui  # noqa: E402
 
-_classes = preferences.classes + properties.classes + ui.classes + cluster.classes
+_classes = (preferences.classes + chooser.classes + properties.classes + ui.classes +
+            cluster.classes)
 
 
 def register():
@@ -39,4 +40,4 @@ def unregister():
     properties.unregister_props()
     for c in reversed(_classes):
         bpy.utils.unregister_class(c)
-    presets.clear()
+    chooser.clear()

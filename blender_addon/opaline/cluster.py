@@ -29,14 +29,6 @@ def settings(context):
             p.cluster_partition.strip(), p.cluster_sbatch_args.strip())
 
 
-def draw_preferences(prefs, layout):
-    box = layout.box()
-    box.label(text="SLURM cluster (Render panel > Render on cluster)")
-    box.prop(prefs, "cluster_command")
-    box.prop(prefs, "cluster_partition")
-    box.prop(prefs, "cluster_sbatch_args")
-
-
 def output_folder(context, folder):
     """The render's folder: `folder` (Blender's // = the .blend's folder) made absolute."""
     return os.path.abspath(bpy.path.abspath(folder or "//opaline_cluster"))

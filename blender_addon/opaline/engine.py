@@ -7,8 +7,8 @@ tiles into the Render Result as they finish, stops the renderer on cancel (SIGIN
 SIGKILL), and reports the renderer's warnings and failures through RenderEngine.report (the
 Info editor and the status bar) instead of tracebacks.
 
-The tile stream (docs/rendering.md, "Tile stream") is parsed by `StreamReader`, a pure Python
-class so tests can feed it bytes.
+The tile stream (docs/rendering.md, "Tile stream") is read by stream.StreamReader, which has no
+bpy, so plain Python tests feed it bytes.
 """
 
 import array
@@ -27,113 +27,18 @@ import time
 
 import bpy
 
+from . import locations, preferences
+from . import stream as S
 from .errors import OpalineError
+from .export import scene as scene_export
 
-MAGIC = b"OPTS"
-T_BEGIN, T_TILE, T_PROGRESS, T_END, T_LOG = 1, 2, 3, 4, 5
-LOG_LEVELS = ("error", "warning", "info", "debug")
-TILE = 32  # opaline-render's tile side
 # The reports of the last F12 (type, message), newest last: what the Info editor got.
 last_reports = []
 last_log = []  # the last F12's renderer LOG records, (level, text): what its pre-pass cache did
+last_stats = [None]  # the last F12's STATS record (stream.Stats), None when none came
 last_export = None  # the ExportResult of the last F12
 last_status = [""]  # the status text the last F12 showed last ("opaline: Path tracing 25 %...")
-_HDR = struct.Struct("<4sIQ")
-MAX_PAYLOAD = 1 << 34
-
-
-class StreamError(Exception):
-    pass
-
-
-class StreamReader:
-    """Reads records from a binary file object. `next()` returns (type, value) with value:
-    BEGIN (w, h, channels); TILE (x, y, w, h, array('f') of w*h*4 floats, rows top to bottom);
-    PROGRESS (fraction, stage label; "render" from a renderer that sends no label); END status;
-    LOG (level name, message); or None at a clean end of file. Records of a type it does not
-    know are skipped (a newer renderer). Raises StreamError on a malformed stream (bad magic,
-    short payload, inconsistent sizes)."""
-
-    def __init__(self, f):
-        self.f = f
-        self.width = self.height = None
-
-    def _read(self, n):
-        chunks = []
-        got = 0
-        while got < n:
-            c = self.f.read(n - got)
-            if not c:
-                break
-            chunks.append(c)
-            got += len(c)
-        return b"".join(chunks)
-
-    def next(self):
-        while True:
-            rec = self._next()
-            if rec is not None and rec[0] is None:
-                continue  # an unknown record, skipped
-            return rec
-
-    def _next(self):
-        h = self._read(_HDR.size)
-        if not h:
-            return None
-        if len(h) < _HDR.size:
-            raise StreamError("truncated record header")
-        magic, typ, n = _HDR.unpack(h)
-        if magic != MAGIC:
-            raise StreamError("bad magic %r (is this renderer writing the tile stream?)" % magic)
-        if n > MAX_PAYLOAD:
-            raise StreamError("record of %d bytes is too large" % n)
-        p = self._read(n)
-        if len(p) < n:
-            raise StreamError("truncated record payload")
-        if typ == T_BEGIN:
-            if n < 12:
-                raise StreamError("short BEGIN record")
-            w, hh, ch = struct.unpack_from("<3I", p)
-            if ch != 4:
-                raise StreamError("BEGIN with %d channels (expected 4)" % ch)
-            self.width, self.height = w, hh
-            return T_BEGIN, (w, hh, ch)
-        if typ == T_TILE:
-            if n < 16:
-                raise StreamError("short TILE record")
-            x, y, w, hh = struct.unpack_from("<4I", p)
-            if n != 16 + 16 * w * hh:
-                raise StreamError("TILE %dx%d with %d payload bytes" % (w, hh, n))
-            if self.width is not None and (x + w > self.width or y + hh > self.height):
-                raise StreamError("TILE at %d,%d size %dx%d outside the %dx%d image" %
-                                  (x, y, w, hh, self.width, self.height))
-            a = array.array('f')
-            a.frombytes(p[16:])
-            if sys.byteorder != "little":
-                a.byteswap()
-            return T_TILE, (x, y, w, hh, a)
-        if typ == T_PROGRESS:
-            if n < 8:
-                raise StreamError("short PROGRESS record")
-            frac = struct.unpack_from("<d", p)[0]
-            label = "render"
-            if n >= 12:
-                ln = struct.unpack_from("<I", p, 8)[0]
-                if 12 + ln > n:
-                    raise StreamError("PROGRESS label of %d bytes in a %d-byte record" % (ln, n))
-                label = p[12:12 + ln].decode("utf-8", "replace")
-            return T_PROGRESS, (frac, label)
-        if typ == T_END:
-            if n < 4:
-                raise StreamError("short END record")
-            return T_END, struct.unpack_from("<I", p)[0]
-        if typ == T_LOG:
-            if n < 4:
-                raise StreamError("short LOG record")
-            lv = struct.unpack_from("<I", p)[0]
-            level = LOG_LEVELS[lv] if lv < len(LOG_LEVELS) else "info"
-            return T_LOG, (level, p[4:].decode("utf-8", "replace"))
-        return None, typ
+_EOF = object()  # the stream reader's last event: the renderer closed its stdout
 
 
 def _f32(x):
@@ -233,7 +138,7 @@ class Progress:
     subsurface pre-pass, loading 5 %, the pre-pass's stages 50 % together, the camera pass the
     rest; without one, loading 5 % and the camera pass 95 %."""
 
-    def __init__(self, prepass, spp, tiles):
+    def __init__(self, prepass, spp, tiles=0):
         self.spans = {"load": (0.0, 0.05)}
         if prepass:
             self.spans.update({"irradiance points": (0.05, 0.10), "irradiance": (0.10, 0.35),
@@ -321,10 +226,9 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
 
     def _render(self, depsgraph):
         global last_export
-        from . import preferences, presets
-        from .export import scene as scene_export
         del last_reports[:]
         del last_log[:]
+        last_stats[0] = None
         last_status[0] = ""
         scene = depsgraph.scene
         full_w, full_h, cx, cy, width, height = render_region(scene.render)
@@ -356,9 +260,6 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         cmd = [renderer, "--stream", "--stream-log", "-o", out]
         if settings is not None and settings.threads > 0:
             cmd += ["-t", str(settings.threads)]
-        max_points = getattr(settings, "max_sss_points", 0) if settings is not None else 0
-        if max_points > 0:
-            cmd += ["--limit", "sss-max-points=%d" % max_points]
         if (cx, cy, width, height) != (0, 0, full_w, full_h):
             cmd += ["--crop", "%d,%d,%d,%d" % (cx, cy, width, height)]
         with open(xml, encoding="utf-8") as f:
@@ -368,16 +269,10 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             # while only the camera (or nothing) changed (docs/subsurface-rendering.md)
             cmd += ["--sss-cache", os.path.join(tmp, SSS_CACHE_NAME)]
         cmd.append(xml)
-        env = dict(os.environ)
+        env = locations.renderer_env()  # the scene names only the presets it finds so
         env["OPALINE_PARENT_PID"] = str(os.getpid())
-        folders = presets.search_folders(
-            [f.path for f in (preferences.get(bpy.context).preset_folders
-                              if preferences.get(bpy.context) else [])], renderer)
-        env["OPALINE_PRESETS_PATH"] = ":".join(
-            [p for p in env.get("OPALINE_PRESETS_PATH", "").split(":") if p] + folders)
         progress = Progress(prepass, scene_export.render_samples(
-            scene.original if hasattr(scene, "original") else scene)[0],
-            ((width + TILE - 1) // TILE) * ((height + TILE - 1) // TILE))
+            scene.original if hasattr(scene, "original") else scene)[0])
         self._run(cmd, env, out, width, height, progress)
         if keep:
             self._report('INFO', "opaline: exported files kept in %s" % tmp)
@@ -386,13 +281,34 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         """A renderer's LOG record: warnings and errors to the reports, the rest to the
         console."""
         if level == "warning":
-            if "irradiance points" in text and "capped at" in text:
-                text += (" [opaline render settings: Irradiance Point Cap, "
-                         "scene.opaline.max_sss_points]")
             self._report('WARNING', "opaline-render: " + text)
         elif level != "error":  # errors: in the failure's report, with the exit status
             print("opaline-render: %s: %s" % (level, text), file=sys.stderr)
         last_log.append((level, text))
+
+    def _stats(self, stats):
+        """The renderer's STATS record: a shape given fewer irradiance points than it needs
+        (each also warned in a LOG record) points at the setting that raises the cap."""
+        last_stats[0] = stats
+        if stats.sss_shapes_capped > 0:
+            self._report('WARNING', "opaline: %d translucent object%s got fewer irradiance "
+                         "points than %s material needs: raise the Irradiance Point Cap "
+                         "(opaline render settings, scene.opaline.max_sss_points)" % (
+                             stats.sss_shapes_capped,
+                             "s" if stats.sss_shapes_capped != 1 else "",
+                             "their" if stats.sss_shapes_capped != 1 else "its"))
+
+    def _draw_tile(self, tile, width, height):
+        """Puts a TILE record into the Render Result (its rows flipped: Blender's go up)."""
+        by = height - (tile.y + tile.height)
+        result = self.begin_result(tile.x, by, tile.width, tile.height)
+        if result is None:
+            raise OpalineError("Blender refused the tile %dx%d at %d,%d of the %dx%d result" %
+                               (tile.width, tile.height, tile.x, by, width, height))
+        _set_rect(result.layers[0].passes["Combined"], flip_rows(tile.rgba, tile.width,
+                                                                 tile.height),
+                  tile.width, tile.height)
+        self.end_result(result)
 
     def _run(self, cmd, env, out_path, width, height, progress):
         self._status("opaline: loading the scene")
@@ -402,18 +318,14 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         errlines = []
 
         def read_stdout():
-            reader = StreamReader(proc.stdout)
             try:
-                while True:
-                    rec = reader.next()
-                    if rec is None:
-                        break
+                for rec in S.StreamReader(proc.stdout):
                     events.put(rec)
-            except StreamError as e:
-                events.put(("error", str(e)))
+            except S.StreamError as e:
+                events.put(e)
             except (OSError, ValueError):
                 pass
-            events.put(("eof", None))
+            events.put(_EOF)
 
         def read_stderr():
             for line in iter(proc.stderr.readline, b""):
@@ -446,42 +358,36 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                     pass
                 stop_sent = None
             try:
-                typ, val = events.get(timeout=0.1)
+                rec = events.get(timeout=0.1)
             except queue.Empty:
                 continue
-            if typ == "eof":
+            if rec is _EOF:
                 eof = True
-            elif typ == "error":
-                stream_error = val
-            elif typ == T_BEGIN:
-                if (val[0], val[1]) != (width, height):
+            elif isinstance(rec, S.StreamError):
+                stream_error = str(rec)
+            elif isinstance(rec, S.Begin):
+                if (rec.width, rec.height) != (width, height):
                     stream_error = "renderer image is %dx%d, Blender expects %dx%d" % (
-                        val[0], val[1], width, height)
-            elif typ == T_TILE:
-                x, y, w, h, a = val
-                if x + w > width or y + h > height:
+                        rec.width, rec.height, width, height)
+                progress.tiles = S.tile_count(rec.width, rec.height, rec.tile_size)
+            elif isinstance(rec, S.Tile):
+                if rec.x + rec.width > width or rec.y + rec.height > height:
                     continue
-                by = height - (y + h)
-                result = self.begin_result(x, by, w, h)
-                if result is None:
-                    raise OpalineError("Blender refused the tile %dx%d at %d,%d of the %dx%d "
-                                       "result" % (w, h, x, by, width, height))
-                _set_rect(result.layers[0].passes["Combined"], flip_rows(a, w, h), w, h)
-                self.end_result(result)
+                self._draw_tile(rec, width, height)
                 tiles += 1
                 progress.tiles_done = tiles
-            elif typ == T_PROGRESS:
-                frac, label = val
-                total, text = progress.stage(label, frac)
+            elif isinstance(rec, S.Progress):
+                total, text = progress.stage(rec.label, rec.fraction)
                 self.update_progress(total)
                 self._status("opaline: " + text)
-            elif typ == T_LOG:
-                level, text = val
-                if level == "error":
-                    errors.append(text)
-                self._log(level, text)
-            elif typ == T_END:
-                end_status = val
+            elif isinstance(rec, S.Log):
+                if rec.level == "error":
+                    errors.append(rec.text)
+                self._log(rec.level, rec.text)
+            elif isinstance(rec, S.Stats):
+                self._stats(rec)
+            elif isinstance(rec, S.End):
+                end_status = rec.status
         rc = proc.wait()
         t2.join(timeout=2.0)
         if cancelled:

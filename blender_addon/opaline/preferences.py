@@ -1,15 +1,13 @@
-"""Add-on preferences (renderer path, extra preset folders) and finding opaline-render."""
-
-import os
+"""Add-on preferences (renderer path, extra preset folders, the cluster) and the opaline-render
+they choose (locations.py finds it)."""
 
 import bpy
-from bpy.props import CollectionProperty, IntProperty, StringProperty
+from bpy.props import CollectionProperty, StringProperty
 
 from . import locations
 from .errors import OpalineError
 
 ADDON_ID = __package__  # "opaline", or "bl_ext.<repo>.opaline" when installed as an extension
-RENDERER_NAME = locations.RENDERER_NAME
 
 
 class OPALINE_PG_folder(bpy.types.PropertyGroup):
@@ -26,34 +24,6 @@ class OPALINE_OT_folder_add(bpy.types.Operator):
         p = get(context)
         if p is not None:
             p.preset_folders.add()
-        return {'FINISHED'}
-
-
-class OPALINE_OT_folder_remove(bpy.types.Operator):
-    bl_idname = "opaline.preset_folder_remove"
-    bl_label = "Remove Preset Folder"
-    bl_options = {'INTERNAL'}
-    index: IntProperty()
-
-    def execute(self, context):
-        p = get(context)
-        if p is not None and 0 <= self.index < len(p.preset_folders):
-            p.preset_folders.remove(self.index)
-        from . import presets
-        presets.clear()
-        return {'FINISHED'}
-
-
-class OPALINE_OT_presets_refresh(bpy.types.Operator):
-    bl_idname = "opaline.presets_refresh"
-    bl_label = "Rescan Presets"
-    bl_description = "Scan the preset folders again"
-
-    def execute(self, context):
-        from . import presets
-        presets.clear()
-        n = len(presets.current(context, refresh=True))
-        self.report({'INFO'}, "opaline: %d presets found" % n)
         return {'FINISHED'}
 
 
@@ -92,12 +62,15 @@ class OPALINE_AP_preferences(bpy.types.AddonPreferences):
         for i, f in enumerate(self.preset_folders):
             r = box.row(align=True)
             r.prop(f, "path", text="")
-            r.operator(OPALINE_OT_folder_remove.bl_idname, text="", icon='X').index = i
+            r.operator("opaline.preset_folder_remove", text="", icon='X').index = i
         r = box.row()
         r.operator(OPALINE_OT_folder_add.bl_idname, icon='ADD')
-        r.operator(OPALINE_OT_presets_refresh.bl_idname, icon='FILE_REFRESH')
-        from . import cluster
-        cluster.draw_preferences(self, layout)
+        r.operator("opaline.presets_refresh", icon='FILE_REFRESH')
+        box = layout.box()
+        box.label(text="SLURM cluster (Render panel > Render on cluster)")
+        box.prop(self, "cluster_command")
+        box.prop(self, "cluster_partition")
+        box.prop(self, "cluster_sbatch_args")
 
 
 def get(context=None):
@@ -116,50 +89,27 @@ def get(context=None):
     return entry.preferences if entry is not None else None
 
 
-def _executable(path):
-    return bool(path) and os.path.isfile(path) and os.access(path, os.X_OK)
-
-
-def renderer_candidates():
-    """(where, path) of each opaline-render looked for when the preference is empty, in order
-    (locations.renderer_dirs)."""
-    return [(w, os.path.join(d, RENDERER_NAME)) for w, d in locations.renderer_dirs()]
+def renderer_preference(context=None):
+    """The renderer path set in the preferences (Blender's // resolved), or ""."""
+    prefs = get(context)
+    return bpy.path.abspath(prefs.renderer_path) if prefs is not None and prefs.renderer_path \
+        else ""
 
 
 def renderer_missing_message(context=None):
     """Why no renderer is used and what to do, in a few lines (the preferences panel and the
     errors of F12 show it)."""
-    prefs = get(context)
-    if prefs is not None and prefs.renderer_path:
-        return ("opaline-render not found at '%s'\nfix or clear its path above (Preferences > "
-                "Add-ons > opaline)" % bpy.path.abspath(prefs.renderer_path))
-    dirs = []
-    for _, c in renderer_candidates():
-        d = os.path.dirname(c)
-        if d not in dirs:
-            dirs.append(d)
-    return ("opaline-render not found (searched %s)\ninstall it (cmake --install build --prefix "
-            "~/.local), put it on PATH, or set its path in Preferences > Add-ons > opaline"
-            % ", ".join(dirs))
+    return locations.renderer_missing_message(renderer_preference(context))
 
 
 def find_renderer(context=None, required=True):
-    """The opaline-render to run: the preference if set, else the first executable of
-    renderer_candidates(). Raises OpalineError saying where it looked (or returns None when
-    not `required`) when there is none."""
-    prefs = get(context)
-    if prefs is not None and prefs.renderer_path:
-        p = bpy.path.abspath(prefs.renderer_path)
-        if _executable(p):
-            return os.path.abspath(p)
-    else:
-        for _, c in renderer_candidates():
-            if _executable(c):
-                return os.path.abspath(c)
-    if required:
+    """The opaline-render to run (locations.find_renderer with the preferences' path). Raises
+    OpalineError saying where it looked (or returns None when not `required`) when there is
+    none."""
+    found = locations.find_renderer(renderer_preference(context))
+    if found is None and required:
         raise OpalineError(renderer_missing_message(context).replace("\n", ": ", 1))
-    return None
+    return found
 
 
-classes = (OPALINE_PG_folder, OPALINE_OT_folder_add, OPALINE_OT_folder_remove,
-           OPALINE_OT_presets_refresh, OPALINE_AP_preferences)
+classes = (OPALINE_PG_folder, OPALINE_OT_folder_add, OPALINE_AP_preferences)

@@ -2,15 +2,10 @@
 NAME.json (the factor report) and NAME.recipe (the build's recipe, presets/NAME.recipe: the
 preset's category), as the build writes them into <build>/presets/.
 
-The search order follows opaline-render's (docs/subsurface-rendering.md, "Finding the
-material"): the colon-separated OPALINE_PRESETS_PATH, the add-on preferences' extra folders, the
-folders the renderer in use searches by itself (PREFIX/share/opaline/presets beside its bin
-folder, then a build tree's build/presets), the presets installed in each prefix a renderer is
-looked for in (PREFIX/share/opaline/presets: the add-on's own prefix when it runs from
-PREFIX/share/opaline/blender_addon, then $OPALINE_BIN_DIR/.., PATH's folders' .., ~/.local,
-/usr/local, /opt/opaline, /usr), this source tree's build/presets, then OPALINE_PRESETS_DIR (set
-by the test harness). The first folder holding a name wins. So the presets installed with a
-renderer stay listed when no renderer is found (or another one is).
+The folders and their order are opaline-render's (--preset-folders; docs/rendering.md, "Finding
+materials"): the add-on adds the extra folders of its preferences through OPALINE_PRESETS_PATH
+and asks the renderer, so that what the chooser lists is what the renderer finds. The first
+folder holding a name wins. No bpy here: chooser.py is the Blender side.
 """
 
 import json
@@ -27,9 +22,6 @@ METHODS = ("svd", "tucker", "kcta", "nmf", "raw")
 # listed after every named category.
 OTHER = "Other"
 
-_PREVIEWS = None          # bpy.utils.previews collection (thumbnails)
-_ENUM_ITEMS = []          # kept alive: Blender needs the strings of dynamic enums to persist
-_CACHE = {"key": None, "presets": []}
 
 
 class Preset:
@@ -235,24 +227,24 @@ def human_size(n):
     return "%.1f GB" % n
 
 
-def search_folders(extra_folders=(), renderer_path=None):
-    """The preset folders in search order (existing folders only, no duplicates)."""
-    cands = [p for p in os.environ.get("OPALINE_PRESETS_PATH", "").split(":") if p]
-    cands += [p for p in extra_folders if p]
-    if renderer_path:
-        cands += locations.renderer_preset_folders(renderer_path)
-    cands += locations.installed_preset_folders()
-    root = locations.source_root()
-    if root:
-        cands.append(os.path.join(root, "build", "presets"))
-    if os.environ.get("OPALINE_PRESETS_DIR"):
-        cands.append(os.environ["OPALINE_PRESETS_DIR"])
+def search_folders(renderer_path=None, extra_folders=()):
+    """The preset folders in the renderer's search order (locations.preset_folders; the
+    extra folders of the add-on preferences among them), existing ones only, no duplicates."""
     out = []
-    for c in cands:
+    for c in locations.preset_folders(renderer_path, extra_folders):
         c = os.path.abspath(os.path.expanduser(c))
         if os.path.isdir(c) and c not in out:
             out.append(c)
     return out
+
+
+def renderer_finds(preset, renderer_path, scene_dir):
+    """Whether opaline-render, for a scene in scene_dir, finds this preset's file by its name
+    alone (in its environment, without the add-on's extra folders): then a scene may name it."""
+    if not renderer_path:
+        return False
+    found, _ = locations.find_material(renderer_path, preset.name, scene_dir)
+    return found is not None and os.path.realpath(found) == os.path.realpath(preset.opm)
 
 
 def scan(folders):
@@ -281,134 +273,3 @@ def scan(folders):
                     report = {}
             found[name] = Preset(name, folder, report)
     return [found[k] for k in sorted(found)]
-
-
-def renderer_knows(folder, renderer_path):
-    """Whether opaline-render finds presets in `folder` by name without help."""
-    folder = os.path.abspath(folder)
-    env = [os.path.abspath(p) for p in os.environ.get("OPALINE_PRESETS_PATH", "").split(":")
-           if p]
-    if folder in env:
-        return True
-    if renderer_path:
-        own = [os.path.abspath(f) for f in locations.renderer_preset_folders(renderer_path)]
-        return folder in own or os.path.realpath(folder) in own
-    return False
-
-
-# ---------------------------------------------------------------------------------------------
-# Blender side: cached scan, thumbnails, enum items.
-
-def current(context=None, refresh=False):
-    """The presets visible with the current preferences (cached until folders change)."""
-    from . import preferences
-    prefs = preferences.get(context)
-    extra = [f.path for f in prefs.preset_folders] if prefs else []
-    renderer = preferences.find_renderer(context, required=False)
-    folders = search_folders(extra, renderer)
-    key = tuple(folders)
-    if refresh or _CACHE["key"] != key:
-        _CACHE["key"] = key
-        _CACHE["presets"] = scan(folders)
-        _ENUM_ITEMS.clear()
-    return _CACHE["presets"]
-
-
-def find(name, context=None):
-    for p in current(context):
-        if p.name == name:
-            return p
-    return None
-
-
-def missing_message(name, context=None):
-    """Why the preset `name` is not found, blaming what is really missing: the renderer (whose
-    installed presets cannot be searched without it), else the preset, with the folders
-    searched."""
-    from . import preferences
-    prefs = preferences.get(context)
-    extra = [f.path for f in prefs.preset_folders] if prefs else []
-    renderer = preferences.find_renderer(context, required=False)
-    folders = search_folders(extra, renderer)
-    where = ("preset folders searched: " + ", ".join(folders)) if folders else \
-        "no preset folder exists"
-    if renderer is None:
-        return ("opaline preset '%s' not found because %s; %s" % (
-            name, preferences.renderer_missing_message(context).replace("\n", ": ", 1), where))
-    return "unknown opaline preset '%s' (%s; see Preferences > Add-ons > opaline)" % (
-        name, where)
-
-
-def image_icon(path):
-    """The icon id of the image file at path (a thumbnail loaded once into the add-on's
-    previews), or 0 when path is None or it cannot be loaded."""
-    global _PREVIEWS
-    if path is None:
-        return 0
-    try:
-        if _PREVIEWS is None:
-            import bpy.utils.previews
-            _PREVIEWS = bpy.utils.previews.new()
-        if path not in _PREVIEWS:
-            _PREVIEWS.load(path, path, 'IMAGE')
-        return _PREVIEWS[path].icon_id
-    except Exception:  # thumbnails are a nicety; never fail the UI for them
-        return 0
-
-
-def icon(preset):
-    """The icon id of the preset's thumbnail (its albedo map), or 0."""
-    return image_icon(preset.png)
-
-
-NONE_ID = "NONE"
-
-
-def enum_items(self, context):
-    """Items for the preset chooser: (name, label, summary, icon, index). The first item,
-    NONE_ID, stands for "no preset chosen" (so that no preset looks selected when none is)."""
-    if not _ENUM_ITEMS:
-        ps = current(context)
-        if ps:
-            _ENUM_ITEMS.append((NONE_ID, "No preset", "No preset chosen", 'BLANK1', 0))
-        else:
-            _ENUM_ITEMS.append((NONE_ID, "No presets found",
-                                "Build the repository or add a preset folder in the add-on "
-                                "preferences", 'ERROR', 0))
-        labels = [p.label for p in ps]
-        i = 0
-        for category, members in group(ps):
-            for p in members:
-                i += 1
-                label = p.label if labels.count(p.label) == 1 else p.name
-                _ENUM_ITEMS.append((p.name, label, "%s (%s): %s" % (p.name, category,
-                                                                    p.summary()), icon(p), i))
-    return _ENUM_ITEMS
-
-
-_SEARCH_ITEMS = []
-
-
-def search_items(self, context):
-    """Items for the preset search popup: the label says category, name, method, MB, error
-    and sample size, so typing any of them ("stone", "svd", "marble", "12.6 cm") finds a
-    preset."""
-    _SEARCH_ITEMS[:] = [(p.name, "%s / %s  -  %s" % (c, p.label, p.summary()), p.name)
-                        for c, members in group(current(context)) for p in members]
-    return _SEARCH_ITEMS
-
-
-def clear():
-    """Frees thumbnails and caches (unregister, refresh)."""
-    global _PREVIEWS
-    _ENUM_ITEMS.clear()
-    _SEARCH_ITEMS.clear()
-    _CACHE["key"] = None
-    _CACHE["presets"] = []
-    if _PREVIEWS is not None:
-        try:
-            import bpy.utils.previews
-            bpy.utils.previews.remove(_PREVIEWS)
-        except Exception:
-            pass
-        _PREVIEWS = None

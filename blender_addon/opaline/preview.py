@@ -12,7 +12,7 @@ import os
 
 import bpy
 
-from . import compat, presets
+from . import chooser, compat
 
 PREFIX = "opaline preview "
 TAG = "opaline_managed"
@@ -38,7 +38,7 @@ def albedo_path(mat, context=None):
     if not s.enabled:
         return None
     if s.kind == 'PRESET' and s.preset:
-        p = presets.find(s.preset, context)
+        p = chooser.find(s.preset, context)
         return p.png if p is not None else None
     if s.kind == 'FILE' and s.filepath:
         png = os.path.splitext(bpy.path.abspath(s.filepath))[0] + ".png"

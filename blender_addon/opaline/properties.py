@@ -5,7 +5,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from . import presets
+from . import chooser, presets
 
 # Jensen et al. 2001 media, as named by Mitsuba's dipole `material` parameter.
 DIPOLE_MATERIALS = ("Apple", "Chicken1", "Chicken2", "Cream", "Ketchup", "Marble", "Potato",
@@ -14,18 +14,18 @@ DIPOLE_MATERIALS = ("Apple", "Chicken1", "Chicken2", "Cream", "Ketchup", "Marble
 
 def _preset_get(self):
     """The chooser's value: the NONE item when no preset is chosen (nothing looks selected)."""
-    items = presets.enum_items(self, bpy.context)
+    items = chooser.enum_items(self, bpy.context)
     for it in items:
-        if it[0] == (self.preset or presets.NONE_ID):
+        if it[0] == (self.preset or chooser.NONE_ID):
             return it[4]
     return 0
 
 
 def _preset_set(self, value):
-    items = presets.enum_items(self, bpy.context)
+    items = chooser.enum_items(self, bpy.context)
     for it in items:
         if it[4] == value:
-            self.preset = "" if it[0] == presets.NONE_ID else it[0]
+            self.preset = "" if it[0] == chooser.NONE_ID else it[0]
             return
 
 
@@ -50,7 +50,7 @@ class OPALINE_PG_material(bpy.types.PropertyGroup):
         default='PRESET', update=_update_preview)
     preset: StringProperty(name="Preset", description="Preset name (NAME.opm in a preset folder)",
                            update=_update_preview)
-    preset_enum: EnumProperty(name="Preset", items=presets.enum_items, get=_preset_get,
+    preset_enum: EnumProperty(name="Preset", items=chooser.enum_items, get=_preset_get,
                               set=_preset_set, description="The measured material preset")
     dipole_material: EnumProperty(
         name="Material type",
@@ -116,10 +116,10 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
                                 max=50000000, soft_max=5000000,
                                 description="Subsurface pre-pass: most irradiance points laid "
                                             "per translucent object (0: the renderer's own "
-                                            "default, --limit sss-max-points; else written as "
-                                            "maxPoints and passed by F12). A measured material "
-                                            "at its physical size and the dipole lay only the "
-                                            "points near the view. Above it the points are coarser than the "
+                                            "default; else written as each <subsurface>'s "
+                                            "maxPoints). A measured material at its physical "
+                                            "size and the dipole lay only the points near the "
+                                            "view. Above it the points are coarser than the "
                                             "material and the render warns: raise it (more "
                                             "memory and pre-pass time)")
     threads: IntProperty(name="Threads", default=0, min=0,

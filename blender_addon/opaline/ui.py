@@ -7,7 +7,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from . import compat, presets
+from . import chooser, compat, presets
 from .errors import OpalineError
 
 
@@ -39,10 +39,10 @@ def draw_material_settings(layout, context, mat):
         col.label(text=REPLACES_NOTE, icon='SHADING_RENDERED')
     col.prop(s, "kind")
     if s.kind == 'PRESET':
-        p = presets.find(s.preset, context) if s.preset else None
+        p = chooser.find(s.preset, context) if s.preset else None
         row = col.row()
-        if p is not None and presets.icon(p):
-            row.template_icon(icon_value=presets.icon(p), scale=5.0)
+        if p is not None and chooser.icon(p):
+            row.template_icon(icon_value=chooser.icon(p), scale=5.0)
         sub = row.column(align=True)
         sub.context_pointer_set("material", mat)
         sub.popover(OPALINE_PT_preset_chooser.bl_idname,
@@ -202,7 +202,7 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
         mat = getattr(context, "material", None)
         wm = context.window_manager
         layout.prop(wm, "opaline_preset_filter", text="", icon='VIEWZOOM')
-        every = presets.current(context)
+        every = chooser.current(context)
         groups = presets.group(every, wm.opaline_preset_filter)
         if not groups:
             layout.label(text="No preset matches '%s'" % wm.opaline_preset_filter if every else
@@ -215,7 +215,7 @@ class OPALINE_PT_preset_chooser(bpy.types.Panel):
                                  even_rows=True, align=False)
             for p in members:
                 cell = grid.column(align=True)
-                cell.template_icon(icon_value=presets.icon(p), scale=3.5)
+                cell.template_icon(icon_value=chooser.icon(p), scale=3.5)
                 name = presets.display_parts(p.name)[0]
                 if mat is not None:
                     cell.prop_enum(mat.opaline, "preset_enum", p.name, text=name)
@@ -242,7 +242,7 @@ class OPALINE_PT_material_preview(MaterialPanel, bpy.types.Panel):
                          mat.opaline.enabled else "No albedo map to show (no preset chosen, "
                          "or no NAME.png beside the material file)", icon='INFO')
             return
-        layout.template_icon(icon_value=presets.image_icon(path), scale=7.0)
+        layout.template_icon(icon_value=chooser.image_icon(path), scale=7.0)
         s = mat.opaline
         what = s.preset if s.kind == 'PRESET' else os.path.basename(path)
         layout.label(text="Albedo map of %s" % what, icon='IMAGE_DATA')
@@ -255,7 +255,7 @@ class OPALINE_OT_preset_search(bpy.types.Operator):
     bl_label = "Search Presets"
     bl_property = "preset"
     bl_options = {'REGISTER', 'UNDO', 'INTERNAL'}
-    preset: EnumProperty(name="Preset", items=presets.search_items)
+    preset: EnumProperty(name="Preset", items=chooser.search_items)
 
     @classmethod
     def poll(cls, context):

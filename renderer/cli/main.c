@@ -1,8 +1,8 @@
-/* opaline-render - renders a scene to image files or to the tile stream on stdout.
- * The command line and the tile stream are documented in docs/rendering.md. */
+/* opaline-render - renders a scene to image files or to the tile stream on stdout, or answers
+ * questions about a scene (--check, --estimate, --list-inputs) and about where materials are
+ * found (--find-material, --preset-folders). The command line and the tile stream are
+ * documented in docs/rendering.md. */
 #include <errno.h>
-#include <libgen.h>
-#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,10 +15,11 @@
 
 #include "estimate.h"
 #include "inputs.h"
-#include "opaline_render.h"
+#include "options.h"
+#include "outputs.h"
+#include "presets.h"
+#include "stream.h"
 #include "tile_merge.h"
-
-enum { MAX_OUTPUTS = 16, MAX_DEFINES = 256 };
 
 static atomic_int g_cancel;   /* the renderer's cancel flag: a signal or a dead stream */
 static atomic_int g_signal;   /* the cancelling signal received, 0 while none */
@@ -36,170 +37,6 @@ static void on_interrupt(void *user, int sig)
 static const char *signal_name(int sig)
 {
     return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "?";
-}
-
-static void usage(FILE *f)
-{
-    fprintf(f,
-            "usage: opaline-render [options] SCENE.xml\n"
-            "  -o FILE        output image (.exr .png .pfm .hdr by extension; the film's\n"
-            "                 format without one, as /dev/stdout); repeatable\n"
-            "  -t N           worker threads (default: all cores)\n"
-            "  -s N           samples per pixel (overrides the scene's sampler)\n"
-            "  -D name=value  overrides <default name=...>; repeatable\n"
-            "  --check        parse and validate only\n"
-            "  --estimate     parse, then print the render's size and memory estimate on\n"
-            "                 stdout (key=value; for schedulers, docs/cluster.md), and key=,\n"
-            "                 the hash of everything the image depends on\n"
-            "  --list-inputs  parse, then print every file the scene reads (absolute paths,\n"
-            "                 one a line: the scene, includes, meshes, images, materials)\n"
-            "  --raw-exr      .exr outputs hold the rendered floats exactly (32-bit RGBA,\n"
-            "                 whatever the film says) and the key, film and crop: tiles for\n"
-            "                 --merge-tiles\n"
-            "  --merge-tiles LIST  render nothing: assemble the film from the tiles LIST\n"
-            "                 names (lines X Y W H FILE), each of this scene's key, film and\n"
-            "                 listed crop, and write the outputs as a render\n"
-            "  --limit NAME=VALUE  raise or lower a scene limit (coordinate, image-pixels,\n"
-            "                 kernel, sss-points, sss-max-points, include-bytes,\n"
-            "                 include-count, attribute-bytes, triangles, load-memory;\n"
-            "                 see docs/limits.md); repeatable\n"
-            "  --crop X,Y,W,H render only the WxH pixels at X,Y (top-left origin) of the film\n"
-            "  --sss-cache FILE  reuse the subsurface pre-pass's results saved in FILE where\n"
-            "                 its key (everything they depend on; not the camera, film or\n"
-            "                 crop) matches; FILE is (re)written when anything new was\n"
-            "                 computed. A FILE that is not such a cache is refused (exit 2)\n"
-            "  --sss-cache-only  with --sss-cache: the pre-pass for the whole film only (no\n"
-            "                 image, no -o), to be reused by later --crop tile renders\n"
-            "  --stream       write the tile stream to stdout; the render stops (exit 130)\n"
-            "                 when the parent process goes away\n"
-            "  --stream-log   with --stream, every log line also goes into the stream\n"
-            "  --partial MODE on an interrupt, OUT is kept and with MODE beside (default) the\n"
-            "                 finished tiles go to OUT.partial.EXT; none writes nothing\n"
-            "  -q / -v        quieter / more verbose\n");
-}
-
-/* ------------------------------------------------------------ the tile stream (little-endian) */
-
-typedef struct stream {
-    pthread_mutex_t lock;
-    FILE *f;
-    int error; /* errno of the first failed write; nothing is written after it */
-} stream;
-
-static int host_le(void)
-{
-    uint16_t one = 1;
-    unsigned char b;
-    memcpy(&b, &one, 1);
-    return b == 1;
-}
-
-/* Writes n bytes. The first failure is kept in s->error and sets the cancel flag: with its
- * reader gone (a closed pipe, a full disk) the render has no one to render for. */
-static void put(stream *s, const void *p, size_t n)
-{
-    if (s->error || n == 0)
-        return;
-    errno = 0;
-    if (fwrite(p, 1, n, s->f) != n) {
-        s->error = errno ? errno : EIO;
-        atomic_store(&g_cancel, 1);
-    }
-}
-
-/* Starts a record: its header; the caller then puts exactly n payload bytes and ends it. The
- * caller holds the lock from start to end. */
-static void record_start(stream *s, uint32_t type, uint64_t n)
-{
-    unsigned char h[16];
-    memcpy(h, "OPTS", 4);
-    op_put_le32(h + 4, type);
-    op_put_le64(h + 8, n);
-    put(s, h, sizeof h);
-}
-
-/* Ends a record: flushed, so the reader gets it now (and a write error shows now). */
-static void record_end(stream *s)
-{
-    errno = 0;
-    if (!s->error && fflush(s->f) != 0) {
-        s->error = errno ? errno : EIO;
-        atomic_store(&g_cancel, 1);
-    }
-}
-
-static void record(stream *s, uint32_t type, const void *payload, uint64_t n)
-{
-    record_start(s, type, n);
-    put(s, payload, (size_t)n);
-    record_end(s);
-}
-
-static void on_tile(void *user, const op_render_tile *t)
-{
-    stream *s = user; /* the renderer serializes tile callbacks; the lock orders them with progress */
-    size_t nf = (size_t)t->w * t->h * 4;
-    unsigned char head[16];
-    op_put_le32(head, (uint32_t)t->x);
-    op_put_le32(head + 4, (uint32_t)t->y);
-    op_put_le32(head + 8, (uint32_t)t->w);
-    op_put_le32(head + 12, (uint32_t)t->h);
-    pthread_mutex_lock(&s->lock);
-    record_start(s, 2, sizeof head + 4 * (uint64_t)nf);
-    put(s, head, sizeof head);
-    if (host_le()) {
-        put(s, t->rgba, nf * 4);
-    } else {
-        unsigned char b[4 * 256];
-        for (size_t i = 0; i < nf; i += 256) {
-            size_t m = nf - i < 256 ? nf - i : 256;
-            for (size_t k = 0; k < m; k++) {
-                uint32_t v;
-                memcpy(&v, &t->rgba[i + k], 4);
-                op_put_le32(b + 4 * k, v);
-            }
-            put(s, b, 4 * m);
-        }
-    }
-    record_end(s);
-    pthread_mutex_unlock(&s->lock);
-}
-
-/* PROGRESS: f64 fraction of the stage, then (since the stage label was added; readers of the
- * first version read the fraction only) u32 label length and the label. */
-static void on_progress(void *user, const char *label, double fraction, double eta)
-{
-    (void)eta;
-    stream *s = user;
-    size_t n = strlen(label);
-    if (n > 255)
-        n = 255;
-    unsigned char p[12 + 255];
-    uint64_t bits;
-    memcpy(&bits, &fraction, 8);
-    op_put_le64(p, bits);
-    op_put_le32(p + 8, (uint32_t)n);
-    memcpy(p + 12, label, n);
-    pthread_mutex_lock(&s->lock);
-    record(s, 3, p, 12 + n);
-    pthread_mutex_unlock(&s->lock);
-}
-
-/* LOG: u32 level (0 error, 1 warning, 2 info, 3 debug), then the message (UTF-8, escaped as
- * op_log prints it). Every line op_log writes with --stream-log (readers of the first version
- * of the stream refuse record types they do not know), while it also goes to stderr. */
-static void on_log(void *user, op_log_level level, const char *message)
-{
-    stream *s = user;
-    size_t n = strlen(message);
-    unsigned char p[4];
-    op_put_le32(p, (uint32_t)level);
-    pthread_mutex_lock(&s->lock);
-    record_start(s, 5, 4 + (uint64_t)n);
-    put(s, p, 4);
-    put(s, message, n);
-    record_end(s);
-    pthread_mutex_unlock(&s->lock);
 }
 
 /* In --stream mode the renderer works for the process that reads the stream (Blender): when that
@@ -222,484 +59,269 @@ static void stop_with_parent(void)
 #endif
 }
 
-/* Parses "X,Y,W,H" (non-negative integers; the film checks they fit). */
-static int parse_crop(const char *s, int v[4])
+/* What a run over a scene holds, released by run_free whatever the mode did. */
+typedef struct run {
+    const op_cli_options *o;
+    op_stream *stream;   /* with --stream */
+    op_scene *scene;
+    op_scene_info info;
+    uint64_t key;        /* with --estimate, --merge-tiles, --raw-exr: inputs.h's key */
+    char scene_tag[96];  /* "key=... film=WxH": what every tile carries, --merge-tiles expects */
+    char tile_tag[160];  /* with --raw-exr: the .exr outputs' tag, scene_tag and the crop */
+    char default_out[2048];
+    const char *outputs[OP_CLI_MAX_OUTPUTS + 1];
+    int noutputs;
+} run;
+
+static void run_free(run *r)
 {
-    for (int i = 0; i < 4; i++) {
-        char *end;
-        errno = 0;
-        long x = strtol(s, &end, 10);
-        if (errno || end == s || x < 0 || x > 65536 || *end != (i < 3 ? ',' : '\0'))
-            return 0;
-        v[i] = (int)x;
-        s = end + 1;
-    }
-    return 1;
+    op_log_set_hook(NULL, NULL);
+    op_stream_free(r->stream);
+    op_scene_free(r->scene);
 }
 
-/* ------------------------------------------------------------ output images */
-
-static int g_raw_exr; /* --raw-exr: .exr outputs are the image's floats, 32-bit RGBA */
-static char g_tile_tag[160]; /* with --raw-exr: their "opalineTile" attribute (tile_merge.h) */
-
-/* Writes img to each path, all of them put in place together or none (op_output_group).
- * Returns code, or when code is 0 the exit code of a failed write. */
-static int write_images(const op_scene *scene, const op_image *img, const char *const *paths,
-                        int n, int code)
+/* The exit code of a failed step, its message logged. */
+static int failed(const op_error *err)
 {
-    op_error werr = {0};
-    op_status ws = OP_OK;
-    op_output_group_begin();
-    for (int i = 0; i < n && !ws; i++) {
-        const char *format = op_scene_image_format(scene, paths[i]);
-        ws = g_raw_exr && format && !strcmp(format, ".exr")
-                 ? op_image_write_exr_attr(paths[i], img, 0, OP_TILE_ATTR, g_tile_tag, &werr)
-                 : op_scene_write_image(scene, img, paths[i], &werr);
+    op_log(OP_LOG_ERROR, "%s", err->message);
+    return op_exit_code(err->status);
+}
+
+/* Every output (and the cache) writable, none of them another or the scene, before loading. */
+static int check_outputs_before(const op_cli_options *o, op_error *err)
+{
+    const char *written[OP_CLI_MAX_OUTPUTS + 1], *read[2] = {o->scene_path, o->merge_list};
+    int nwritten = 0;
+    for (int i = 0; i < o->noutputs; i++)
+        written[nwritten++] = o->outputs[i];
+    struct stat cache_st; /* a cache that is not a regular file is the cache's to refuse (exit 2) */
+    if (o->sss_cache && (stat(o->sss_cache, &cache_st) != 0 || S_ISREG(cache_st.st_mode)))
+        written[nwritten++] = o->sss_cache;
+    return op_output_check(written, nwritten, read, 2, err);
+}
+
+/* Loads the scene (and what the mode needs of its inputs: their list, or their key), applies
+ * the crop. Returns -1 to go on, else the exit code. */
+static int load(run *r, op_error *err)
+{
+    const op_cli_options *o = r->o;
+    op_status st = op_scene_load_limited(o->scene_path, o->defines, o->ndefines, &o->limits,
+                                         &r->scene, err);
+    op_inputs inputs = {0}; /* the files the scene read: listed, or hashed into its key */
+    int list = o->mode == OP_MODE_LIST_INPUTS;
+    int keyed = o->mode == OP_MODE_ESTIMATE || o->mode == OP_MODE_MERGE_TILES || o->raw_exr;
+    if (st == OP_OK && (list || keyed))
+        st = op_inputs_collect(&inputs, err);
+    if (st == OP_OK && list)
+        st = op_inputs_print(&inputs, stdout, err);
+    else if (st == OP_OK && keyed)
+        st = op_inputs_key(&inputs, r->scene, o->defines, o->ndefines, &o->limits, o->spp,
+                           &r->key, err);
+    op_inputs_free(&inputs);
+    if (st == OP_OK && o->has_crop)
+        st = op_scene_set_crop(r->scene, o->crop[0], o->crop[1], o->crop[2], o->crop[3], err);
+    if (st)
+        return failed(err);
+    if (atomic_load(&g_signal)) { /* loading is not cancellable, but quick: stop before rendering */
+        op_log(OP_LOG_WARN, "interrupted (%s) while loading %s",
+               signal_name(atomic_load(&g_signal)), o->scene_path);
+        return op_exit_code(OP_ERR_CANCELLED);
     }
-    if (ws)
-        op_output_group_abort();
-    else
-        ws = op_output_group_commit(&werr);
-    if (ws) {
-        op_log(OP_LOG_ERROR, "%s%s", werr.message, n > 1 ? " (no output was replaced)" : "");
-        return code ? code : op_exit_code(ws);
+    op_scene_get_info(r->scene, &r->info);
+    return -1;
+}
+
+static int print_estimate(const run *r)
+{
+    op_estimate e;
+    op_estimate_render(&r->info, &r->o->limits, &e);
+    const double mb = 1024.0 * 1024.0;
+    const op_scene_info *in = &r->info;
+    printf("width=%d height=%d full_width=%d full_height=%d spp=%d translucent=%d "
+           "memory_mb=%.0f loaded_mb=%.0f image_mb=%.0f sss_mb=%.0f key=%016llx\n",
+           in->width, in->height, in->full_width, in->full_height, in->spp,
+           in->subsurface_shapes, e.total_bytes / mb + 0.5, e.loaded_bytes / mb,
+           e.image_bytes / mb, e.sss_bytes / mb, (unsigned long long)r->key);
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        op_log(OP_LOG_ERROR, "stdout: cannot write the estimate");
+        return 1;
     }
-    for (int i = 0; i < n; i++)
-        op_log(OP_LOG_INFO, "wrote %s", paths[i]);
+    return 0;
+}
+
+/* The tiles' floats, written exactly as a render's image. */
+static int merge_tiles(const run *r)
+{
+    op_image merged;
+    op_error err = {0};
+    op_status st = op_tiles_merge(r->o->merge_list, r->info.width, r->info.height, r->scene_tag,
+                                  &merged, &err);
+    int code = st ? failed(&err)
+                  : op_write_images(r->scene, &merged, r->outputs, r->noutputs,
+                                    r->o->raw_exr ? r->tile_tag : NULL, 0);
+    op_image_free(&merged);
     return code;
 }
 
-/* path with ".partial" before its extension (out.exr -> out.partial.exr), so the format stays.
- * Returns 0 when it does not fit in n bytes. */
-static int partial_name(const char *path, char *out, size_t n)
+/* Writes what the render made (its stats rs): the image when complete, else what an
+ * interrupted render leaves. Returns code as op_write_images does. */
+static int write_result(const run *r, op_renderer *rend, const op_render_stats *rs, op_status st,
+                        int code)
 {
-    const char *base = strrchr(path, '/');
-    base = base ? base + 1 : path;
-    const char *dot = strrchr(base, '.');
-    int len = dot && dot != base
-                  ? snprintf(out, n, "%.*s.partial%s", (int)(dot - path), path, dot)
-                  : snprintf(out, n, "%s.partial", path);
-    return len >= 0 && (size_t)len < n;
-}
-
-/* An incomplete render (interrupted, or its tile stream gone): the outputs are left as they
- * are, never replaced by less; with beside, the finished tiles go to each output's partial name
- * (nothing when no tile finished). Returns code as write_images does. */
-static int write_partial(const op_scene *scene, const op_image *img, const op_render_stats *rs,
-                         const char *const *outputs, int n, int beside, int code)
-{
-    char what[64], when[64];
-    if (atomic_load(&g_signal))
-        snprintf(what, sizeof what, "interrupted (%s)", signal_name(atomic_load(&g_signal)));
+    const op_cli_options *o = r->o;
+    const char *raw_tag = o->raw_exr ? r->tile_tag : NULL;
+    if (o->sss_cache_only) {
+        if (st == OP_OK)
+            op_log(OP_LOG_INFO, "pre-pass cache %s: done (--sss-cache-only: no image)",
+                   o->sss_cache);
+        return code;
+    }
+    if (st != OP_OK && st != OP_ERR_CANCELLED)
+        return code;
+    const op_image *img = op_renderer_image(rend);
+    if (rs->tiles_done == rs->tiles)
+        return op_write_images(r->scene, img, r->outputs, r->noutputs, raw_tag, code);
+    char what[64];
+    int sig = atomic_load(&g_signal);
+    if (sig)
+        snprintf(what, sizeof what, "interrupted (%s)", signal_name(sig));
     else
         snprintf(what, sizeof what, "stopped");
-    if (rs->tiles_done == 0)
-        snprintf(when, sizeof when, "before any tile was finished");
-    else
-        snprintf(when, sizeof when, "after %d of %d tiles", rs->tiles_done, rs->tiles);
-    if (n == 0)
-        op_log(OP_LOG_WARN, "%s %s", what, when);
-    for (int i = 0; i < n; i++) {
-        char part[4096];
-        if (!beside || rs->tiles_done == 0) {
-            op_log(OP_LOG_WARN, "%s %s: %s not written", what, when, outputs[i]);
-        } else if (!partial_name(outputs[i], part, sizeof part)) {
-            op_log(OP_LOG_ERROR, "%s: the name is too long for its partial image", outputs[i]);
-            if (code == 0)
-                code = op_exit_code(OP_ERR_IO);
-        } else {
-            op_log(OP_LOG_WARN, "%s %s: %s not written, the finished tiles go to %s", what, when,
-                   outputs[i], part);
-            const char *p = part;
-            code = write_images(scene, img, &p, 1, code);
+    return op_write_partial(r->scene, img, rs, r->outputs, r->noutputs, o->partial_beside,
+                            what, raw_tag, code);
+}
+
+static int render(run *r)
+{
+    const op_cli_options *o = r->o;
+    op_render_options opt;
+    op_render_options_init(&opt);
+    opt.threads = o->threads;
+    opt.spp = o->spp;
+    opt.tile_size = o->tile_size > 0 ? o->tile_size : OP_RENDER_TILE_SIZE;
+    opt.cancel = &g_cancel;
+    opt.sss_cache = o->sss_cache;
+    opt.sss_cache_only = o->sss_cache_only;
+    if (r->stream) {
+        opt.tile = op_stream_tile;
+        opt.tile_user = r->stream;
+        opt.progress = op_stream_progress;
+        opt.progress_user = r->stream;
+        op_stream_begin(r->stream, r->info.width, r->info.height, opt.tile_size);
+    }
+    op_renderer *rend = op_renderer_new(&opt);
+    if (!rend) {
+        op_log(OP_LOG_ERROR, "out of memory");
+        return 1;
+    }
+    op_error err = {0};
+    op_status st = op_renderer_render(rend, r->scene, &err); /* a failed stream cancels it */
+    int code = 0;
+    if (r->stream && op_stream_error(r->stream)) {
+        op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream (%s): rendering stopped",
+               strerror(op_stream_error(r->stream)));
+        code = op_exit_code(OP_ERR_IO);
+    } else if (st && st != OP_ERR_CANCELLED) {
+        code = failed(&err);
+    }
+    op_render_stats rs;
+    op_renderer_get_stats(rend, &rs);
+    code = write_result(r, rend, &rs, st, code);
+    int sig = atomic_load(&g_signal); /* read once: the message and the exit code agree */
+    int complete = rs.tiles_done == rs.tiles && (st == OP_OK || st == OP_ERR_CANCELLED);
+    if (sig && complete && !o->sss_cache_only)
+        op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete", signal_name(sig));
+    if (code == 0 && (sig || st == OP_ERR_CANCELLED))
+        code = op_exit_code(OP_ERR_CANCELLED);
+    if (r->stream) {
+        int failed_before = op_stream_error(r->stream) != 0;
+        if (o->stream_log)
+            op_stream_stats(r->stream, &rs);
+        op_stream_end(r->stream, code);
+        if (op_stream_error(r->stream) && !failed_before) {
+            op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream's end (%s)",
+                   strerror(op_stream_error(r->stream)));
+            code = op_exit_code(OP_ERR_IO);
         }
     }
+    op_renderer_free(rend);
     return code;
 }
 
-/* ------------------------------------------------------------ main */
-
-static int parse_int(const char *s, int lo, int hi, int *out)
+/* The run of a mode over a scene, from the checks before loading to its exit code. */
+static int run_scene(run *r)
 {
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi)
-        return 0;
-    *out = (int)v;
-    return 1;
-}
-
-/* The default output: the film's filename, else the scene's basename, with the film's
- * fileFormat's extension when it has none. */
-static void default_output(const char *scene_path, const op_scene_info *info, char *out, size_t n)
-{
-    if (info->film_filename) {
-        const char *f = info->film_filename;
-        const char *dot = strrchr(f, '.');
-        const char *slash = strrchr(f, '/');
-        if (!dot || (slash && dot < slash))
-            snprintf(out, n, "%s%s", f, info->film_extension);
-        else
-            snprintf(out, n, "%s", f);
-        return;
+    const op_cli_options *o = r->o;
+    op_error err = {0};
+    if (o->stream) {
+        r->stream = op_stream_new(stdout, &g_cancel);
+        if (!r->stream) {
+            op_log(OP_LOG_ERROR, "out of memory");
+            return 1;
+        }
+        if (o->stream_log)
+            op_log_set_hook(op_stream_log, r->stream); /* before any thread starts */
     }
-    char *tmp = strdup(scene_path);
-    const char *base = tmp ? basename(tmp) : "render";
-    char stem[1024];
-    snprintf(stem, sizeof stem, "%s", base);
-    char *dot = strrchr(stem, '.');
-    if (dot && dot != stem)
-        *dot = '\0';
-    snprintf(out, n, "%s%s", stem, info->film_extension);
-    free(tmp);
+    if (op_interrupt_install(on_interrupt, NULL, &err) != OP_OK)
+        return failed(&err);
+    if (o->stream || getenv("OPALINE_PARENT_PID")) /* a stream's reader, or opaline-cluster */
+        stop_with_parent();
+    if (check_outputs_before(o, &err) != OP_OK)
+        return failed(&err);
+    int code = load(r, &err);
+    if (code >= 0 || o->mode == OP_MODE_LIST_INPUTS)
+        return code >= 0 ? code : 0;
+    const op_scene_info *in = &r->info;
+    snprintf(r->scene_tag, sizeof r->scene_tag, "key=%016llx film=%dx%d",
+             (unsigned long long)r->key, in->full_width, in->full_height);
+    snprintf(r->tile_tag, sizeof r->tile_tag, "%s crop=%d,%d,%d,%d", r->scene_tag, o->crop[0],
+             o->crop[1], o->has_crop ? o->crop[2] : in->width,
+             o->has_crop ? o->crop[3] : in->height);
+    r->noutputs = o->noutputs;
+    memcpy(r->outputs, o->outputs, sizeof o->outputs);
+    if (r->noutputs == 0 && !o->stream && !o->sss_cache_only && o->mode != OP_MODE_ESTIMATE) {
+        op_default_output(o->scene_path, in, r->default_out, sizeof r->default_out);
+        r->outputs[r->noutputs++] = r->default_out;
+    }
+    /* after loading: none of the outputs a file the scene reads */
+    if (op_output_check(r->outputs, r->noutputs, NULL, 0, &err) != OP_OK)
+        return failed(&err);
+    switch (o->mode) {
+    case OP_MODE_CHECK:
+        op_log(OP_LOG_INFO, "%s: valid (%dx%d, %d shapes, %d triangles, %d emitters, %d "
+               "translucent)", o->scene_path, in->width, in->height, in->shapes,
+               in->triangles, in->emitters, in->subsurface_shapes);
+        return 0;
+    case OP_MODE_ESTIMATE:
+        return print_estimate(r);
+    case OP_MODE_MERGE_TILES:
+        return merge_tiles(r);
+    default:
+        return render(r);
+    }
 }
 
 int main(int argc, char **argv)
 {
     op_file_guard_faults(); /* an input file truncated while mapped: a message, exit 2 */
     op_file_protect_inputs(); /* no output replaces a file this run reads */
-    const char *outputs[MAX_OUTPUTS];
-    int noutputs = 0, threads = 0, spp = 0, check = 0, stream_mode = 0, verbosity = 0;
-    int partial_beside = 1, has_crop = 0, crop[4] = {0, 0, 0, 0}, stream_log = 0;
-    int estimate = 0, list_inputs = 0;
-    const char *merge_list = NULL;
-    op_scene_define defines[MAX_DEFINES];
-    char *define_buf[MAX_DEFINES];
-    int ndefines = 0;
-    const char *scene_path = NULL, *sss_cache = NULL;
-    int sss_cache_only = 0;
-    op_scene_limits limits;
-    op_scene_limits_init(&limits);
-    int bad = 0;
-    for (int i = 1; i < argc && !bad; i++) {
-        const char *a = argv[i];
-        int need = strcmp(a, "-o") == 0 || strcmp(a, "-t") == 0 || strcmp(a, "-s") == 0 ||
-                   strcmp(a, "-D") == 0 || strcmp(a, "--limit") == 0 ||
-                   strcmp(a, "--partial") == 0 || strcmp(a, "--crop") == 0 ||
-                   strcmp(a, "--merge-tiles") == 0 || strcmp(a, "--sss-cache") == 0;
-        if (need && i + 1 >= argc) {
-            op_log(OP_LOG_ERROR, "%s needs a value", a);
-            bad = 1;
-            break;
-        }
-        if (strcmp(a, "-o") == 0) {
-            if (noutputs == MAX_OUTPUTS) {
-                op_log(OP_LOG_ERROR, "at most %d -o outputs", MAX_OUTPUTS);
-                bad = 1;
-            } else {
-                outputs[noutputs++] = argv[++i];
-            }
-        } else if (strcmp(a, "-t") == 0) {
-            if (!parse_int(argv[++i], 1, 1024, &threads)) {
-                op_log(OP_LOG_ERROR, "-t %s: need a thread count in 1..1024", argv[i]);
-                bad = 1;
-            }
-        } else if (strcmp(a, "-s") == 0) {
-            if (!parse_int(argv[++i], 1, 1 << 24, &spp)) {
-                op_log(OP_LOG_ERROR, "-s %s: need a sample count in 1..16777216", argv[i]);
-                bad = 1;
-            }
-        } else if (strcmp(a, "-D") == 0) {
-            const char *d = argv[++i];
-            const char *eq = strchr(d, '=');
-            if (!eq || eq == d || ndefines == MAX_DEFINES) {
-                op_log(OP_LOG_ERROR, "-D %s: need name=value", d);
-                bad = 1;
-            } else {
-                char *copy = strdup(d);
-                if (!copy) {
-                    bad = 1;
-                    break;
-                }
-                copy[eq - d] = '\0';
-                define_buf[ndefines] = copy;
-                defines[ndefines].name = copy;
-                defines[ndefines].value = copy + (eq - d) + 1;
-                ndefines++;
-            }
-        } else if (strcmp(a, "--limit") == 0) {
-            op_error lerr = {0};
-            if (op_scene_limits_set(&limits, argv[++i], &lerr) != OP_OK) {
-                op_log(OP_LOG_ERROR, "--%s", lerr.message); /* "--limit ...: ..." */
-                bad = 1;
-            }
-        } else if (strcmp(a, "--crop") == 0) {
-            if (!parse_crop(argv[++i], crop)) {
-                op_log(OP_LOG_ERROR, "--crop %s: need X,Y,W,H (whole numbers, pixels of the "
-                       "film from its top-left corner)", argv[i]);
-                bad = 1;
-            }
-            has_crop = 1;
-        } else if (strcmp(a, "--sss-cache") == 0) {
-            sss_cache = argv[++i];
-            if (!*sss_cache) {
-                op_log(OP_LOG_ERROR, "--sss-cache needs a file name");
-                bad = 1;
-            }
-        } else if (strcmp(a, "--sss-cache-only") == 0) {
-            sss_cache_only = 1;
-        } else if (strcmp(a, "--check") == 0) {
-            check = 1;
-        } else if (strcmp(a, "--estimate") == 0) {
-            estimate = 1;
-        } else if (strcmp(a, "--list-inputs") == 0) {
-            list_inputs = 1;
-        } else if (strcmp(a, "--raw-exr") == 0) {
-            g_raw_exr = 1;
-        } else if (strcmp(a, "--merge-tiles") == 0) {
-            merge_list = argv[++i];
-        } else if (strcmp(a, "--stream") == 0) {
-            stream_mode = 1;
-        } else if (strcmp(a, "--stream-log") == 0) {
-            stream_log = 1;
-        } else if (strcmp(a, "--partial") == 0) {
-            const char *w = argv[++i];
-            partial_beside = strcmp(w, "beside") == 0;
-            if (!partial_beside && strcmp(w, "none") != 0) {
-                op_log(OP_LOG_ERROR, "--partial %s: need beside or none", w);
-                bad = 1;
-            }
-        } else if (strcmp(a, "-q") == 0) {
-            verbosity--;
-        } else if (strcmp(a, "-v") == 0) {
-            verbosity++;
-        } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
-            usage(stdout);
-            for (int k = 0; k < ndefines; k++)
-                free(define_buf[k]);
-            if (fflush(stdout) != 0 || ferror(stdout)) {
-                op_log(OP_LOG_ERROR, "stdout: cannot write the usage: %s",
-                       errno ? strerror(errno) : "write error");
-                return 1;
-            }
-            return 0;
-        } else if (a[0] == '-' && a[1]) {
-            op_log(OP_LOG_ERROR, "unknown option %s", a);
-            bad = 1;
-        } else if (scene_path) {
-            op_log(OP_LOG_ERROR, "more than one scene given (%s, %s)", scene_path, a);
-            bad = 1;
+    op_cli_options o;
+    int code = op_cli_parse(argc, argv, &o);
+    if (code < 0) {
+        op_log_set_level(o.verbosity <= -2 ? OP_LOG_ERROR
+                         : o.verbosity == -1 ? OP_LOG_WARN
+                         : o.verbosity == 0  ? OP_LOG_INFO
+                                             : OP_LOG_DEBUG);
+        if (o.mode == OP_MODE_FIND_MATERIAL) {
+            code = op_print_material(stdout, o.material, o.scene_dir);
+        } else if (o.mode == OP_MODE_PRESET_FOLDERS) {
+            code = op_print_preset_folders(stdout, o.scene_dir);
         } else {
-            scene_path = a;
+            run r = {.o = &o};
+            code = run_scene(&r);
+            run_free(&r);
         }
     }
-    if (!bad && !scene_path) {
-        op_log(OP_LOG_ERROR, "no scene given");
-        bad = 1;
-    }
-    if (!bad && merge_list && (has_crop || stream_mode)) {
-        op_log(OP_LOG_ERROR, "--merge-tiles assembles the whole film: not with --crop or --stream");
-        bad = 1;
-    }
-    if (!bad && sss_cache_only && !sss_cache) {
-        op_log(OP_LOG_ERROR, "--sss-cache-only needs --sss-cache FILE");
-        bad = 1;
-    }
-    if (!bad && sss_cache_only && (noutputs > 0 || stream_mode)) {
-        op_log(OP_LOG_ERROR, "--sss-cache-only renders no image: it takes no -o or --stream");
-        bad = 1;
-    }
-    if (bad) {
-        usage(stderr);
-        for (int k = 0; k < ndefines; k++)
-            free(define_buf[k]);
-        return 2;
-    }
-    op_log_set_level(verbosity <= -2 ? OP_LOG_ERROR
-                     : verbosity == -1 ? OP_LOG_WARN
-                     : verbosity == 0  ? OP_LOG_INFO
-                                       : OP_LOG_DEBUG);
-
-    stream s;
-    pthread_mutex_init(&s.lock, NULL);
-    s.f = stdout;
-    s.error = 0;
-    if (stream_mode && stream_log)
-        op_log_set_hook(on_log, &s); /* before any thread starts; removed before s goes */
-    op_error err = {0};
-    if (op_interrupt_install(on_interrupt, NULL, &err) != OP_OK) {
-        op_log(OP_LOG_ERROR, "%s", err.message);
-        op_log_set_hook(NULL, NULL);
-        return op_exit_code(err.status);
-    }
-    if (stream_mode || getenv("OPALINE_PARENT_PID")) /* a stream's reader, or opaline-cluster */
-        stop_with_parent();
-    /* Every output (and the cache) writable, none of them another or the scene, before loading;
-     * after it, none of them a file the scene reads. */
-    const char *written[MAX_OUTPUTS + 1], *read[2] = {scene_path, merge_list};
-    int nwritten = 0;
-    for (int i = 0; i < noutputs; i++)
-        written[nwritten++] = outputs[i];
-    struct stat cache_st; /* a cache that is not a regular file is the cache's to refuse (exit 2) */
-    if (sss_cache && (stat(sss_cache, &cache_st) != 0 || S_ISREG(cache_st.st_mode)))
-        written[nwritten++] = sss_cache;
-    if (op_output_check(written, nwritten, read, 2, &err) != OP_OK) {
-        for (int k = 0; k < ndefines; k++)
-            free(define_buf[k]);
-        op_log(OP_LOG_ERROR, "%s", err.message);
-        op_log_set_hook(NULL, NULL);
-        return op_exit_code(err.status);
-    }
-    op_scene *scene = NULL;
-    op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
-    op_inputs inputs = {0}; /* the files the scene read: listed, or hashed into its key */
-    uint64_t key = 0;
-    if (st == OP_OK && (list_inputs || estimate || merge_list || g_raw_exr))
-        st = op_inputs_collect(&inputs, &err);
-    if (st == OP_OK && list_inputs)
-        st = op_inputs_print(&inputs, stdout, &err);
-    else if (st == OP_OK && (estimate || merge_list || g_raw_exr))
-        st = op_inputs_key(&inputs, scene, defines, ndefines, &limits, spp, &key,
-                           &err);
-    op_inputs_free(&inputs);
-    for (int k = 0; k < ndefines; k++)
-        free(define_buf[k]);
-    if (st == OP_OK && has_crop)
-        st = op_scene_set_crop(scene, crop[0], crop[1], crop[2], crop[3], &err);
-    if (st) {
-        op_log(OP_LOG_ERROR, "%s", err.message);
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        return op_exit_code(st);
-    }
-    if (atomic_load(&g_signal)) { /* loading is not cancellable, but quick: stop before rendering */
-        op_log(OP_LOG_WARN, "interrupted (%s) while loading %s",
-               signal_name(atomic_load(&g_signal)), scene_path);
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        return op_exit_code(OP_ERR_CANCELLED);
-    }
-    op_scene_info info;
-    op_scene_get_info(scene, &info);
-    if (list_inputs) {
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        return 0;
-    }
-    char scene_tag[96]; /* what every tile of this render carries and --merge-tiles expects */
-    snprintf(scene_tag, sizeof scene_tag, "key=%016llx film=%dx%d", (unsigned long long)key,
-             info.full_width, info.full_height);
-    snprintf(g_tile_tag, sizeof g_tile_tag, "%s crop=%d,%d,%d,%d", scene_tag, crop[0], crop[1],
-             has_crop ? crop[2] : info.width, has_crop ? crop[3] : info.height);
-    char default_out[2048];
-    if (noutputs == 0 && !stream_mode && !sss_cache_only && !estimate) {
-        default_output(scene_path, &info, default_out, sizeof default_out);
-        outputs[noutputs++] = default_out;
-    }
-    if (op_output_check(outputs, noutputs, NULL, 0, &err) != OP_OK) {
-        op_log(OP_LOG_ERROR, "%s", err.message);
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        return op_exit_code(err.status);
-    }
-    if (check) {
-        op_log(OP_LOG_INFO, "%s: valid (%dx%d, %d shapes, %d triangles, %d emitters, %d "
-               "translucent)", scene_path, info.width, info.height, info.shapes, info.triangles,
-               info.emitters, info.subsurface_shapes);
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        return 0;
-    }
-    if (estimate) {
-        op_estimate e;
-        op_estimate_render(&info, &limits, &e);
-        const double mb = 1024.0 * 1024.0;
-        printf("width=%d height=%d full_width=%d full_height=%d spp=%d translucent=%d "
-               "memory_mb=%.0f loaded_mb=%.0f image_mb=%.0f sss_mb=%.0f key=%016llx\n",
-               info.width, info.height, info.full_width, info.full_height, info.spp,
-               info.subsurface_shapes, e.total_bytes / mb + 0.5, e.loaded_bytes / mb,
-               e.image_bytes / mb, e.sss_bytes / mb, (unsigned long long)key);
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        if (fflush(stdout) != 0 || ferror(stdout)) {
-            op_log(OP_LOG_ERROR, "stdout: cannot write the estimate");
-            return 1;
-        }
-        return 0;
-    }
-    if (merge_list) { /* the tiles' floats, written exactly as a render's image */
-        op_image merged;
-        st = op_tiles_merge(merge_list, info.width, info.height, scene_tag, &merged, &err);
-        int mcode = st ? op_exit_code(st) : write_images(scene, &merged, outputs, noutputs, 0);
-        if (st)
-            op_log(OP_LOG_ERROR, "%s", err.message);
-        op_image_free(&merged);
-        op_log_set_hook(NULL, NULL);
-        op_scene_free(scene);
-        return mcode;
-    }
-
-    op_render_options opt;
-    op_render_options_init(&opt);
-    opt.threads = threads;
-    opt.spp = spp;
-    opt.cancel = &g_cancel;
-    opt.sss_cache = sss_cache;
-    opt.sss_cache_only = sss_cache_only;
-    if (stream_mode) {
-        opt.tile = on_tile;
-        opt.tile_user = &s;
-        opt.progress = on_progress;
-        opt.progress_user = &s;
-        unsigned char p[12];
-        op_put_le32(p, (uint32_t)info.width);
-        op_put_le32(p + 4, (uint32_t)info.height);
-        op_put_le32(p + 8, 4);
-        record(&s, 1, p, sizeof p);
-    }
-    op_renderer *r = op_renderer_new(&opt);
-    if (!r) {
-        op_log(OP_LOG_ERROR, "out of memory");
-        op_log_set_hook(NULL, NULL);
-        pthread_mutex_destroy(&s.lock);
-        op_scene_free(scene);
-        return 1;
-    }
-    st = op_renderer_render(r, scene, &err); /* a stream already failed cancels it at once */
-    op_render_stats rs;
-    op_renderer_get_stats(r, &rs);
-    int code = 0;
-    if (s.error) {
-        op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream (%s): rendering stopped",
-               strerror(s.error));
-        code = op_exit_code(OP_ERR_IO);
-    } else if (st && st != OP_ERR_CANCELLED) {
-        op_log(OP_LOG_ERROR, "%s", err.message);
-        code = op_exit_code(st);
-    }
-    if (sss_cache_only) {
-        if (st == OP_OK)
-            op_log(OP_LOG_INFO, "pre-pass cache %s: done (--sss-cache-only: no image)", sss_cache);
-    } else if (st == OP_OK || st == OP_ERR_CANCELLED) {
-        const op_image *img = op_renderer_image(r);
-        if (rs.tiles_done == rs.tiles) {
-            code = write_images(scene, img, outputs, noutputs, code);
-            if (atomic_load(&g_signal))
-                op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete",
-                       signal_name(atomic_load(&g_signal)));
-        } else {
-            code = write_partial(scene, img, &rs, outputs, noutputs, partial_beside, code);
-        }
-    }
-    if (code == 0 && (atomic_load(&g_signal) || st == OP_ERR_CANCELLED))
-        code = op_exit_code(OP_ERR_CANCELLED);
-    if (stream_mode) {
-        unsigned char p[4];
-        op_put_le32(p, (uint32_t)code);
-        int failed_before = s.error != 0;
-        pthread_mutex_lock(&s.lock);
-        record(&s, 4, p, sizeof p);
-        pthread_mutex_unlock(&s.lock);
-        if (s.error && !failed_before) {
-            op_log(OP_LOG_ERROR, "stdout: cannot write the tile stream's end (%s)",
-                   strerror(s.error));
-            code = op_exit_code(OP_ERR_IO);
-        }
-    }
-    op_log_set_hook(NULL, NULL);
-    pthread_mutex_destroy(&s.lock);
-    op_renderer_free(r);
-    op_scene_free(scene);
+    op_cli_options_free(&o);
     return code;
 }

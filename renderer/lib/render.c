@@ -276,7 +276,7 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
     job.cancel = opt->cancel;
     job.ctx.scene = s;
     job.spp = opt->spp > 0 ? opt->spp : s->sampler.spp;
-    job.tile = opt->tile_size > 0 ? opt->tile_size : 32;
+    job.tile = opt->tile_size > 0 ? opt->tile_size : OP_RENDER_TILE_SIZE;
     atomic_init(&job.tiles_done, 0);
     job.tiles_x = (s->film.width + job.tile - 1) / job.tile;
     int tiles_y = (s->film.height + job.tile - 1) / job.tile;
@@ -297,6 +297,7 @@ op_status op_renderer_render(op_renderer *r, const op_scene *s, op_error *err)
         r->stats.sss_sources_reused = ss.sources_reused;
         r->stats.sss_receivers_reused = ss.receivers_reused;
         r->stats.sss_shapes_reached = ss.shapes_reached;
+        r->stats.sss_shapes_capped = ss.shapes_capped;
         r->stats.sss_seconds = ss.seconds;
         job.ctx.sss = sss;
     } else if (opt->sss_cache) {

@@ -1,12 +1,11 @@
-"""The "opaline" render engine: the tile stream parser, F12 through a scripted stand-in that
+"""The "opaline" render engine (the tile stream's reader has its plain-Python test,
+unit_stream.py): progress texts, F12 through a scripted stand-in that
 speaks the tile stream protocol (tiles placed right, progress, errors reported readably), and
 F12 with the real opaline-render compared pixel by pixel with its command-line render of the
 same export (skipped when opaline-render is not built)."""
 
-import io
 import os
 import stat
-import struct
 import sys
 import textwrap
 import unittest
@@ -17,44 +16,10 @@ import addon_support as S  # noqa: E402
 import bpy  # noqa: E402
 
 from opaline import engine as E  # noqa: E402
+from opaline.stream import Progress, StreamReader  # noqa: E402
 
 
-def rec(typ, payload):
-    return struct.pack("<4sIQ", b"OPTS", typ, len(payload)) + payload
-
-
-def tile(x, y, w, h, fn):
-    vals = []
-    for r in range(h):
-        for c in range(w):
-            vals += fn(x + c, y + r)
-    return rec(2, struct.pack("<4I", x, y, w, h) + struct.pack("<%df" % len(vals), *vals))
-
-
-class TestStream(unittest.TestCase):
-    def test_parse(self):
-        data = (rec(1, struct.pack("<3I", 4, 2, 4)) + rec(3, struct.pack("<d", 0.5)) +
-                tile(2, 0, 2, 2, lambda x, y: (x, y, 0, 1)) + rec(4, struct.pack("<I", 0)))
-        r = E.StreamReader(io.BytesIO(data))
-        self.assertEqual(r.next(), (1, (4, 2, 4)))
-        self.assertEqual(r.next(), (3, (0.5, "render")))  # a renderer without stage labels
-        typ, (x, y, w, h, a) = r.next()
-        self.assertEqual((typ, x, y, w, h), (2, 2, 0, 2, 2))
-        self.assertEqual(list(a[:8]), [2, 0, 0, 1, 3, 0, 0, 1])
-        self.assertEqual(list(E.flip_rows(a, 2, 2)[:4]), [2, 1, 0, 1])
-        self.assertEqual(r.next(), (4, 0))
-        self.assertIsNone(r.next())
-
-    def test_stage_and_log(self):
-        data = (rec(3, struct.pack("<dI", 0.25, 10) + b"irradiance") + rec(9, b"future") +
-                rec(5, struct.pack("<I", 1) + "capped at 5 \u00e9".encode()) +
-                rec(5, struct.pack("<I", 0) + b"bad"))
-        r = E.StreamReader(io.BytesIO(data))
-        self.assertEqual(r.next(), (3, (0.25, "irradiance")))
-        self.assertEqual(r.next(), (5, ("warning", "capped at 5 \u00e9")))  # 9 skipped
-        self.assertEqual(r.next(), (5, ("error", "bad")))
-        self.assertIsNone(r.next())
-
+class TestProgress(unittest.TestCase):
     def test_progress_text(self):
         p = E.Progress(True, 64, 12)
         total, text = p.stage("irradiance", 0.4)
@@ -67,19 +32,9 @@ class TestStream(unittest.TestCase):
         self.assertEqual(text, "Path tracing 25 %, 3/12 tiles, 64 samples")
         self.assertTrue(total < t2 < t3 < 1.0)
 
-    def test_malformed(self):
-        bad = [b"XXXX" + bytes(12),
-               rec(1, struct.pack("<3I", 4, 2, 4))[:-3],
-               rec(3, struct.pack("<dI", 0.5, 9) + b"abc"),
-               rec(5, b"ab"),
-               rec(1, struct.pack("<3I", 4, 2, 3)),
-               rec(1, struct.pack("<3I", 2, 2, 4)) + tile(1, 1, 2, 2, lambda x, y: (0, 0, 0, 0)),
-               rec(2, struct.pack("<4I", 0, 0, 2, 2) + bytes(8))]
-        for data in bad:
-            r = E.StreamReader(io.BytesIO(data))
-            with self.assertRaises(E.StreamError):
-                while r.next() is not None:
-                    pass
+    def test_flip_rows(self):
+        a = [float(v) for v in range(16)]  # 2x2 RGBA, top row first
+        self.assertEqual(list(E.flip_rows(a, 2, 2)), a[8:] + a[:8])
 
 
 FAKE = textwrap.dedent('''\
@@ -105,7 +60,7 @@ FAKE = textwrap.dedent('''\
         rec(5, struct.pack("<I", 1) + b"scene.xml:3: unused parameter 'intIOR'")
     if "--crop" in args:
         w, h = [int(v) for v in args[args.index("--crop") + 1].split(",")][2:]
-    rec(1, struct.pack("<3I", w, h, 4))
+    rec(1, struct.pack("<4I", w, h, 4, 8))
     tiles = [(0, 0, w // 2, h // 2), (w // 2, 0, w - w // 2, h // 2),
              (0, h // 2, w // 2, h - h // 2), (w // 2, h // 2, w - w // 2, h - h // 2)]
     for i, (x, y, tw, th) in enumerate(tiles):
@@ -114,7 +69,7 @@ FAKE = textwrap.dedent('''\
             for c in range(tw):
                 v += [(x + c) / w, (y + r) / h, 0.25, 1.0]
         rec(2, struct.pack("<4I", x, y, tw, th) + struct.pack("<%df" % len(v), *v))
-        rec(3, struct.pack("<d", (i + 1) / 4.0))
+        rec(3, struct.pack("<dI", (i + 1) / 4.0, 6) + b"render")
     rec(4, struct.pack("<I", 0))
 ''')
 
@@ -155,22 +110,27 @@ class TestEngine(unittest.TestCase):
                 self.assertAlmostEqual(px[0], x / w, places=5)
                 self.assertAlmostEqual(px[1], y / h, places=5)
                 self.assertAlmostEqual(px[2], 0.25, places=5)
+        # the tiles counted in the stream's tile size (BEGIN: 8, so 2 x 1 tiles), not 32
+        self.assertTrue(E.last_status[0].startswith("opaline: Path tracing 100 %, 2/2 tiles"),
+                        E.last_status)
 
-    def test_point_cap_follows_renderer(self):
-        """The Irradiance Point Cap's default (0) leaves the renderer's own default: F12 passes
-        no --limit sss-max-points; a cap set by the artist is passed."""
+    def test_point_cap_one_way(self):
+        """The Irradiance Point Cap reaches the renderer one way, as each <subsurface>'s
+        maxPoints: none at its default (0: the renderer's own default), 777 when set; F12
+        passes no --limit."""
         fake = self.fake()
-        self.assertEqual(self.sc.opaline.max_sss_points, 0)
-        self.render("default.exr")
-        with open(fake + ".args") as f:
-            args = f.read().split("\n")
-        self.assertFalse([a for a in args if "sss-max-points" in a], args)
-        self.sc.opaline.max_sss_points = 777
-        self.render("set.exr")
-        with open(fake + ".args") as f:
-            args = f.read().split("\n")
-        self.assertIn("sss-max-points=777", args)
-        self.assertEqual(args[args.index("sss-max-points=777") - 1], "--limit")
+        self.translucent_sphere(0)
+        for cap, name in ((0, "default.exr"), (777, "set.exr")):
+            self.sc.opaline.max_sss_points = cap
+            self.render(name)
+            with open(fake + ".args") as f:
+                args = f.read().split("\n")
+            self.assertNotIn("--limit", args)
+            with open(args[-1]) as f:
+                xml = f.read()
+            self.assertIn("<subsurface", xml)
+            self.assertEqual('name="maxPoints" value="777"' in xml, cap == 777, xml)
+            self.assertEqual("maxPoints" in xml, cap > 0, xml)
 
     def test_failure_is_readable(self):
         self.fake()
@@ -338,15 +298,11 @@ class TestEngine(unittest.TestCase):
         S.export(xml, samples=2)
         proc = subprocess.Popen([rend, "--stream", "-t", "2", xml], stdout=subprocess.PIPE,
                                 stderr=subprocess.DEVNULL)
-        reader = E.StreamReader(proc.stdout)
         stages = {}
         order = []
-        while True:
-            rec = reader.next()
-            if rec is None:
-                break
-            if rec[0] == E.T_PROGRESS:
-                frac, label = rec[1]
+        for rec in StreamReader(proc.stdout):
+            if isinstance(rec, Progress):
+                frac, label = rec
                 if label not in stages:
                     order.append(label)
                 stages.setdefault(label, []).append(frac)
@@ -358,7 +314,8 @@ class TestEngine(unittest.TestCase):
 
     def test_warning_real(self):
         """A quality warning (irradiance points capped) reaches the render's reports, and the
-        artist's cap (scene.opaline.max_sss_points) is the one applied."""
+        artist's cap (scene.opaline.max_sss_points) is the one applied; the STATS record's
+        count of capped shapes, not the warning's words, adds the setting to raise."""
         S.prefs().renderer_path = S.need_renderer(self)
         self.sc.render.resolution_x, self.sc.render.resolution_y = 16, 8
         self.sc.cycles.samples = 1
@@ -366,7 +323,10 @@ class TestEngine(unittest.TestCase):
         self.render("capped.exr")
         warns = [m for k, m in E.last_reports if k == 'WARNING']
         self.assertTrue(any("capped at 50 " in m for m in warns), E.last_reports)
+        self.assertEqual(E.last_stats[0].sss_shapes_capped, 1, E.last_stats)
+        self.assertTrue(any("1 translucent object got fewer irradiance points" in m and
+                            "Irradiance Point Cap" in m for m in warns), E.last_reports)
 
 
 if __name__ == "__main__":
-    S.run_tests(TestStream, TestEngine)
+    S.run_tests(TestProgress, TestEngine)

@@ -14,6 +14,7 @@ import addon_support as S  # noqa: E402
 import bpy  # noqa: E402
 from mathutils import Matrix, Vector  # noqa: E402
 
+from opaline import compat  # noqa: E402
 from opaline.errors import OpalineError  # noqa: E402
 from opaline.export import camera as cam_mod  # noqa: E402
 from opaline.export import lights as L  # noqa: E402
@@ -124,8 +125,9 @@ class TestConversions(unittest.TestCase):
         self.assertEqual(L.sun_irradiance(3.0, (1, 0.5, 0)), (3.0, 1.5, 0.0))
 
     def test_area(self):
-        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, blender_version=(3, 4, 1))[0], 12.5)
-        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, blender_version=(4, 2, 0))[0],
+        d34, d42 = compat.area_light_divisor((3, 4, 1)), compat.area_light_divisor((4, 2, 0))
+        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, divisor=d34)[0], 12.5)
+        self.assertAlmostEqual(L.area_radiance(100.0, 2.0, divisor=d42)[0],
                                100.0 / (2 * math.pi))
         self.assertAlmostEqual(L.area_shape_area('SQUARE', 2, 9), 4.0)
         self.assertAlmostEqual(L.area_shape_area('RECTANGLE', 2, 3), 6.0)
@@ -263,7 +265,8 @@ class TestLights(Base):
             self.assertClose(m.col[2].xyz, -mw.col[2].xyz, 1e-5, shape)
             self.assertClose(m.col[3].xyz, mw.translation, 1e-5, shape)
             world_area = area * 2.0  # object scale 2 in x
-            exp = L.area_radiance(100.0, world_area, blender_version=bpy.app.version)
+            exp = L.area_radiance(100.0, world_area,
+                                  divisor=compat.area_light_divisor(bpy.app.version))
             self.assertClose(value(s.find("emitter"), "rgb", "radiance"), exp, 1e-5, shape)
             if bpy.app.version < (4, 0, 0):
                 self.assertClose([exp[0]], [100.0 / (4 * world_area)], 1e-9)
@@ -469,14 +472,14 @@ class TestMaterials(Base):
             f.write('{"method": "svd", "terms": 10, "size_bytes": 1234567, '
                     '"relative_rmse": 0.0123}')
         S.prefs().preset_folders.add().path = folder
-        import opaline.presets
-        opaline.presets.clear()
+        import opaline.chooser
+        opaline.chooser.clear()
         return folder
 
     def test_subsurface_kinds(self):
         folder = self.fake_presets()
-        import opaline.presets as P
-        p = P.find("SVD_S10_Test")
+        import opaline.chooser as C
+        p = C.find("SVD_S10_Test")
         self.assertIsNotNone(p)
         self.assertEqual(p.summary(), "SVD, 10 terms, 1.2 MB, error 1.23 % (rel. RMSE), "
                                       "sample size unknown")
@@ -485,7 +488,7 @@ class TestMaterials(Base):
         o = mat.opaline
         o.enabled = True
         o.preset = "SVD_S10_Test"
-        self.assertIn("SVD_S10_Test", [i[0] for i in P.enum_items(o, bpy.context)])
+        self.assertIn("SVD_S10_Test", [i[0] for i in C.enum_items(o, bpy.context)])
         o.scale = 10.0
         o.ior = 1.4
         s, _ = self.shape()
@@ -518,7 +521,7 @@ class TestMaterials(Base):
         the file Method menu, and every dipole medium reach the scene as their type."""
         folder = self.fake_presets()
         import struct
-        import opaline.presets as P
+        import opaline.chooser as C
 
         def opm(name, method):
             # a container with only a META section: header, META at 64, table after it
@@ -537,7 +540,7 @@ class TestMaterials(Base):
         opm("NMF_T8_Test", "nmf")
         opm("TUCKER_T4_P2_Test", "tucker")
         opm("RAW_Test", "raw")
-        P.clear()
+        C.clear()
         expect = {"KCTA_C8_T4_Test": "kcta", "NmfFromMeta": "nmf", "NMF_T8_Test": "nmf",
                   "TUCKER_T4_P2_Test": "tucker", "RAW_Test": "raw", "SVD_S10_Test": "svd"}
         mat = bpy.data.materials.new("sss")
@@ -545,7 +548,7 @@ class TestMaterials(Base):
         o = mat.opaline
         o.enabled = True
         for name, typ in expect.items():
-            self.assertEqual(P.find(name).method, typ, name)
+            self.assertEqual(C.find(name).method, typ, name)
             o.kind = 'PRESET'
             o.preset = name
             s, _ = self.shape()

@@ -88,8 +88,8 @@ class Base(unittest.TestCase):
         fake_png(os.path.join(folder, "SVD_S10_Chessboard4x4.png"))
         fake_png(os.path.join(folder, "TUCKER_T15_P7_Chessboard4x4.png"), (0.9, 0.1, 0.1))
         S.prefs().preset_folders.add().path = folder
-        import opaline.presets
-        opaline.presets.clear()
+        import opaline.chooser
+        opaline.chooser.clear()
         return folder
 
     def plane(self, mat, uv=True):
@@ -298,12 +298,12 @@ class TestNoUV(Base):
 class TestPresetChooser(Base):
     def test_items(self):
         folder = self.presets()
-        import opaline.presets as P
+        import opaline.chooser as C
         mat = bpy.data.materials.new("m")
-        items = P.enum_items(mat.opaline, bpy.context)
+        items = C.enum_items(mat.opaline, bpy.context)
         # Nothing chosen: the chooser shows the "no preset" item, not the first preset.
-        self.assertEqual(items[0][0], P.NONE_ID)
-        self.assertEqual(mat.opaline.preset_enum, P.NONE_ID)
+        self.assertEqual(items[0][0], C.NONE_ID)
+        self.assertEqual(mat.opaline.preset_enum, C.NONE_ID)
         presets = [i for i in items[1:] if "Chessboard" in i[0]]   # the built ones aside
         self.assertEqual([i[0] for i in presets], ["SVD_S10_Chessboard4x4",
                                                    "SVD_S20_Chessboard4x4",
@@ -324,10 +324,10 @@ class TestPresetChooser(Base):
         # Choosing and clearing through the chooser.
         mat.opaline.preset_enum = "TUCKER_T15_P7_Chessboard4x4"
         self.assertEqual(mat.opaline.preset, "TUCKER_T15_P7_Chessboard4x4")
-        mat.opaline.preset_enum = P.NONE_ID
+        mat.opaline.preset_enum = C.NONE_ID
         self.assertEqual(mat.opaline.preset, "")
         # The search: every preset, labelled with what one would type.
-        found = [i for i in P.search_items(None, bpy.context) if "Chessboard" in i[0]]
+        found = [i for i in C.search_items(None, bpy.context) if "Chessboard" in i[0]]
         self.assertEqual(len(found), 3)
         self.assertIn("12.6 x 12.6 cm", found[0][1])
         self.assertIn("Chessboard4x4 (SVD S10)", found[0][1])
@@ -419,8 +419,9 @@ class TestPresetCategories(Base):
         """The build's presets carry their recipes' categories to the chooser."""
         S.need_preset(self, "SVD_S10_Chess4x4")
         import opaline.presets as P
-        P.clear()
-        built = [p for p in P.current(bpy.context) if p.folder == S.presets_dir()]
+        import opaline.chooser as C
+        C.clear()
+        built = [p for p in C.current(bpy.context) if p.folder == S.presets_dir()]
         groups = {c: sorted(p.name for p in members) for c, members in P.group(built)}
         self.assertEqual(groups, self.LIBRARY)
         # The category is the recipe's, copied beside the preset by the build.
@@ -431,7 +432,7 @@ class TestPresetCategories(Base):
         self.assertEqual([c for c, _ in P.group(built, "stone")], ["Stone"])
         self.assertEqual([p.name for c, ms in P.group(built, "kurt svd") for p in ms],
                          ["SVD_S10_Chess4x4", "SVD_S10_Chess8x8"])
-        labels = [i[1] for i in P.search_items(None, bpy.context)]
+        labels = [i[1] for i in C.search_items(None, bpy.context)]
         self.assertTrue(any(t.startswith("Wax & soap / Soap (SVD S10)") for t in labels), labels)
 
     def test_categories_order_filter_and_chooser(self):
@@ -442,8 +443,9 @@ class TestPresetCategories(Base):
         with open(os.path.join(folder, "SVD_S20_Chessboard4x4.recipe"), "w") as f:
             f.write("category = A first group\n")
         import opaline.presets as P
-        P.clear()
-        ps = [p for p in P.current(bpy.context) if p.folder == folder]
+        import opaline.chooser as C
+        C.clear()
+        ps = [p for p in C.current(bpy.context) if p.folder == folder]
         groups = P.group(ps)
         # Alphabetical, presets without a category (no recipe beside them) last.
         self.assertEqual([c for c, _ in groups],
@@ -454,7 +456,7 @@ class TestPresetCategories(Base):
                          ["TUCKER_T15_P7_Chessboard4x4"])
         # The chooser's items follow the groups.
         mat = bpy.data.materials.new("m")
-        items = [i for i in P.enum_items(mat.opaline, bpy.context) if "Chessboard" in i[0]]
+        items = [i for i in C.enum_items(mat.opaline, bpy.context) if "Chessboard" in i[0]]
         self.assertEqual([i[0] for i in items], ["SVD_S20_Chessboard4x4",
                                                  "TUCKER_T15_P7_Chessboard4x4",
                                                  "SVD_S10_Chessboard4x4"])
@@ -491,7 +493,7 @@ class TestPresetCategories(Base):
         self.assertIn("11.5 MB, 1.85 %", log["labels"])
         # A thumbnail each (icon ids are 0 in the background: the thumbnails are loaded).
         self.assertEqual(len(drawn["icons"]), 3)
-        self.assertEqual(sorted(os.path.basename(k) for k in P._PREVIEWS.keys()
+        self.assertEqual(sorted(os.path.basename(k) for k in C._PREVIEWS.keys()
                                 if k.startswith(folder)),
                          ["SVD_S10_Chessboard4x4.png", "TUCKER_T15_P7_Chessboard4x4.png"])
         mat.opaline.preset_enum = "TUCKER_T15_P7_Chessboard4x4"
@@ -511,7 +513,7 @@ class TestPresetCategories(Base):
 class TestPreviewPanel(Base):
     def test_registered_and_draws(self):
         from opaline import ui
-        import opaline.presets as P
+        import opaline.chooser as C
         panel = ui.OPALINE_PT_material_preview
         self.assertEqual(getattr(bpy.types, panel.bl_idname, None), panel)   # registered
         self.assertEqual(panel.bl_context, "material")
@@ -545,15 +547,15 @@ class TestPreviewPanel(Base):
         mat.opaline.preset = "SVD_S10_Chessboard4x4"
         labels = draw()
         png = os.path.join(folder, "SVD_S10_Chessboard4x4.png")
-        self.assertEqual(drawn, [P.image_icon(png)])
+        self.assertEqual(drawn, [C.image_icon(png)])
         # The thumbnail is the preset's albedo map (icon ids are 0 in the background).
-        self.assertEqual(tuple(P._PREVIEWS[png].image_size), (4, 4))
+        self.assertEqual(tuple(C._PREVIEWS[png].image_size), (4, 4))
         self.assertIn("Albedo map of SVD_S10_Chessboard4x4", labels)
         # A material file: the NAME.png beside it.
         mat.opaline.kind = 'FILE'
         mat.opaline.filepath = os.path.join(folder, "TUCKER_T15_P7_Chessboard4x4.opm")
         labels = draw()
-        self.assertEqual(drawn, [P.image_icon(os.path.join(
+        self.assertEqual(drawn, [C.image_icon(os.path.join(
             folder, "TUCKER_T15_P7_Chessboard4x4.png"))])
         self.assertIn("Albedo map of TUCKER_T15_P7_Chessboard4x4.png", labels)
 

@@ -27,8 +27,8 @@ def build(preset_folder):
     sc.opaline.max_bounces = 2
     if preset_folder:
         S.prefs().preset_folders.add().path = preset_folder
-    import opaline.presets
-    opaline.presets.clear()
+    import opaline.chooser
+    opaline.chooser.clear()
     S.add_camera((0.0, -5.0, 2.5), (math.radians(65), 0, 0), lens=35.0)
     S.add_light('SPOT', (0.0, 0.0, 7.0), energy=2000.0, spot_size=math.radians(60),
                 spot_blend=0.15)

@@ -124,11 +124,11 @@ mod = importlib.import_module(key)
 assert os.path.realpath(mod.__file__).startswith(os.path.realpath(os.path.join(T, "blender-user"))), \
     "the add-on runs from %s, not from the user folder" % mod.__file__
 prefs_mod = importlib.import_module(key + ".preferences")
-presets_mod = importlib.import_module(key + ".presets")
+chooser_mod = importlib.import_module(key + ".chooser")
 OpalineError = importlib.import_module(key + ".errors").OpalineError
 found = prefs_mod.find_renderer(bpy.context, required=False)
 assert found == renderer_want, "the add-on found the renderer %r, not %r" % (found, renderer_want)
-names = {p.name: p for p in presets_mod.current(bpy.context, refresh=True)}
+names = {p.name: p for p in chooser_mod.current(bpy.context, refresh=True)}
 assert PRESET in names, "preset %s not listed: %s" % (PRESET, sorted(names))
 assert names[PRESET].folder == os.path.join(P, "share", "opaline", "presets"), names[PRESET].folder
 print("add-on %s: renderer %s, %d presets" % (key, found, len(names)))
@@ -216,7 +216,7 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(T, "scene.blend"))  # for the 
 prefs = bpy.context.preferences.addons[key].preferences
 prefs.renderer_path = os.path.join(T, "no-such", "opaline-render")
 assert prefs_mod.find_renderer(bpy.context, required=False) is None
-names = [p.name for p in presets_mod.current(bpy.context)]
+names = [p.name for p in chooser_mod.current(bpy.context)]
 assert PRESET in names, "the shipped presets vanished with the renderer path set wrong: %s" % names
 try:
     bpy.ops.render.render(write_still=False)

@@ -4,7 +4,7 @@
 # line also goes into the stream as a LOG record (level and text) with --stream-log, and still
 # to stderr;
 # --limit sss-max-points sets the per-shape cap of irradiance points (its warning arrives as a
-# LOG record). --crop renders only a window of the film, each pixel bit-identical to the full
+# LOG record, the shapes it held counted in the STATS record before END). --crop renders only a window of the film, each pixel bit-identical to the full
 # render's (a translucent scene: the pre-pass too); a window outside the film exits 2.
 set -uo pipefail
 source "$(dirname "$0")/e2e_support.sh"
@@ -18,7 +18,7 @@ grep -q "warning: .*capped at 300 " "$T/err" || fail "no capped warning on stder
 python3 - "$T/stream" <<'PY' || fail "the stream's stage and log records"
 import struct, sys
 data = open(sys.argv[1], "rb").read()
-pos, stages, order, logs, end = 0, {}, [], [], None
+pos, stages, order, logs, end, stats = 0, {}, [], [], None, None
 while pos < len(data):
     magic, typ, n = struct.unpack_from("<4sIQ", data, pos)
     assert magic == b"OPTS", magic
@@ -34,9 +34,14 @@ while pos < len(data):
         stages.setdefault(label, []).append(frac)
     elif typ == 5:
         logs.append((struct.unpack_from("<I", p)[0], p[4:].decode()))
+    elif typ == 6:
+        assert n == 72 and end is None, (n, end)
+        stats = struct.unpack_from("<5q4I2d", p)
     elif typ == 4:
         end = struct.unpack_from("<I", p)[0]
 assert pos == len(data) and end == 0, (pos, len(data), end)
+# STATS: the points laid, the one shape held at 300 points, every tile done
+assert stats[0] > 0 and stats[5:7] == (1, 1) and stats[7] == stats[8] > 0, stats
 assert order == ["irradiance", "subsurface", "render"], order
 for label, fr in stages.items():
     assert fr == sorted(fr) and fr[-1] == 1.0 and all(0 <= f <= 1 for f in fr), (label, fr)
@@ -80,9 +85,10 @@ s, pos, begin = open(sys.argv[3], "rb").read(), 0, None
 while pos < len(s) and begin is None:
     magic, typ, n = struct.unpack_from("<4sIQ", s, pos)
     if typ == 1:
-        begin = struct.unpack_from("<3I", s, pos + 16)
+        assert n == 16, n
+        begin = struct.unpack_from("<4I", s, pos + 16)
     pos += 16 + n
-assert begin == (20, 25, 4), begin
+assert begin == (20, 25, 4, 32), begin  # the crop's size, 4 channels, 32-pixel tiles
 PY
 
 for bad in 40,0,9,1 0,0,0,5 1,2,3 a,b,c,d 0,0,49,40; do

@@ -52,12 +52,13 @@ def sun_irradiance(strength, color=(1.0, 1.0, 1.0)):
     return tuple(strength * c for c in color[:3])
 
 
-def area_radiance(power_w, area_m2, color=(1.0, 1.0, 1.0), blender_version=(3, 4, 0)):
+def area_radiance(power_w, area_m2, color=(1.0, 1.0, 1.0), divisor=4.0):
     """Radiance [W/(m^2 sr)] of a one-sided Blender area light of `power_w` watts and world-space
-    area `area_m2` (m^2). Blender 4.0 changed Cycles' conversion from P/(4A) to P/(pi A)."""
+    area `area_m2` (m^2): P / (divisor A), divisor being the Blender version's
+    (compat.area_light_divisor)."""
     if area_m2 <= 0.0:
         raise ValueError("area light with zero area")
-    denom = (math.pi if tuple(blender_version[:2]) >= (4, 0) else 4.0) * area_m2
+    denom = divisor * area_m2
     k = power_w / denom
     return tuple(k * c for c in color[:3])
 
@@ -104,10 +105,11 @@ def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def export_light(light, matrix, blender_version, warn, visible_camera=True):
+def export_light(light, matrix, area_divisor, warn, visible_camera=True):
     """The <emitter> or <shape> element for a Blender light datablock `light` placed by the 4x4
     world matrix `matrix` (a sequence of rows). Returns None (after warn()) for lights opaline
-    cannot represent. `warn(msg)` collects messages for the user. `visible_camera` is the light
+    cannot represent. `area_divisor`: the Blender version's (compat.area_light_divisor).
+    `warn(msg)` collects messages for the user. `visible_camera` is the light
     object's camera visibility (Object.visible_camera, off by default for lights in Blender 3.x):
     when off, an area light's emitting surface is hidden from camera rays
     (visibleToCamera=false) while it still lights the scene and shows in reflections, as in
@@ -173,7 +175,7 @@ def export_light(light, matrix, blender_version, warn, visible_camera=True):
                 for r in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
         s.add(transform_matrix("toWorld", rows))
         em = s.add(Element("emitter", {"type": "area"}))
-        em.rgb("radiance", area_radiance(light.energy, area, color, blender_version))
+        em.rgb("radiance", area_radiance(light.energy, area, color, area_divisor))
         if not visible_camera:
             em.boolean("visibleToCamera", False)
         # A Cycles light object is invisible from behind, reflects nothing and casts no shadow:

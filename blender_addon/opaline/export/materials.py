@@ -28,7 +28,7 @@ import os
 
 from . import textures as textures_mod
 from .xml_writer import Element
-from .. import compat
+from .. import chooser, compat, presets
 from ..errors import OpalineError
 
 DEFAULT_GREY = (0.8, 0.8, 0.8)
@@ -91,16 +91,9 @@ def _surface_node(mat):
 
 
 def principled_f0(node, warn, label):
-    """Normal-incidence reflectance F0 of a Principled BSDF's dielectric layer: Blender 3.x
-    'Specular' s gives F0 = 0.08 s; Blender 4.0+ (Principled v2) gives F0 from 'IOR' scaled by
-    2 x 'Specular IOR Level' (0.5 leaves the IOR's own F0)."""
-    level = node.inputs.get("Specular IOR Level")
-    if level is not None:
-        ior = float(_input(node, ["IOR"], warn, label) or 1.5)
-        lev = float(_input(node, ["Specular IOR Level"], warn, label))
-        return ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * lev
-    spec = _input(node, ["Specular"], warn, label)
-    return 0.08 * (0.5 if spec is None else float(spec))
+    """Normal-incidence reflectance F0 of a Principled BSDF's dielectric layer
+    (compat.principled_f0)."""
+    return compat.principled_f0(lambda name: _input(node, [name], warn, label))
 
 
 def ior_from_f0(f0):
@@ -147,7 +140,8 @@ def bsdf_for(mat, warn, textures=None):
         base = _rgb(base_sock.default_value)
         metallic = float(_input(node, ["Metallic"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
-        trans = float(_input(node, ["Transmission", "Transmission Weight"], warn, label) or 0.0)
+        trans = float(_input(node, [compat.principled_transmission_input()], warn, label) or
+                      0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
         f0 = principled_f0(node, warn, label)
         if trans >= 0.5:
@@ -189,12 +183,12 @@ def bsdf_for(mat, warn, textures=None):
     return _twosided(b), None
 
 
-def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None,
+def subsurface_for(mat, find_preset, renderer_finds, xml_dir, warn, prepass=None,
                    material_ref=None):
     """The <subsurface> element of a material with opaline subsurface enabled, else None.
 
-    find_preset(name) -> presets.Preset or None; renderer_knows(folder) -> whether
-    opaline-render finds presets of that folder by name (else the .opm path is written);
+    find_preset(name) -> presets.Preset or None; renderer_finds(preset) -> whether
+    opaline-render finds that preset by its name (else the .opm path is written);
     prepass: (irrSamples, maxPoints; 0: none written) of the scene's render settings, or None
     for the renderer's defaults; material_ref(opm_path) -> the value that names a material file in the
     XML (default: the absolute path; collecting exports give a path relative to the XML).
@@ -212,13 +206,12 @@ def subsurface_for(mat, find_preset, renderer_knows, xml_dir, warn, prepass=None
                                % label)
         p = find_preset(s.preset)
         if p is None:
-            from .. import presets
-            raise OpalineError("%s: %s" % (label, presets.missing_message(s.preset)))
+            raise OpalineError("%s: %s" % (label, chooser.missing_message(s.preset)))
         typ = p.method
         if material_ref is not None:
             value = material_ref(p.opm)
         else:
-            value = p.name if renderer_knows(p.folder) else p.opm
+            value = p.name if renderer_finds(p) else p.opm
     elif s.kind == 'DIPOLE':
         typ = "dipole"
         value = s.dipole_material
@@ -276,5 +269,4 @@ def sheen_for(mat, warn):
 
 
 def _method_of_file(path):
-    from ..presets import method_of
-    return method_of(path)
+    return presets.method_of(path)

@@ -25,7 +25,7 @@ from . import materials as materials_mod
 from . import meshes as meshes_mod
 from . import textures as textures_mod
 from .xml_writer import Element, scene_element, serialize, transform_matrix, write_file
-from .. import compat
+from .. import chooser, compat, presets
 from ..errors import OpalineError
 
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
@@ -219,7 +219,6 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     only the selected objects (the camera is always written); collect_materials: copy the
     material files into materials/ beside the XML and name them relatively
     (MaterialCollector)."""
-    from .. import presets
     res = ExportResult()
     res.xml_path = os.path.abspath(xml_path)
     warn = res.warnings.append
@@ -231,7 +230,6 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                            "(Scene properties > Camera)" % scene_orig.name)
     xml_dir = os.path.dirname(res.xml_path)
     mesh_dir = os.path.join(xml_dir, MESH_FOLDER)
-    bversion = tuple(bpy.app.version)
 
     spp, bounces = render_samples(scene_orig)
     if samples is not None:
@@ -252,16 +250,20 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         e = root.add(Element("emitter", {"type": "constant"}, comment="world background"))
         e.rgb("radiance", rad)
 
-    # Preset lookups are shared by every material of the export.
+    # Preset lookups (and whether the renderer finds them by name) are shared by every
+    # material of the export.
     pcache = {}
+    finds = {}
 
     def find_preset(name):
         if name not in pcache:
-            pcache[name] = presets.find(name, context)
+            pcache[name] = chooser.find(name, context)
         return pcache[name]
 
-    def knows(folder):
-        return presets.renderer_knows(folder, renderer_path)
+    def knows(preset):
+        if preset.name not in finds:
+            finds[preset.name] = presets.renderer_finds(preset, renderer_path, xml_dir)
+        return finds[preset.name]
 
     prepass = prepass_settings(scene_orig)
     collector = MaterialCollector(xml_dir) if collect_materials else None
@@ -282,7 +284,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
             continue
         mw = _rows(inst.matrix_world)
         if ob.type == 'LIGHT':
-            el = lights_mod.export_light(ob.data, mw, bversion, warn,
+            el = lights_mod.export_light(ob.data, mw, compat.area_light_divisor(), warn,
                                           bool(getattr(ob, "visible_camera", True)))
             if el is not None:
                 root.add(el)

@@ -38,6 +38,7 @@ typedef struct op_sss_desc {
     int irr_samples;       /* paths per irradiance point */
     double density;        /* irradiance points per material pixel area */
     int max_points;
+    int capped;            /* 1: op_sss_plan coarsened the shape to max_points (and warned) */
     int points;            /* the irradiance points of its layout (op_sss_plan) */
     int windowed;          /* 1: a shape needing more than max_points (a measured material,
                               or the dipole at its profile's spacing): only the points near the

@@ -174,32 +174,10 @@ static void installed_presets_dir(char *out, size_t n)
         out[0] = '\0';
 }
 
-/* Whether folder/name.opm is a regular file (its path is left in out either way; said at
- * debug level when found); adds folder to the comma-separated list searched. */
-static int preset_in(const char *folder, const char *name, char *out, size_t n, char *searched,
-                     size_t searched_n)
+op_status op_preset_folders(const char *scene_dir, op_folder_fn each, void *user,
+                            op_error *err)
 {
-    snprintf(out, n, "%s/%s.opm", folder, name);
-    size_t sl = strlen(searched);
-    snprintf(searched + sl, searched_n - sl, "%s%s", sl ? ", " : "", folder);
-    if (!file_exists(out))
-        return 0;
-    op_log(OP_LOG_DEBUG, "material preset \"%s\" is %s", name, out);
-    return 1;
-}
-
-op_status op_resolve_material(const char *name, const char *scene_dir, char *out, size_t n,
-                              op_error *err)
-{
-    size_t len = strlen(name);
-    int is_path = strchr(name, '/') != NULL || (len > 4 && strcasecmp(name + len - 4, ".opm") == 0);
-    if (is_path) { /* opening it says what is wrong with it, if anything */
-        join(out, n, scene_dir, name);
-        return OP_OK;
-    }
-    char searched[4096] = "";
-    if (preset_in(scene_dir && scene_dir[0] ? scene_dir : ".", name, out, n, searched,
-                  sizeof searched))
+    if (scene_dir && each(user, scene_dir[0] ? scene_dir : "."))
         return OP_OK;
     const char *env = getenv("OPALINE_PRESETS_PATH");
     if (env && env[0]) {
@@ -208,7 +186,7 @@ op_status op_resolve_material(const char *name, const char *scene_dir, char *out
             return op_error_set(err, OP_ERR_NOMEM, "out of memory");
         char *save = NULL;
         for (char *d = strtok_r(copy, ":", &save); d; d = strtok_r(NULL, ":", &save))
-            if (preset_in(d, name, out, n, searched, sizeof searched)) {
+            if (each(user, d)) {
                 free(copy);
                 return OP_OK;
             }
@@ -216,12 +194,54 @@ op_status op_resolve_material(const char *name, const char *scene_dir, char *out
     }
     char installed[4096];
     installed_presets_dir(installed, sizeof installed);
-    if (installed[0] && preset_in(installed, name, out, n, searched, sizeof searched))
+    if (installed[0] && each(user, installed))
         return OP_OK;
-    if (preset_in(OPALINE_DEFAULT_PRESETS_DIR, name, out, n, searched, sizeof searched))
+    each(user, OPALINE_DEFAULT_PRESETS_DIR);
+    return OP_OK;
+}
+
+typedef struct preset_search {
+    const char *name;
+    char *out;
+    size_t n;
+    char searched[4096]; /* the folders searched, comma-separated */
+    int found;
+    op_folder_fn each;   /* also told of every folder searched, or NULL */
+    void *user;
+} preset_search;
+
+/* Whether folder/name.opm is a regular file (its path is left in out either way; said at
+ * debug level when found). */
+static int preset_in(void *user, const char *folder)
+{
+    preset_search *ps = user;
+    snprintf(ps->out, ps->n, "%s/%s.opm", folder, ps->name);
+    size_t sl = strlen(ps->searched);
+    snprintf(ps->searched + sl, sizeof ps->searched - sl, "%s%s", sl ? ", " : "", folder);
+    if (ps->each)
+        ps->each(ps->user, folder);
+    if (!file_exists(ps->out))
+        return 0;
+    op_log(OP_LOG_DEBUG, "material preset \"%s\" is %s", ps->name, ps->out);
+    ps->found = 1;
+    return 1;
+}
+
+op_status op_find_material(const char *name, const char *scene_dir, op_folder_fn each,
+                           void *user, char *out, size_t n, op_error *err)
+{
+    size_t len = strlen(name);
+    int is_path = strchr(name, '/') != NULL || (len > 4 && strcasecmp(name + len - 4, ".opm") == 0);
+    if (is_path) { /* opening it says what is wrong with it, if anything */
+        join(out, n, scene_dir, name);
         return OP_OK;
+    }
+    preset_search ps = {name, out, n, "", 0, each, user};
+    op_status st = op_preset_folders(scene_dir ? scene_dir : "", preset_in, &ps, err);
+    if (st || ps.found)
+        return st;
     return op_error_set(err, OP_ERR_INPUT, "material preset \"%s\" not found (searched %s; set "
-                        "OPALINE_PRESETS_PATH or give an .opm path)", name, searched);
+                        "OPALINE_PRESETS_PATH or give an .opm path)", name, ps.searched);
 }
 
 static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
@@ -462,7 +482,8 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
     op_method long_method = OP_METHOD_COUNT;
     int is_long = op_parse_long_material_name(name, preset, sizeof preset, &long_method, &log_a, &log_b);
     char path[4096];
-    op_status st = op_resolve_material(is_long ? preset : name, b->dir, path, sizeof path, err);
+    op_status st = op_find_material(is_long ? preset : name, b->dir, NULL, NULL, path, sizeof path,
+                                     err);
     if (st == OP_OK)
         st = open_material(b, path, &d->material, err);
     if (st) {

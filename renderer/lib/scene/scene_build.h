@@ -16,12 +16,4 @@ op_status op_scene_build(op_node *root, const char *path, const op_scene_limits 
 /* Frees everything s owns (not s itself). */
 void op_scene_release(op_scene *s);
 
-/* Finds a subsurface material: an .opm path (relative to scene_dir; not checked here, since
- * opening it says what is wrong with it) or a preset name looked up in scene_dir, each folder
- * of OPALINE_PRESETS_PATH, the installed presets (share/opaline/presets beside the running
- * program's bin folder), then the build tree's presets folder. Writes the file into out; the
- * error lists every folder searched. */
-op_status op_resolve_material(const char *name, const char *scene_dir, char *out, size_t n,
-                              op_error *err);
-
 #endif

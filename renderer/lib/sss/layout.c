@@ -213,7 +213,8 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
             d->points = (int)level_first(d->finest, DIPOLE_LEVELS);
             d->windowed = 1;
         } else {
-            if (want > d->max_points)
+            d->capped = want > d->max_points;
+            if (d->capped)
                 op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points at the "
                        "profile's spacing; capped at %d (coarser than the material: raise "
                        "maxPoints or lower scale)", sh->label, want, d->max_points);
@@ -856,6 +857,7 @@ op_status op_sss_lay_points(const op_scene *scene, const op_shape_rec *sh, sss_s
                "or lower scale)", sh->label, ss->hier ? ss->desc->finest : n,
                ss->hier ? "at the profile's spacing" :
                "one per material pixel", ss->desc->max_points);
+        ss->capped = 1;
         free(ss->pts);
         free(ss->gid);
         ss->pts = NULL;

@@ -892,6 +892,8 @@ void op_sss_prepass_stats(const op_sss_prepass *c, op_sss_stats *st)
         st->sources_reused += c->shapes[i].reused_src;
         st->receivers_reused += c->shapes[i].reused_recv;
         st->shapes_reached += c->shapes[i].reached;
+        const sss_shape *ss = &c->shapes[i];
+        st->shapes_capped += ss->reached && (ss->capped || (ss->desc && ss->desc->capped));
     }
     st->seconds = c->seconds;
 }

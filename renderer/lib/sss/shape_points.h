@@ -76,6 +76,7 @@ typedef struct sss_shape {
     unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
                                  profile's ball (its normalization is needed) */
     int reached;           /* some camera segment reaches the shape: points are laid */
+    int capped;            /* the view needed more than max_points: coarsened (and warned) */
     unsigned char *recv;   /* per point: the view needs its exitance (a receiver) */
     int32_t *rmap;         /* per point: its index among the receivers whose exitance is
                               computed (those the store lacks), or -1 */
