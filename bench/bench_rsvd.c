@@ -8,7 +8,6 @@
  * JSON object: the seconds of each run and their median. OUT (written atomically) receives
  * the last run's U S (ROWS x RANK) then V (COLS x RANK), row-major float32. */
 #include "opaline.h"
-#include "report.h"
 #include "rsvd.h"
 
 #include <errno.h>

@@ -12,6 +12,8 @@ and the sources:
   the integrator neither by an include (directly or through other headers) nor by a call
   (directly or through other objects of the library); the integrator hands it the light
   transport (op_sss_transport), as a BSSRDF leaves tracing to the integrator;
+- the renderer reads materials and never writes them (no include of opaline_material_write.h,
+  directly or not, and no call of the writer's functions);
 - no Python module of the add-on, cluster/ or bench/ imports a module that imports it back,
   counting imports inside functions (they are a file-level dependency all the same).
 Usage: layering.py SOURCE_DIR BUILD_DIR."""
@@ -34,11 +36,21 @@ SOURCE_DIRS = ['include', 'libopaline', 'factorize', 'renderer', 'bench']
 PUBLIC_HEADERS = 'include'
 # Programs whose objects may use the libraries only through the public headers.
 PUBLIC_ONLY_DIRS = ['bench']
+# The exceptions, each a measurement of one internal routine at full size (as a test reaches a
+# module directly): program -> the private headers it may include. Its uses of the libraries
+# are then checked against include/ and these headers.
+BENCH_PRIVATE = {
+    'bench/bench_rsvd.c': {'factorize/methods/rsvd.h'},  # the svd method's SVD vs scikit-learn
+    'bench/bench_sss_reference.c': {'tests/c/mc_reference.h', 'tests/c/test_support.h'},
+}
 # (folder, folder it must not reach, why): by includes and by calls, directly or not.
 FOLDER_RULES = [
     ('renderer/lib/sss', 'renderer/lib/integrator',
      'the subsurface code is passive: it traces through the op_sss_transport it is given'),
 ]
+# The material writer's public header and its functions' prefixes, which the renderer never uses.
+WRITER_HEADER = 'opaline_material_write.h'
+WRITER_PREFIXES = ('op_material_writer_', 'op_write_')
 # Python import roots (folder, the packages and modules under it that are checked).
 PYTHON_ROOTS = [('blender_addon', ['opaline']), ('cluster', None), ('bench', None)]
 
@@ -150,6 +162,8 @@ def check_includes(src, files, failures):
     """Include cycles and includes across top-level folders; returns the include graph
     between files."""
     headers = {f for f in files if f.endswith('.h')}
+    test_headers = {os.path.relpath(h, src) for h in
+                    glob.glob(os.path.join(src, 'tests', '**', '*.h'), recursive=True)}
     includes = {}
     for f in files:
         with open(os.path.join(src, f), encoding='utf-8') as fh:
@@ -158,10 +172,13 @@ def check_includes(src, files, failures):
         for inc in names:
             h = resolve(f, inc, headers)
             if h is None:
-                continue
-            includes[f].add(h)
+                h = resolve(f, inc, test_headers)  # the tests' headers: never shared
+                if h is None:
+                    continue
+            else:
+                includes[f].add(h)
             top, htop = f.split('/')[0], h.split('/')[0]
-            if htop != top and htop != PUBLIC_HEADERS:
+            if htop != top and htop != PUBLIC_HEADERS and h not in BENCH_PRIVATE.get(f, ()):
                 failures.append(f'{f} includes {h}: a header of another top-level folder '
                                 f'(only {PUBLIC_HEADERS}/ is shared)')
 
@@ -178,11 +195,14 @@ def check_includes(src, files, failures):
 
 def check_public_only(src, build, files, owner_lib, failures):
     """The objects of PUBLIC_ONLY_DIRS use of the libraries only what include/ names."""
+    def names(rel):
+        with open(os.path.join(src, rel), encoding='utf-8') as fh:
+            return set(re.findall(r'\w+', fh.read()))
+
     public = set()
     for f in files:
         if f.startswith(PUBLIC_HEADERS + '/'):
-            with open(os.path.join(src, f), encoding='utf-8') as fh:
-                public.update(re.findall(r'\w+', fh.read()))
+            public |= names(f)
     checked = 0
     for d in PUBLIC_ONLY_DIRS:
         sources = [f for f in files if f.startswith(d + '/') and f.endswith('.c')]
@@ -193,9 +213,10 @@ def check_public_only(src, build, files, owner_lib, failures):
                 failures.append(f'{f}: not built')
                 continue
             checked += 1
+            allowed = public.union(*(names(h) for h in BENCH_PRIVATE.get(f, ())))
             for _, (_, undefined) in nm_symbols(obj[0]).items():
                 for s in sorted(undefined):
-                    if s in owner_lib and s not in public:
+                    if s in owner_lib and s not in allowed:
                         failures.append(f'{f} uses {s} of {owner_lib[s]}, which '
                                         f'{PUBLIC_HEADERS}/ does not declare')
     return checked
@@ -291,6 +312,20 @@ def check_python(src, failures):
     return count
 
 
+def check_reader_only(src, files, includes, per_lib, failures):
+    """The renderer reads materials and never writes them: none of its files reaches the
+    writer's header by includes, and its archive calls none of the writer's functions."""
+    for f in files:
+        if f.startswith('renderer/') and 'include/' + WRITER_HEADER in reach(includes, f):
+            failures.append(f'{f} reaches include/{WRITER_HEADER}: the renderer only reads '
+                            'materials')
+    for o, (_, undefined) in sorted(per_lib.get('libopaline_render', {}).items()):
+        for s in sorted(undefined):
+            if s.startswith(WRITER_PREFIXES):
+                failures.append(f'libopaline_render: {o} calls {s}: the renderer only reads '
+                                'materials')
+
+
 def main():
     src, build = sys.argv[1], sys.argv[2]
     failures = []
@@ -299,6 +334,7 @@ def main():
     includes, nmodules = check_includes(src, files, failures)
     nprograms = check_public_only(src, build, files, owner_lib, failures)
     check_folders(src, files, includes, per_lib, graphs, failures)
+    check_reader_only(src, files, includes, per_lib, failures)
     npython = check_python(src, failures)
     for f in failures:
         print('layering:', f)
