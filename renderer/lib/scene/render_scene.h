@@ -67,6 +67,7 @@ typedef struct op_shape_rec {
 
 struct op_scene {
     char *path;
+    op_scene_description *desc; /* what it was built from (owned; its tree freed once built) */
     op_camera camera;
     op_film film;
     op_sampler sampler;
