@@ -393,7 +393,10 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         lo = hi = v3s(0.0f);
     s->bmin = lo;
     s->bmax = hi;
-    GET_OR_FAIL(op_sss_plan(s, b->lim->sss_points, err));
+    s->sss_plan = calloc((size_t)(s->nsss ? s->nsss : 1), sizeof *s->sss_plan);
+    if (!s->sss_plan)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    GET_OR_FAIL(op_sss_plan(s, b->lim->sss_points, s->sss_plan, err));
     op_accel_shape *shapes = calloc((size_t)(s->nshapes ? s->nshapes : 1), sizeof *shapes);
     if (!shapes)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
@@ -456,6 +459,7 @@ void op_scene_release(op_scene *s)
         op_emitter_free(&s->emitters[i]);
     free(s->emitters);
     free(s->sss);
+    free(s->sss_plan);
     for (int i = 0; i < s->nmaterials; i++) {
         op_material_close(s->materials[i]);
         free(s->material_paths[i]);
