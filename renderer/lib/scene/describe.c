@@ -476,7 +476,10 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
             GET_OR_FAIL(describe_shape(d, c, &tally, &sphere_counted, err));
         } else if (strcmp(c->tag, "emitter") == 0) {
             d->emitters++;
-            if (c->type && strcmp(c->type, "envmap") == 0) {
+            if (strcmp(c->type, "area") == 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be "
+                                    "nested in a <shape>", c->file, c->line);
+            if (strcmp(c->type, "envmap") == 0) {
                 const char *fn;
                 GET_OR_FAIL(op_node_string(c, "filename", NULL, &fn, err));
                 if (!fn)
@@ -486,6 +489,11 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                 op_path_join(file, sizeof file, d->dir, fn);
                 GET_OR_FAIL(find_image(d, c, file, 1, err));
             }
+        } else if (strcmp(c->tag, "bsdf") != 0 && strcmp(c->tag, "texture") != 0 &&
+                   strcmp(c->tag, "subsurface") != 0 && strcmp(c->tag, "sensor") != 0 &&
+                   strcmp(c->tag, "integrator") != 0) {
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s type=\"%s\"> is not supported",
+                                c->file, c->line, c->tag, c->type ? c->type : "");
         }
     }
     return OP_OK;

@@ -353,18 +353,9 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         if (strcmp(c->tag, "shape") == 0) {
             GET_OR_FAIL(add_shape(b, c, err));
         } else if (strcmp(c->tag, "emitter") == 0) {
-            if (strcmp(c->type, "area") == 0)
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be "
-                                    "nested in a <shape>", c->file, c->line);
             GET_OR_FAIL(add_emitter(b, c, NULL, -1, &idx, err));
-        } else if (strcmp(c->tag, "bsdf") == 0 || strcmp(c->tag, "texture") == 0 ||
-                   strcmp(c->tag, "subsurface") == 0 || strcmp(c->tag, "sensor") == 0 ||
-                   strcmp(c->tag, "integrator") == 0) {
-            /* built where referenced (or above); unreferenced ones are reported as unused */
-        } else {
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s type=\"%s\"> is not supported",
-                                c->file, c->line, c->tag, c->type ? c->type : "");
-        }
+        } /* the rest is built where referenced (the description refused what is not
+             supported); unreferenced objects are reported as unused */
     }
     /* shapes no longer move: point area emitters at their meshes */
     for (int i = 0; i < s->nemitters; i++)
