@@ -244,17 +244,17 @@ static char g_tile_tag[160]; /* with --raw-exr: their "opalineTile" attribute (t
 
 /* Writes img to each path, all of them put in place together or none (op_output_group).
  * Returns code, or when code is 0 the exit code of a failed write. */
-static int write_images(const op_scene *scene, const op_image *img, const char *const *paths,
-                        int n, int code)
+static int write_images(const op_scene_description *desc, const op_image *img,
+                        const char *const *paths, int n, int code)
 {
     op_error werr = {0};
     op_status ws = OP_OK;
     op_output_group_begin();
     for (int i = 0; i < n && !ws; i++) {
-        const char *format = op_scene_image_format(scene, paths[i]);
+        const char *format = op_scene_description_image_format(desc, paths[i]);
         ws = g_raw_exr && format && !strcmp(format, ".exr")
                  ? op_image_write_exr_attr(paths[i], img, 0, OP_TILE_ATTR, g_tile_tag, &werr)
-                 : op_scene_write_image(scene, img, paths[i], &werr);
+                 : op_scene_description_write_image(desc, img, paths[i], &werr);
     }
     if (ws)
         op_output_group_abort();
@@ -311,7 +311,7 @@ static int write_partial(const op_scene *scene, const op_image *img, const op_re
             op_log(OP_LOG_WARN, "%s %s: %s not written, the finished tiles go to %s", what, when,
                    outputs[i], part);
             const char *p = part;
-            code = write_images(scene, img, &p, 1, code);
+            code = write_images(op_scene_description_of(scene), img, &p, 1, code);
         }
     }
     return code;
@@ -541,26 +541,36 @@ int main(int argc, char **argv)
         op_log_set_hook(NULL, NULL);
         return op_exit_code(err.status);
     }
+    /* --list-inputs, --estimate and --merge-tiles need the scene's description only */
+    op_scene_description *desc = NULL;
     op_scene *scene = NULL;
-    op_status st = op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
-    op_inputs inputs = {0}; /* the files the scene read: listed, or hashed into its key */
+    op_status st = list_inputs || estimate || merge_list
+                       ? op_scene_describe(scene_path, defines, ndefines, &limits, &desc, &err)
+                       : op_scene_load_limited(scene_path, defines, ndefines, &limits, &scene, &err);
+    if (st == OP_OK && has_crop)
+        st = desc ? op_scene_description_set_crop(desc, crop[0], crop[1], crop[2], crop[3], &err)
+                  : op_scene_set_crop(scene, crop[0], crop[1], crop[2], crop[3], &err);
+    op_scene_info info = {0};
+    if (desc)
+        op_scene_description_get_info(desc, &info);
+    else if (scene)
+        op_scene_get_info(scene, &info);
+    op_inputs inputs = {0}; /* the files the scene reads: listed, or hashed into its key */
     uint64_t key = 0;
     if (st == OP_OK && (list_inputs || estimate || merge_list || g_raw_exr))
         st = op_inputs_collect(&inputs, &err);
     if (st == OP_OK && list_inputs)
         st = op_inputs_print(&inputs, stdout, &err);
     else if (st == OP_OK && (estimate || merge_list || g_raw_exr))
-        st = op_inputs_key(&inputs, scene, defines, ndefines, &limits, spp, &key,
-                           &err);
+        st = op_inputs_key(&inputs, &info, defines, ndefines, &limits, spp, &key, &err);
     op_inputs_free(&inputs);
     for (int k = 0; k < ndefines; k++)
         free(define_buf[k]);
-    if (st == OP_OK && has_crop)
-        st = op_scene_set_crop(scene, crop[0], crop[1], crop[2], crop[3], &err);
     if (st) {
         op_log(OP_LOG_ERROR, "%s", err.message);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         return op_exit_code(st);
     }
     if (atomic_load(&g_signal)) { /* loading is not cancellable, but quick: stop before rendering */
@@ -568,13 +578,13 @@ int main(int argc, char **argv)
                signal_name(atomic_load(&g_signal)), scene_path);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         return op_exit_code(OP_ERR_CANCELLED);
     }
-    op_scene_info info;
-    op_scene_get_info(scene, &info);
     if (list_inputs) {
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         return 0;
     }
     char scene_tag[96]; /* what every tile of this render carries and --merge-tiles expects */
@@ -591,6 +601,7 @@ int main(int argc, char **argv)
         op_log(OP_LOG_ERROR, "%s", err.message);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         return op_exit_code(err.status);
     }
     if (check) {
@@ -599,6 +610,7 @@ int main(int argc, char **argv)
                info.emitters, info.subsurface_shapes);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         return 0;
     }
     if (estimate) {
@@ -612,6 +624,7 @@ int main(int argc, char **argv)
                e.image_bytes / mb, e.sss_bytes / mb, (unsigned long long)key);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         if (fflush(stdout) != 0 || ferror(stdout)) {
             op_log(OP_LOG_ERROR, "stdout: cannot write the estimate");
             return 1;
@@ -621,12 +634,13 @@ int main(int argc, char **argv)
     if (merge_list) { /* the tiles' floats, written exactly as a render's image */
         op_image merged;
         st = op_tiles_merge(merge_list, info.width, info.height, scene_tag, &merged, &err);
-        int mcode = st ? op_exit_code(st) : write_images(scene, &merged, outputs, noutputs, 0);
+        int mcode = st ? op_exit_code(st) : write_images(desc, &merged, outputs, noutputs, 0);
         if (st)
             op_log(OP_LOG_ERROR, "%s", err.message);
         op_image_free(&merged);
         op_log_set_hook(NULL, NULL);
         op_scene_free(scene);
+        op_scene_description_free(desc);
         return mcode;
     }
 
@@ -674,7 +688,7 @@ int main(int argc, char **argv)
     } else if (st == OP_OK || st == OP_ERR_CANCELLED) {
         const op_image *img = op_renderer_image(r);
         if (rs.tiles_done == rs.tiles) {
-            code = write_images(scene, img, outputs, noutputs, code);
+            code = write_images(op_scene_description_of(scene), img, outputs, noutputs, code);
             if (atomic_load(&g_signal))
                 op_log(OP_LOG_WARN, "interrupted (%s) after the image was complete",
                        signal_name(atomic_load(&g_signal)));
