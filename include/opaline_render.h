@@ -25,6 +25,7 @@ extern "C" {
 #endif
 
 typedef struct op_scene op_scene;
+typedef struct op_scene_description op_scene_description;
 typedef struct op_renderer op_renderer;
 
 /* A -D name=value override of a scene's <default name="..." value="..."/>. */
@@ -70,10 +71,23 @@ void op_scene_limits_init(op_scene_limits *lim);
  * range); anything else is OP_ERR_INPUT naming the known limits. */
 op_status op_scene_limits_set(op_scene_limits *lim, const char *assignment, op_error *err);
 
-/* Parses and builds the scene at path: geometry, acceleration structure, materials (only what
- * the scene uses), within the limits (NULL: the defaults). Bad input (including a missing or
- * unreadable file it names, and anything over a limit) gives OP_ERR_INPUT or OP_ERR_FORMAT
- * naming file:line; err may be NULL. */
+/* Describes the scene at path without building it: parses it, builds its film, sampler, camera
+ * and integrator, checks the limits that need no geometry, finds every file it names (meshes,
+ * textures, environment maps, materials: opened and closed, so that a missing or unreadable
+ * one is refused as op_scene_load would, and the run's record of inputs holds them all), counts
+ * its shapes, emitters and translucent shapes and estimates the memory a build takes; reads no
+ * mesh, opens no material, decodes no image, builds no acceleration structure. What a file's
+ * content does wrong is found by op_scene_load only. limits NULL: the defaults; errors as
+ * op_scene_load_limited's. */
+op_status op_scene_describe(const char *path, const op_scene_define *defines, int ndefines,
+                            const op_scene_limits *limits, op_scene_description **out,
+                            op_error *err);
+void op_scene_description_free(op_scene_description *d);
+
+/* Parses and builds the scene at path (op_scene_describe, then geometry, acceleration
+ * structure, materials: only what the scene uses), within the limits (NULL: the defaults). Bad
+ * input (including a missing or unreadable file it names, and anything over a limit) gives
+ * OP_ERR_INPUT or OP_ERR_FORMAT naming file:line; err may be NULL. */
 op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
                                 const op_scene_limits *limits, op_scene **out, op_error *err);
 /* op_scene_load_limited with the default limits. */
@@ -98,7 +112,8 @@ op_status op_preset_folders(const char *scene_dir, op_folder_fn each, void *user
 op_status op_find_material(const char *name, const char *scene_dir, op_folder_fn each,
                            void *user, char *out, size_t n, op_error *err);
 
-/* What the scene's film asks for. Strings stay owned by the scene. */
+/* What the scene's film asks for, and what the scene holds. Strings stay owned by the scene (or
+ * the description). */
 typedef struct op_scene_info {
     int width, height;        /* the image rendered (the crop window when there is one) */
     int full_width, full_height;
@@ -107,18 +122,36 @@ typedef struct op_scene_info {
     const char *film_filename;/* the film's filename, or NULL */
     const char *film_extension;/* its fileFormat's extension: ".exr", ".pfm", ".hdr" or ".png" */
     const char *integrator;   /* "path", "direct", "normals", ... */
-    int shapes, triangles, emitters, subsurface_shapes;
-    int instances;            /* shapes that place a mesh file shared with others (one copy) */
-    long long geometry_bytes; /* the scene's triangle data plus Embree's structures */
+    int shapes, emitters, subsurface_shapes;
+    int triangles;            /* a description's: -1 when some shape reads a mesh file */
+    int instances;            /* shapes that place a mesh file shared with others (one copy);
+                                 -1 for a description */
+    long long geometry_bytes; /* the scene's triangle data plus Embree's structures; -1 for a
+                                 description */
+    long long load_bytes;     /* the estimated peak memory of building the scene (in a process
+                                 of its own): a description's estimate, from file sizes, mesh
+                                 and image headers */
+    const char *const *files; /* the files the scene names (meshes, textures, environment maps,
+                                 materials), as resolved, each once, in the order the build
+                                 reads them; not the scene file and its includes */
+    int nfiles;
 } op_scene_info;
 
 void op_scene_get_info(const op_scene *scene, op_scene_info *info);
+/* The same from a description: its film, sampler and counts, before building. */
+void op_scene_description_get_info(const op_scene_description *d, op_scene_info *info);
 
 /* Replaces the film's crop window (cropOffsetX/Y, cropWidth/Height) by the w x h pixels at
  * (x, y) of the full film, top-left origin: a render then computes only those pixels, each
  * exactly as in the full image. A window not inside the film is OP_ERR_INPUT. Call before
  * rendering. */
 op_status op_scene_set_crop(op_scene *scene, int x, int y, int w, int h, op_error *err);
+
+/* The same for a description (before building; what --estimate reports). */
+op_status op_scene_description_set_crop(op_scene_description *d, int x, int y, int w, int h,
+                                        op_error *err);
+/* The description scene was built from (owned by scene): its film and what it names. */
+const op_scene_description *op_scene_description_of(const op_scene *scene);
 
 /* A finished tile: RGBA linear floats, rows from the top; x, y its top-left pixel in the image. */
 typedef struct op_render_tile {
@@ -193,6 +226,11 @@ const char *op_scene_image_format(const op_scene *scene, const char *path);
  * tonemapping (gamma with exposure, or reinhard) and gamma for PNG. */
 op_status op_scene_write_image(const op_scene *scene, const op_image *img, const char *path,
                                op_error *err);
+/* op_scene_image_format and op_scene_write_image with a description's film (the same result as
+ * with the scene built from it): an image assembled elsewhere (--merge-tiles) needs no build. */
+const char *op_scene_description_image_format(const op_scene_description *d, const char *path);
+op_status op_scene_description_write_image(const op_scene_description *d, const op_image *img,
+                                           const char *path, op_error *err);
 
 #ifdef __cplusplus
 }

@@ -1,8 +1,6 @@
 /* estimate.c - the memory estimate of a render (see estimate.h). */
 #include "estimate.h"
 
-#include <sys/resource.h>
-
 /* Bytes per irradiance point of the pre-pass at its peak, rounded up: the point (positions,
  * normals, tangents, irradiance, exitance: 92), the dipole's tree (nodes, order, positions,
  * normals, weights, aggregates: about 160) and the weights handed to it (36), three hashed
@@ -15,8 +13,7 @@ enum { SSS_BYTES_PER_POINT = 448, IMAGE_BYTES_PER_PIXEL = 2 * 4 * sizeof(float) 
 
 void op_estimate_render(const op_scene_info *info, const op_scene_limits *lim, op_estimate *e)
 {
-    struct rusage ru;
-    e->loaded_bytes = getrusage(RUSAGE_SELF, &ru) == 0 ? (long long)ru.ru_maxrss * 1024 : 0;
+    e->loaded_bytes = info->load_bytes;
     e->image_bytes = (long long)info->width * info->height * IMAGE_BYTES_PER_PIXEL;
     long long points = (long long)info->subsurface_shapes * lim->sss_max_points;
     if (points > lim->sss_points)

@@ -77,9 +77,9 @@ static void h_u64(XXH3_state_t *h, uint64_t v)
     XXH3_64bits_update(h, &v, sizeof v);
 }
 
-op_status op_inputs_key(const op_inputs *in, const op_scene *scene, const op_scene_define *defines,
-                        int ndefines, const op_scene_limits *limits, int spp, uint64_t *key,
-                        op_error *err)
+op_status op_inputs_key(const op_inputs *in, const op_scene_info *info,
+                        const op_scene_define *defines, int ndefines, const op_scene_limits *limits,
+                        int spp, uint64_t *key, op_error *err)
 {
     XXH3_state_t *h = XXH3_createState();
     if (!h)
@@ -110,11 +110,9 @@ op_status op_inputs_key(const op_inputs *in, const op_scene *scene, const op_sce
     h_u64(h, (uint64_t)limits->kernel);
     h_u64(h, (uint64_t)limits->sss_points);
     h_u64(h, (uint64_t)limits->sss_max_points);
-    op_scene_info info;
-    op_scene_get_info(scene, &info);
-    h_u64(h, (uint64_t)(spp > 0 ? spp : info.spp));
-    h_u64(h, (uint64_t)info.full_width);
-    h_u64(h, (uint64_t)info.full_height);
+    h_u64(h, (uint64_t)(spp > 0 ? spp : info->spp));
+    h_u64(h, (uint64_t)info->full_width);
+    h_u64(h, (uint64_t)info->full_height);
     *key = XXH3_64bits_digest(h);
     XXH3_freeState(h);
     return st;

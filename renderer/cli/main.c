@@ -63,7 +63,9 @@ static void stop_with_parent(void)
 typedef struct run {
     const op_cli_options *o;
     op_stream *stream;   /* with --stream */
-    op_scene *scene;
+    op_scene_description *described; /* the modes that need no build (--list-inputs,
+                                        --estimate, --merge-tiles) */
+    op_scene *scene;                 /* the others: the built scene (with its description) */
     op_scene_info info;
     uint64_t key;        /* with --estimate, --merge-tiles, --raw-exr: inputs.h's key */
     char scene_tag[96];  /* "key=... film=WxH": what every tile carries, --merge-tiles expects */
@@ -77,7 +79,14 @@ static void run_free(run *r)
 {
     op_log_set_hook(NULL, NULL);
     op_stream_free(r->stream);
+    op_scene_description_free(r->described);
     op_scene_free(r->scene);
+}
+
+/* The scene's description, whichever way it was loaded. */
+static const op_scene_description *description(const run *r)
+{
+    return r->described ? r->described : op_scene_description_of(r->scene);
 }
 
 /* The exit code of a failed step, its message logged. */
@@ -100,26 +109,36 @@ static int check_outputs_before(const op_cli_options *o, op_error *err)
     return op_output_check(written, nwritten, read, 2, err);
 }
 
-/* Loads the scene (and what the mode needs of its inputs: their list, or their key), applies
- * the crop. Returns -1 to go on, else the exit code. */
+/* Describes the scene, and builds it unless the mode needs only its description; lists or
+ * keys its inputs as the mode asks; applies the crop. Returns -1 to go on, else the exit code. */
 static int load(run *r, op_error *err)
 {
     const op_cli_options *o = r->o;
-    op_status st = op_scene_load_limited(o->scene_path, o->defines, o->ndefines, &o->limits,
-                                         &r->scene, err);
-    op_inputs inputs = {0}; /* the files the scene read: listed, or hashed into its key */
     int list = o->mode == OP_MODE_LIST_INPUTS;
     int keyed = o->mode == OP_MODE_ESTIMATE || o->mode == OP_MODE_MERGE_TILES || o->raw_exr;
+    op_status st = list || o->mode == OP_MODE_ESTIMATE || o->mode == OP_MODE_MERGE_TILES
+                       ? op_scene_describe(o->scene_path, o->defines, o->ndefines, &o->limits,
+                                           &r->described, err)
+                       : op_scene_load_limited(o->scene_path, o->defines, o->ndefines,
+                                               &o->limits, &r->scene, err);
+    if (st == OP_OK && o->has_crop)
+        st = r->described ? op_scene_description_set_crop(r->described, o->crop[0], o->crop[1],
+                                                          o->crop[2], o->crop[3], err)
+                          : op_scene_set_crop(r->scene, o->crop[0], o->crop[1], o->crop[2],
+                                              o->crop[3], err);
+    if (st == OP_OK && r->described)
+        op_scene_description_get_info(r->described, &r->info);
+    else if (st == OP_OK)
+        op_scene_get_info(r->scene, &r->info);
+    op_inputs inputs = {0}; /* the files the scene reads: listed, or hashed into its key */
     if (st == OP_OK && (list || keyed))
         st = op_inputs_collect(&inputs, err);
     if (st == OP_OK && list)
         st = op_inputs_print(&inputs, stdout, err);
     else if (st == OP_OK && keyed)
-        st = op_inputs_key(&inputs, r->scene, o->defines, o->ndefines, &o->limits, o->spp,
+        st = op_inputs_key(&inputs, &r->info, o->defines, o->ndefines, &o->limits, o->spp,
                            &r->key, err);
     op_inputs_free(&inputs);
-    if (st == OP_OK && o->has_crop)
-        st = op_scene_set_crop(r->scene, o->crop[0], o->crop[1], o->crop[2], o->crop[3], err);
     if (st)
         return failed(err);
     if (atomic_load(&g_signal)) { /* loading is not cancellable, but quick: stop before rendering */
@@ -127,7 +146,6 @@ static int load(run *r, op_error *err)
                signal_name(atomic_load(&g_signal)), o->scene_path);
         return op_exit_code(OP_ERR_CANCELLED);
     }
-    op_scene_get_info(r->scene, &r->info);
     return -1;
 }
 
@@ -157,7 +175,7 @@ static int merge_tiles(const run *r)
     op_status st = op_tiles_merge(r->o->merge_list, r->info.width, r->info.height, r->scene_tag,
                                   &merged, &err);
     int code = st ? failed(&err)
-                  : op_write_images(r->scene, &merged, r->outputs, r->noutputs,
+                  : op_write_images(description(r), &merged, r->outputs, r->noutputs,
                                     r->o->raw_exr ? r->tile_tag : NULL, 0);
     op_image_free(&merged);
     return code;
@@ -180,14 +198,14 @@ static int write_result(const run *r, op_renderer *rend, const op_render_stats *
         return code;
     const op_image *img = op_renderer_image(rend);
     if (rs->tiles_done == rs->tiles)
-        return op_write_images(r->scene, img, r->outputs, r->noutputs, raw_tag, code);
+        return op_write_images(description(r), img, r->outputs, r->noutputs, raw_tag, code);
     char what[64];
     int sig = atomic_load(&g_signal);
     if (sig)
         snprintf(what, sizeof what, "interrupted (%s)", signal_name(sig));
     else
         snprintf(what, sizeof what, "stopped");
-    return op_write_partial(r->scene, img, rs, r->outputs, r->noutputs, o->partial_beside,
+    return op_write_partial(description(r), img, rs, r->outputs, r->noutputs, o->partial_beside,
                             what, raw_tag, code);
 }
 

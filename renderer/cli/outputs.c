@@ -8,17 +8,17 @@
 
 #include "tile_merge.h"
 
-int op_write_images(const op_scene *scene, const op_image *img, const char *const *paths, int n,
+int op_write_images(const op_scene_description *desc, const op_image *img, const char *const *paths, int n,
                     const char *raw_tag, int code)
 {
     op_error werr = {0};
     op_status ws = OP_OK;
     op_output_group_begin();
     for (int i = 0; i < n && !ws; i++) {
-        const char *format = op_scene_image_format(scene, paths[i]);
+        const char *format = op_scene_description_image_format(desc, paths[i]);
         ws = raw_tag && format && !strcmp(format, ".exr")
                  ? op_image_write_exr_attr(paths[i], img, 0, OP_TILE_ATTR, raw_tag, &werr)
-                 : op_scene_write_image(scene, img, paths[i], &werr);
+                 : op_scene_description_write_image(desc, img, paths[i], &werr);
     }
     if (ws)
         op_output_group_abort();
@@ -46,7 +46,7 @@ static int partial_name(const char *path, char *out, size_t n)
     return len >= 0 && (size_t)len < n;
 }
 
-int op_write_partial(const op_scene *scene, const op_image *img, const op_render_stats *rs,
+int op_write_partial(const op_scene_description *desc, const op_image *img, const op_render_stats *rs,
                      const char *const *outputs, int n, int beside, const char *what,
                      const char *raw_tag, int code)
 {
@@ -69,7 +69,7 @@ int op_write_partial(const op_scene *scene, const op_image *img, const op_render
             op_log(OP_LOG_WARN, "%s %s: %s not written, the finished tiles go to %s", what, when,
                    outputs[i], part);
             const char *p = part;
-            code = op_write_images(scene, img, &p, 1, raw_tag, code);
+            code = op_write_images(desc, img, &p, 1, raw_tag, code);
         }
     }
     return code;

@@ -11,10 +11,11 @@
 #include "sss/cache_file.h"
 #include "sss/prepass.h"
 
-op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
-                                const op_scene_limits *limits, op_scene **out, op_error *err)
+op_status op_scene_describe(const char *path, const op_scene_define *defines, int ndefines,
+                            const op_scene_limits *limits, op_scene_description **out,
+                            op_error *err)
 {
-    /* the builder passes nested statuses through err, so it always gets one */
+    /* the describer passes nested statuses through err, so it always gets one */
     op_error scratch = {0};
     if (!err)
         err = &scratch;
@@ -37,18 +38,57 @@ op_status op_scene_load_limited(const char *path, const op_scene_define *defines
     free(defs);
     if (st)
         return st;
-    op_scene *s = calloc(1, sizeof *s);
-    if (!s) {
+    op_scene_description *d = calloc(1, sizeof *d);
+    if (!d) {
         op_desc_free(root);
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     }
-    st = op_scene_build(root, path, limits, s, err);
-    if (st == OP_OK && s->nsss > 0)
-        op_sss_desc_hash(root, s->desc_hash);
-    op_desc_free(root);
+    st = op_describe(root, path, limits, d, err);
     if (st) {
-        op_scene_release(s);
-        free(s);
+        op_scene_description_free(d);
+        return st;
+    }
+    *out = d;
+    return OP_OK;
+}
+
+void op_scene_description_free(op_scene_description *d)
+{
+    if (!d)
+        return;
+    op_describe_release(d);
+    free(d);
+}
+
+void op_scene_description_get_info(const op_scene_description *d, op_scene_info *info)
+{
+    op_describe_info(d, info);
+}
+
+op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
+                                const op_scene_limits *limits, op_scene **out, op_error *err)
+{
+    op_error scratch = {0};
+    if (!err)
+        err = &scratch;
+    *out = NULL;
+    op_scene_description *d;
+    op_status st = op_scene_describe(path, defines, ndefines, limits, &d, err);
+    if (st)
+        return st;
+    op_scene *s = calloc(1, sizeof *s);
+    if (!s) {
+        op_scene_description_free(d);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    s->desc = d;
+    st = op_scene_build(d, s, err);
+    if (st == OP_OK && s->nsss > 0)
+        op_sss_desc_hash(d->root, s->desc_hash);
+    op_desc_free(d->root); /* built: the tree is no longer read */
+    d->root = NULL;
+    if (st) {
+        op_scene_free(s);
         return st;
     }
     *out = s;
@@ -66,12 +106,26 @@ void op_scene_free(op_scene *scene)
     if (!scene)
         return;
     op_scene_release(scene);
+    op_scene_description_free(scene->desc);
     free(scene);
 }
 
 op_status op_scene_set_crop(op_scene *s, int x, int y, int w, int h, op_error *err)
 {
-    return op_film_set_crop(&s->film, x, y, w, h, "--crop", err);
+    op_status st = op_film_set_crop(&s->film, x, y, w, h, "--crop", err);
+    s->desc->film = s->film; /* the description stays the scene's */
+    return st;
+}
+
+op_status op_scene_description_set_crop(op_scene_description *d, int x, int y, int w, int h,
+                                        op_error *err)
+{
+    return op_film_set_crop(&d->film, x, y, w, h, "--crop", err);
+}
+
+const op_scene_description *op_scene_description_of(const op_scene *s)
+{
+    return s->desc;
 }
 
 void op_scene_get_info(const op_scene *s, op_scene_info *info)
@@ -101,6 +155,20 @@ void op_scene_get_info(const op_scene *s, op_scene_info *info)
         info->geometry_bytes += op_accel_bytes(s->accel);
     info->emitters = s->nemitters;
     info->subsurface_shapes = s->nsss;
+    info->load_bytes = s->desc->load_bytes;
+    info->files = (const char *const *)s->desc->files;
+    info->nfiles = s->desc->nfiles;
+}
+
+const char *op_scene_description_image_format(const op_scene_description *d, const char *path)
+{
+    return op_film_image_format(&d->film, path);
+}
+
+op_status op_scene_description_write_image(const op_scene_description *d, const op_image *img,
+                                           const char *path, op_error *err)
+{
+    return op_film_write_image(&d->film, img, path, err);
 }
 
 struct op_renderer {

@@ -38,15 +38,6 @@ typedef struct op_sss_desc {
     int irr_samples;       /* paths per irradiance point */
     double density;        /* irradiance points per material pixel area */
     int max_points;
-    int capped;            /* 1: op_sss_plan coarsened the shape to max_points (and warned) */
-    int points;            /* the irradiance points of its layout (op_sss_plan) */
-    int windowed;          /* 1: a shape needing more than max_points (a measured material,
-                              or the dipole at its profile's spacing): only the points near the
-                              view are laid, up to max_points, else the shape is coarsened
-                              (sss/layout.c) */
-    int finest;            /* the points of its layout's finest level: one per material pixel,
-                              or at the profile's spacing (a windowed dipole's levels add up to
-                              points) */
     op_v3 albedo_mean;     /* mean albedo, the stand-in reflectance while irradiance is computed */
     int is_dipole;         /* 1: the classical dipole below instead of a material (material NULL) */
     op_sss_dipole dipole;      /* coefficients per scene unit (docs/subsurface-rendering.md) */
@@ -54,6 +45,17 @@ typedef struct op_sss_desc {
     op_bsdf sheen;         /* that reflection lobe (op_bsdf_boundary) */
     op_bsdf_through through; /* what the boundary lets in and out */
 } op_sss_desc;
+
+/* The irradiance points planned for one translucent shape (op_sss_plan, sss/layout.h). */
+typedef struct op_sss_plan_entry {
+    int points;   /* the irradiance points of its layout */
+    int windowed; /* 1: a shape needing more than max_points (a measured material, or the
+                     dipole at its profile's spacing): only the points near the view are laid,
+                     up to max_points, else the shape is coarsened (sss/layout.c) */
+    int finest;   /* the points of its layout's finest level: one per material pixel, or at
+                     the profile's spacing (a windowed dipole's levels add up to points) */
+    int capped;   /* 1: coarsened to max_points (and warned) */
+} op_sss_plan_entry;
 
 typedef struct op_shape_rec {
     op_trimesh mesh; /* world space; for an instance a borrowed copy of the scene's prototype in
@@ -70,6 +72,7 @@ typedef struct op_shape_rec {
 
 struct op_scene {
     char *path;
+    op_scene_description *desc; /* what it was built from (owned; its tree freed once built) */
     op_camera camera;
     op_film film;
     op_sampler sampler;
@@ -85,6 +88,7 @@ struct op_scene {
     int nemitters;
     int env; /* index of the environment emitter, or -1 */
     op_sss_desc *sss;
+    op_sss_plan_entry *sss_plan; /* per sss: its planned layout (op_sss_plan) */
     int nsss;
     op_material **materials;
     char **material_paths; /* the file each material was opened from */

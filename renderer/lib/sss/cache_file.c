@@ -176,7 +176,7 @@ op_status op_sss_key(const op_scene *s, uint64_t seed, unsigned char key[OP_SSS_
     h_u64(h, (uint64_t)s->nsss);
     for (int i = 0; i < s->nsss; i++) {
         const op_sss_desc *d = &s->sss[i];
-        h_u64(h, (uint64_t)d->points);
+        h_u64(h, (uint64_t)s->sss_plan[i].points);
         h_u64(h, (uint64_t)d->max_points);
         h_u64(h, (uint64_t)d->irr_samples);
         h_double(h, d->density);

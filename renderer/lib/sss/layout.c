@@ -153,7 +153,8 @@ static long long level_first(long long n0, int l)
     return f;
 }
 
-op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
+op_status op_sss_plan(const op_scene *scene, long long max_total, op_sss_plan_entry *plan,
+                      op_error *err)
 {
     op_v3 ext = v3_sub(scene->bmax, scene->bmin);
     double extent = fmax(ext.x, fmax(ext.y, ext.z)), total = 0.0;
@@ -161,7 +162,8 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         const op_shape_rec *sh = &scene->shapes[i];
         if (sh->sss < 0)
             continue;
-        op_sss_desc *d = &scene->sss[sh->sss];
+        const op_sss_desc *d = &scene->sss[sh->sss];
+        op_sss_plan_entry *p = &plan[sh->sss];
         double px, py, size_x = 0.0, size_y = 0.0;
         if (d->is_dipole) {
             px = py = op_sss_dipole_spacing(&d->dipole);
@@ -188,7 +190,7 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
         if (!isfinite(want))
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the shape's area over the "
                                 "material pixel's area is not finite", sh->label);
-        d->windowed = 0;
+        p->windowed = 0;
         if (!d->is_dipole) {
             /* a measured material: one point per material pixel (at its centre where the map
              * shows the material at its physical size); a shape needing more than maxPoints
@@ -204,24 +206,24 @@ op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err)
                                     "points (one per material pixel at density %g) are more "
                                     "than a shape can hold (%d)", sh->label, want, d->density,
                                     INT32_MAX);
-            d->points = d->finest = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
-            d->windowed = d->points > d->max_points;
+            p->points = p->finest = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
+            p->windowed = p->points > d->max_points;
         } else if (want > d->max_points && want <= INT32_MAX &&
                    level_first((long long)ceil(want), DIPOLE_LEVELS) <= INT32_MAX) {
             /* the dipole's layout in levels, windowed in the same way */
-            d->finest = (int)ceil(want);
-            d->points = (int)level_first(d->finest, DIPOLE_LEVELS);
-            d->windowed = 1;
+            p->finest = (int)ceil(want);
+            p->points = (int)level_first(p->finest, DIPOLE_LEVELS);
+            p->windowed = 1;
         } else {
-            d->capped = want > d->max_points;
-            if (d->capped)
+            p->capped = want > d->max_points;
+            if (p->capped)
                 op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points at the "
                        "profile's spacing; capped at %d (coarser than the material: raise "
                        "maxPoints or lower scale)", sh->label, want, d->max_points);
-            d->points = d->finest =
+            p->points = p->finest =
                 want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         }
-        total += d->windowed ? d->max_points : d->points;
+        total += p->windowed ? d->max_points : p->points;
         if (total > (double)max_total)
             return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: the translucent shapes "
                                 "need %.0f irradiance points so far, over the limit of %lld "
@@ -764,7 +766,7 @@ static op_status lay_near_view(const op_shape_rec *sh, sss_shape *ss, const cam_
     int got;
     if (ss->hier) {
         /* the finest level's points: the profile's spacing */
-        ss->a_i = m->area / (float)ss->desc->finest;
+        ss->a_i = m->area / (float)ss->plan->finest;
         ss->spacing = sqrtf(ss->a_i);
         ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py)); /* prepare_shape's */
         op_sss_dipole_kernel dk;
@@ -775,12 +777,12 @@ static op_status lay_near_view(const op_shape_rec *sh, sss_shape *ss, const cam_
         got = level_plan_build(ss, sh->sss, rows, gh, pix, &dk, &lp);
         op_sss_dipole_kernel_free(&dk);
         if (got > 0)
-            got = lay_levels(m, ss, sx, sy, ss->desc->finest, &lp);
+            got = lay_levels(m, ss, sx, sy, ss->plan->finest, &lp);
         ss->levels = got > 0;
         if (got > 0) {
             int fine = 0;
             for (int i = 0; i < ss->n; i++)
-                fine += ss->gid[i] < ss->desc->finest;
+                fine += ss->gid[i] < ss->plan->finest;
             op_log(OP_LOG_DEBUG, "%s: subsurface: %d regions around the view, %d points at the "
                    "profile's spacing and %d coarser", sh->label, lp.nregions, fine,
                    ss->n - fine);
@@ -803,7 +805,7 @@ static op_status lay_near_view(const op_shape_rec *sh, sss_shape *ss, const cam_
         lp.hi = lp.win[0].hi;
         if (got > 0)
             got = step > 0.0 ? lay_window(m, ss, sx, sy, step, &lp.win[0])
-                             : lay_levels(m, ss, sx, sy, ss->desc->finest, &lp);
+                             : lay_levels(m, ss, sx, sy, ss->plan->finest, &lp);
         ss->centred = got > 0 && step > 0.0;
     }
     level_plan_free(&lp);
@@ -839,11 +841,11 @@ op_status op_sss_lay_points(const op_scene *scene, const op_shape_rec *sh, sss_s
         ss->py = (float)(sy / info->height);
     }
     ss->a_pix = ss->px * ss->py;
-    int n = ss->desc->points; /* op_sss_plan */
+    int n = ss->plan->points; /* op_sss_plan */
     ss->n = ss->nfull = n;
     ss->a_i = m->area / (float)n;
     ss->spacing = sqrtf(ss->a_i);
-    if (ss->desc->windowed) {
+    if (ss->plan->windowed) {
         int laid = 0;
         if (rows) {
             op_status st = lay_near_view(sh, ss, rows, gh, pix, sx, sy, &laid, err);
@@ -854,7 +856,7 @@ op_status op_sss_lay_points(const op_scene *scene, const op_shape_rec *sh, sss_s
             return ss->hier ? spatial_order(ss, scene->bmin, scene->bmax, err) : OP_OK;
         op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance points "
                "(%s) than maxPoints; capped at %d (coarser than the material: raise maxPoints "
-               "or lower scale)", sh->label, ss->hier ? ss->desc->finest : n,
+               "or lower scale)", sh->label, ss->hier ? ss->plan->finest : n,
                ss->hier ? "at the profile's spacing" :
                "one per material pixel", ss->desc->max_points);
         ss->capped = 1;
@@ -869,7 +871,7 @@ op_status op_sss_lay_points(const op_scene *scene, const op_shape_rec *sh, sss_s
     ss->pts = calloc((size_t)n, sizeof *ss->pts);
     if (!ss->pts)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory for %d irradiance points", n);
-    if (!ss->desc->is_dipole && !ss->desc->windowed) {
+    if (!ss->desc->is_dipole && !ss->plan->windowed) {
         double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
                                    ss->desc->density);
         if (step > 0.0 && lay_centred(m, ss, sx, sy, step) == n) {

@@ -10,16 +10,17 @@
 #include "sss/shape_points.h"
 
 /* Plans, before any work, the irradiance points of every translucent shape of the built scene
- * (its bounds set): checks that a material pixel in scene units is finite, positive and within
+ * (its bounds set) into plan (scene->nsss entries, by sss index): checks that a material pixel in scene units is finite, positive and within
  * what single precision can grid across the scene, fixes each shape's point count (about
  * `density` per material pixel area, computed in double; a shape needing more than its
  * maxPoints is windowed: at most maxPoints of them are laid, those near the view, else it is
  * coarsened to maxPoints) and refuses a total (of what may be laid) over max_total
- * ("sss-points"). Fills each op_sss_desc's points, finest and windowed. */
-op_status op_sss_plan(op_scene *scene, long long max_total, op_error *err);
+ * ("sss-points"). */
+op_status op_sss_plan(const op_scene *scene, long long max_total, op_sss_plan_entry *plan,
+                      op_error *err);
 
-/* Lays the points of shape sh (ss->desc set) and fills ss's layout fields (its pixel size,
- * spacing, points and their indices in the whole layout). A windowed shape (op_sss_desc.
+/* Lays the points of shape sh (ss->desc and ss->plan set) and fills ss's layout fields (its pixel size,
+ * spacing, points and their indices in the whole layout). A windowed shape (op_sss_plan_entry.
  * windowed) lays those near the camera segments' hits on it (rows: gh rows of hits, pix the
  * angle between neighbouring rays; NULL: the whole shape is in view) when they are at most
  * maxPoints, and is coarsened to maxPoints points otherwise, with a warning. */

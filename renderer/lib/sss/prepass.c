@@ -566,7 +566,7 @@ static op_status scatter_pass(build_job *job, const op_sss_prepass_options *opt,
  * same key always have the layout's point count; one that does not is refused (a damaged file
  * that kept its checksum, or a key collision). */
 static op_status saved_prepare(op_sss_store *store, int sss, int n, const op_sss_desc *d,
-                               const char *label, op_error *err)
+                               const op_sss_plan_entry *p, const char *label, op_error *err)
 {
     if (sss >= store->nshapes)
         return op_error_set(err, OP_ERR_FORMAT, "%s: the pre-pass cache holds %d translucent "
@@ -574,7 +574,7 @@ static op_status saved_prepare(op_sss_store *store, int sss, int n, const op_sss
     op_sss_saved *sv = &store->shapes[sss];
     if (sv->n == n)
         return OP_OK;
-    if (d->windowed && (sv->n == d->points || sv->n == d->max_points)) {
+    if (p->windowed && (sv->n == p->points || sv->n == d->max_points)) {
         /* the other of a windowed shape's two layouts (another view): recomputed */
         free(sv->has);
         free(sv->e);
@@ -715,7 +715,8 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
         op_log(OP_LOG_INFO, "%s: not kept in the pre-pass cache (%d irradiance points in its "
                "whole layout, over %d x maxPoints)", sh->label, ss->nfull, UNSAVED_FACTOR);
     if (opt->store && !ss->unsaved) {
-        st = saved_prepare(opt->store, sh->sss, ss->nfull, ss->desc, sh->label, err);
+        st = saved_prepare(opt->store, sh->sss, ss->nfull, ss->desc, ss->plan, sh->label,
+                               err);
         if (st)
             return st;
         sv = &opt->store->shapes[sh->sss];
@@ -751,6 +752,7 @@ static op_status prepare_shapes(const op_scene *scene, op_sss_prepass *c,
             continue;
         sss_shape *ss = &c->shapes[sh->sss];
         ss->desc = &scene->sss[sh->sss];
+        ss->plan = &scene->sss_plan[sh->sss];
         if (!ss->reached) {
             op_log(OP_LOG_INFO, "%s: no camera segment reaches this translucent shape: no "
                    "irradiance points", sh->label);
@@ -893,7 +895,7 @@ void op_sss_prepass_stats(const op_sss_prepass *c, op_sss_stats *st)
         st->receivers_reused += c->shapes[i].reused_recv;
         st->shapes_reached += c->shapes[i].reached;
         const sss_shape *ss = &c->shapes[i];
-        st->shapes_capped += ss->reached && (ss->capped || (ss->desc && ss->desc->capped));
+        st->shapes_capped += ss->reached && (ss->capped || (ss->plan && ss->plan->capped));
     }
     st->seconds = c->seconds;
 }

@@ -46,6 +46,7 @@ typedef struct look_set {
 
 typedef struct sss_shape {
     const op_sss_desc *desc;
+    const op_sss_plan_entry *plan;
     int width, height, kernel, channels;
     float px, py, a_pix, a_i, spacing;
     float radius; /* gather radius: the kernel footprint */

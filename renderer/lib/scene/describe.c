@@ -1,0 +1,535 @@
+/* describe.c - a scene described (see describe.h). */
+#include "scene/describe.h"
+
+#include <libgen.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "scene/limits.h"
+#include "scene/scene_path.h"
+#include "scene/subsurface_desc.h"
+
+/* The loaded-size estimate (op_scene_info.load_bytes), calibrated against the peak resident
+ * memory of --check (a build, no sanitizer): 10.6 to 12.4 MB for scenes of a few small
+ * shapes (the process, its libraries, Embree); 144 bytes per stored triangle (the mesh as
+ * read and as placed, Embree's BVH: the builder's load-memory charge) plus a mesh file's size
+ * (mapped), an OBJ's triangles taken from its size at 24 bytes each (spot.obj has 56, the
+ * Stanford bunny 35); a material at 3 times its file's size (an SVD preset of 12 MB took
+ * 30 MB, a Tucker one of 14 MB took 14 MB); per texel of a texture its linear RGB copy and
+ * the decoded file, of an environment map the map and its sampling tables. */
+#define BASE_BYTES (16LL << 20)
+#define OBJ_BYTES_PER_TRIANGLE 24
+#define MATERIAL_FILE_FACTOR 3
+#define TEXTURE_BYTES_PER_TEXEL(channels) (12 + 4 * (channels))
+#define ENVMAP_BYTES_PER_TEXEL(channels) (16 + 4 * (channels))
+/* An image whose header is not understood here (the build says what is wrong with it):
+ * counted as this many times its file size. */
+#define UNKNOWN_IMAGE_FACTOR 64
+
+/* Records path in d->files once; *added: whether it is new. */
+static op_status add_file(op_scene_description *d, const char *path, int *added, op_error *err)
+{
+    *added = 0;
+    for (int i = 0; i < d->nfiles; i++)
+        if (strcmp(d->files[i], path) == 0)
+            return OP_OK;
+    if (!op_array_grow((void **)&d->files, &d->cap_files, d->nfiles, sizeof *d->files) ||
+        !(d->files[d->nfiles] = strdup(path)))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    d->nfiles++;
+    *added = 1;
+    return OP_OK;
+}
+
+/* Opens path as its reader would (the same refusal of a missing or unreadable file, and the
+ * run's record of inputs), reads up to n bytes of its start into head (*got of them), closes
+ * it and records it in d->files (*added: whether it is new there). *size: its size. */
+static op_status open_file(op_scene_description *d, const char *path, unsigned char *head,
+                           size_t n, size_t *got, uint64_t *size, int *added, op_error *err)
+{
+    int fd;
+    GET_OR_FAIL(op_file_open(path, &fd, size, err));
+    ssize_t r = n > 0 ? pread(fd, head, n, 0) : 0;
+    close(fd);
+    *got = r > 0 ? (size_t)r : 0;
+    return add_file(d, path, added, err);
+}
+
+/* open_file for node's file, its errors prefixed by node's element. */
+static op_status find_file(op_scene_description *d, const op_node *node, const char *path,
+                           unsigned char *head, size_t n, size_t *got, uint64_t *size,
+                           int *added, op_error *err)
+{
+    if (open_file(d, path, head, n, got, size, added, err))
+        return op_error_prefix(err, "%s:%d: <%s type=\"%s\">: ", node->file, node->line, node->tag,
+                               node->type ? node->type : "");
+    return OP_OK;
+}
+
+static uint32_t be32(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+static int32_t le32(const unsigned char *p)
+{
+    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+                     (uint32_t)p[3] << 24);
+}
+
+/* Width x height and channels of an image from the n bytes of its start (PNG's IHDR, PFM's
+ * text header, OpenEXR's dataWindow, counted as 4 channels); 0 when not understood. */
+static int image_header(const unsigned char *h, size_t n, long long *texels, int *channels)
+{
+    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static const unsigned char exr[4] = {0x76, 0x2f, 0x31, 0x01};
+    if (n >= 26 && memcmp(h, png, 8) == 0) {
+        static const int per_type[7] = {1, 0, 3, 1, 2, 0, 4};
+        *texels = (long long)be32(h + 16) * be32(h + 20);
+        *channels = h[25] < 7 && per_type[h[25]] ? per_type[h[25]] : 4;
+        return 1;
+    }
+    if (n >= 3 && h[0] == 'P' && (h[1] == 'F' || h[1] == 'f')) {
+        long w, ht;
+        if (sscanf((const char *)h + 2, "%ld %ld", &w, &ht) != 2 || w <= 0 || ht <= 0)
+            return 0;
+        *texels = (long long)w * ht;
+        *channels = h[1] == 'F' ? 3 : 1;
+        return 1;
+    }
+    if (n >= 8 && memcmp(h, exr, 4) == 0) {
+        size_t at = 8;
+        while (at < n && h[at]) { /* attributes: name, type, size, value; an empty name ends */
+            const char *name = (const char *)h + at;
+            size_t ln = strnlen(name, n - at), lt;
+            if (at + ln + 1 >= n)
+                return 0;
+            lt = strnlen((const char *)h + at + ln + 1, n - at - ln - 1);
+            size_t value = at + ln + 1 + lt + 1 + 4;
+            if (value > n)
+                return 0;
+            int32_t size = le32(h + value - 4);
+            if (size < 0 || (size_t)size > n - value)
+                return 0;
+            if (strcmp(name, "dataWindow") == 0 && size == 16) {
+                long long w = (long long)le32(h + value + 8) - le32(h + value) + 1;
+                long long ht = (long long)le32(h + value + 12) - le32(h + value + 4) + 1;
+                if (w <= 0 || ht <= 0)
+                    return 0;
+                *texels = w * ht;
+                *channels = 4;
+                return 1;
+            }
+            at = value + (size_t)size;
+        }
+    }
+    return 0;
+}
+
+/* The mesh file an obj/ply shape node names, resolved against the scene's folder, and its
+ * loading options; key gets "face flip path" identifying one loaded mesh. */
+static op_status file_mesh(const op_scene_description *d, op_node *node, char *path, size_t n, int *face,
+                           int *fliptex, char *key, size_t nk, op_error *err)
+{
+    const char *t = node->type, *fn;
+    GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
+    if (!fn)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\"> needs a filename",
+                            node->file, node->line, t);
+    GET_OR_FAIL(op_node_bool(node, "faceNormals", 0, face, err));
+    GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, fliptex, err));
+    op_path_join(path, n, d->dir, fn);
+    snprintf(key, nk, "%d %d %s", *face, *fliptex, path);
+    return OP_OK;
+}
+
+int op_describe_may_instance(const op_node *node)
+{
+    if (strcmp(node->type, "obj") != 0 && strcmp(node->type, "ply") != 0 &&
+        strcmp(node->type, "sphere") != 0)
+        return 0;
+    for (int i = 0; i < node->nchildren; i++)
+        if (strcmp(node->children[i]->tag, "emitter") == 0 ||
+            strcmp(node->children[i]->tag, "subsurface") == 0)
+            return 0;
+    return 1;
+}
+
+op_status op_describe_mesh(const op_scene_description *d, op_node *node, char *path, size_t n,
+                           int *face, int *fliptex, char *key, size_t nk, op_error *err)
+{
+    if (strcmp(node->type, "sphere") != 0)
+        return file_mesh(d, node, path, n, face, fliptex, key, nk, err);
+    *face = *fliptex = 0;
+    snprintf(path, n, "%s", "");
+    snprintf(key, nk, "%s", "sphere");
+    return OP_OK;
+}
+
+/* Counts the uses of each shared mesh by shapes that may become instances. Nodes whose
+ * parameters are bad are skipped here (building them reports the error). */
+static op_status count_mesh_uses(op_scene_description *d, op_node *root, op_error *err)
+{
+    for (int i = 0; i < root->nchildren; i++) {
+        op_node *c = root->children[i];
+        if (strcmp(c->tag, "shape") != 0 || !op_describe_may_instance(c))
+            continue;
+        char path[4096], key[4200];
+        int face, fliptex;
+        op_error scratch;
+        if (op_describe_mesh(d, c, path, sizeof path, &face, &fliptex, key, sizeof key, &scratch))
+            continue;
+        op_strmap_entry *e = op_strmap_find(&d->mesh_keys, key, strlen(key));
+        if (!e) {
+            int k = d->nmeshes;
+            if (!op_array_grow((void **)&d->mesh_uses, &d->cap_meshes, k, sizeof *d->mesh_uses) ||
+                !(e = op_strmap_add(&d->mesh_keys, key)))
+                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            e->index = k;
+            d->mesh_uses[k] = 0;
+            d->nmeshes++;
+        }
+        d->mesh_uses[e->index]++;
+    }
+    return OP_OK;
+}
+
+int op_describe_mesh_index(const op_scene_description *d, const char *key)
+{
+    const op_strmap_entry *e = op_strmap_find(&d->mesh_keys, key, strlen(key));
+    return e ? e->index : -1;
+}
+
+/* Finds the image file path of node (a bitmap texture, or an envmap) and adds its estimated
+ * memory. */
+static op_status find_image(op_scene_description *d, const op_node *node, const char *path,
+                            int envmap, op_error *err)
+{
+    unsigned char head[4096];
+    size_t got = 0;
+    uint64_t size = 0;
+    int added = 0;
+    GET_OR_FAIL(find_file(d, node, path, head, sizeof head, &got, &size, &added, err));
+    long long texels;
+    int channels;
+    if (!added) /* the texture cache holds it once */
+        return OP_OK;
+    if (!image_header(head, got, &texels, &channels))
+        d->load_bytes += (long long)size * UNKNOWN_IMAGE_FACTOR;
+    else
+        d->load_bytes += texels * (envmap ? ENVMAP_BYTES_PER_TEXEL(channels) :
+                                            TEXTURE_BYTES_PER_TEXEL(channels));
+    return OP_OK;
+}
+
+/* The bitmap textures anywhere under node (a bsdf, its nested bsdfs and textures). */
+static op_status find_textures(op_scene_description *d, op_node *node, op_error *err)
+{
+    for (int i = 0; i < node->nchildren; i++) {
+        op_node *c = node->children[i];
+        if (strcmp(c->tag, "texture") == 0 && c->type && strcmp(c->type, "bitmap") == 0) {
+            const char *fn;
+            GET_OR_FAIL(op_node_string(c, "filename", NULL, &fn, err));
+            if (!fn || !fn[0])
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"bitmap\"> needs a "
+                                    "<string name=\"filename\">", c->file, c->line);
+            char *path = op_node_resolve(c, fn);
+            if (!path)
+                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            op_status st = find_image(d, c, path, 0, err);
+            free(path);
+            GET_OR_FAIL(st);
+        } else if (strcmp(c->tag, "bsdf") == 0 || strcmp(c->tag, "texture") == 0) {
+            GET_OR_FAIL(find_textures(d, c, err));
+        }
+    }
+    return OP_OK;
+}
+
+/* The triangles of a mesh file as far as its header tells: a PLY's faces (at least twice its
+ * vertices, as a closed mesh of quads has); an OBJ's from its size. */
+static long long file_triangles(const char *kind, const unsigned char *bytes, size_t n,
+                                uint64_t size)
+{
+    char head[4097];
+    memcpy(head, bytes, n < sizeof head - 1 ? n : sizeof head - 1);
+    head[n < sizeof head - 1 ? n : sizeof head - 1] = '\0';
+    long long faces = 0, verts = 0;
+    if (strcmp(kind, "ply") == 0) {
+        const char *v = strstr(head, "element vertex "), *f = strstr(head, "element face ");
+        if (v)
+            verts = atoll(v + strlen("element vertex "));
+        if (f)
+            faces = atoll(f + strlen("element face "));
+        if (v && f && strstr(head, "end_header"))
+            return faces > 2 * verts ? faces : 2 * verts;
+    }
+    return (long long)(size / OBJ_BYTES_PER_TRIANGLE);
+}
+
+/* A shape: its mesh file, or its built-in triangles (counted against the triangles and
+ * load-memory limits in tally as the build counts them: a shared unit sphere once,
+ * *sphere_counted then set), and the files of its bsdf and subsurface. */
+static op_status describe_shape(op_scene_description *d, op_node *node, op_limit_tally *tally,
+                                int *sphere_counted, op_error *err)
+{
+    const char *t = node->type;
+    d->shapes++;
+    if (strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0) {
+        char path[4096], key[4200];
+        unsigned char head[4096];
+        size_t got = 0;
+        uint64_t size = 0;
+        int face, fliptex, added = 0;
+        GET_OR_FAIL(op_describe_mesh(d, node, path, sizeof path, &face, &fliptex, key,
+                                     sizeof key, err));
+        GET_OR_FAIL(find_file(d, node, path, head, sizeof head, &got, &size, &added, err));
+        d->triangles = -1;
+        d->load_bytes += (long long)size + file_triangles(t, head, got, size) *
+                                               OP_LOAD_BYTES_PER_TRIANGLE;
+    } else {
+        op_trimesh m;
+        memset(&m, 0, sizeof m);
+        op_status st = OP_OK;
+        if (strcmp(t, "sphere") == 0)
+            st = op_shape_sphere(&m, OP_SPHERE_SEGMENTS, err);
+        else if (strcmp(t, "rectangle") == 0)
+            st = op_shape_rectangle(&m, err);
+        else if (strcmp(t, "cube") == 0)
+            st = op_shape_cube(&m, err);
+        else if (strcmp(t, "disk") == 0)
+            st = op_shape_disk(&m, OP_DISK_SEGMENTS, err);
+        else
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
+                                "(obj, ply, sphere, rectangle, cube, disk)", node->file,
+                                node->line, t);
+        long long n = m.ntris;
+        op_trimesh_free(&m);
+        GET_OR_FAIL(st);
+        int k = op_describe_may_instance(node) ? op_describe_mesh_index(d, "sphere") : -1;
+        int shared = k >= 0 && d->mesh_uses[k] >= 2;
+        if (d->triangles >= 0)
+            d->triangles += n; /* as op_scene_info counts them: an instance's too */
+        if (!shared || !*sphere_counted) {
+            *sphere_counted |= shared;
+            d->load_bytes += n * OP_LOAD_BYTES_PER_TRIANGLE;
+            if (op_limit_add_triangles(&d->limits, tally, n, err))
+                return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file,
+                                       node->line, t);
+        }
+    }
+    op_node *bsdf = NULL, *sss = NULL;
+    for (int i = 0; i < node->nchildren; i++) {
+        op_node *c = node->children[i];
+        if (strcmp(c->tag, "bsdf") == 0 && !bsdf)
+            bsdf = c;
+        else if (strcmp(c->tag, "emitter") == 0)
+            d->emitters++;
+        else if (strcmp(c->tag, "subsurface") == 0 && !sss)
+            sss = c;
+    }
+    if (bsdf && !sss)
+        GET_OR_FAIL(find_textures(d, bsdf, err));
+    if (!sss)
+        return OP_OK;
+    d->subsurface_shapes++;
+    op_sss_desc desc;
+    op_subsurface_spec spec;
+    GET_OR_FAIL(op_subsurface_read(sss, d->dir, &d->limits, &desc, &spec, err));
+    if (!desc.is_dipole) {
+        size_t got = 0;
+        uint64_t size = 0;
+        int added = 0;
+        if (open_file(d, spec.path, NULL, 0, &got, &size, &added, err))
+            return op_subsurface_error(sss, &spec, err);
+        if (added) /* opened once, shared by the shapes that name it */
+            d->load_bytes += (long long)size * MATERIAL_FILE_FACTOR;
+    }
+    return bsdf ? find_textures(d, bsdf, err) : OP_OK;
+}
+
+static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
+{
+    ig->type = OP_INT_DIRECT;
+    ig->max_depth = 2;
+    ig->rr_depth = 5;
+    ig->hide_emitters = 0;
+    ig->emitter_samples = ig->bsdf_samples = 1;
+    if (!n)
+        return OP_OK;
+    n->used = 1;
+    const char *t = n->type;
+    long long md, rr;
+    if (strcmp(t, "field") == 0) {
+        const char *f;
+        GET_OR_FAIL(op_node_string(n, "field", "shNormal", &f, err));
+        if (strcmp(f, "shNormal") == 0 || strcmp(f, "geoNormal") == 0)
+            ig->type = OP_INT_NORMALS;
+        else if (strcmp(f, "uv") == 0)
+            ig->type = OP_INT_UV;
+        else if (strcmp(f, "albedo") == 0)
+            ig->type = OP_INT_ALBEDO;
+        else
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"field\">: field "
+                                "\"%s\" is not shNormal, geoNormal, uv or albedo", n->file, n->line,
+                                f);
+        return OP_OK;
+    }
+    if (strcmp(t, "normals") == 0) {
+        ig->type = OP_INT_NORMALS;
+        return OP_OK;
+    }
+    if (strcmp(t, "uv") == 0) {
+        ig->type = OP_INT_UV;
+        return OP_OK;
+    }
+    if (strcmp(t, "albedo") == 0) {
+        ig->type = OP_INT_ALBEDO;
+        return OP_OK;
+    }
+    if (strcmp(t, "path") != 0 && strcmp(t, "direct") != 0)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"%s\">: unknown "
+                            "integrator (path, direct, field, normals, uv, albedo)", n->file,
+                            n->line, t);
+    ig->type = strcmp(t, "path") == 0 ? OP_INT_PATH : OP_INT_DIRECT;
+    GET_OR_FAIL(op_node_bool(n, "hideEmitters", 0, &ig->hide_emitters, err));
+    if (ig->type == OP_INT_DIRECT) {
+        long long es, bs;
+        GET_OR_FAIL(op_node_int(n, "emitterSamples", 1, &es, err));
+        GET_OR_FAIL(op_node_int(n, "bsdfSamples", 1, &bs, err));
+        if (es < 0 || es > 65536 || bs < 0 || bs > 65536)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"direct\">: "
+                                "emitterSamples %lld and bsdfSamples %lld must be in 0..65536",
+                                n->file, n->line, es, bs);
+        int strict;
+        GET_OR_FAIL(op_node_bool(n, "strictNormals", 0, &strict, err));
+        ig->emitter_samples = (int)es;
+        ig->bsdf_samples = (int)bs;
+        return OP_OK;
+    }
+    GET_OR_FAIL(op_node_int(n, "maxDepth", -1, &md, err));
+    GET_OR_FAIL(op_node_int(n, "rrDepth", 5, &rr, err));
+    int strict;
+    GET_OR_FAIL(op_node_bool(n, "strictNormals", 0, &strict, err));
+    if (md < -1 || md == 0 || md > 100000 || rr < 1 || rr > 100000)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"path\">: maxDepth %lld "
+                            "(-1 or >= 1) or rrDepth %lld (>= 1) out of range", n->file, n->line,
+                            md, rr);
+    ig->max_depth = (int)md;
+    ig->rr_depth = (int)rr;
+    return OP_OK;
+}
+
+op_status op_describe(op_node *root, const char *path, const op_scene_limits *limits,
+                      op_scene_description *d, op_error *err)
+{
+    d->root = root;
+    d->limits = *limits;
+    d->path = strdup(path);
+    char *tmp = strdup(path);
+    if (!d->path || !tmp) {
+        free(tmp);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    snprintf(d->dir, sizeof d->dir, "%s", dirname(tmp));
+    free(tmp);
+    d->load_bytes = BASE_BYTES;
+    GET_OR_FAIL(count_mesh_uses(d, root, err));
+    op_limit_tally tally = {0, 0}; /* the built-in shapes' triangles, counted as the build does */
+    int sphere_counted = 0;
+    root->used = 1;
+    op_node *sensor = NULL, *integrator = NULL, *film = NULL, *sampler = NULL;
+    for (int i = 0; i < root->nchildren; i++) {
+        op_node *c = root->children[i];
+        if (strcmp(c->tag, "sensor") == 0) {
+            if (sensor)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: a second <sensor> (only one is "
+                                    "supported)", c->file, c->line);
+            sensor = c;
+        } else if (strcmp(c->tag, "integrator") == 0) {
+            integrator = c;
+        }
+    }
+    if (sensor)
+        for (int i = 0; i < sensor->nchildren; i++) {
+            op_node *c = sensor->children[i];
+            if (strcmp(c->tag, "film") == 0)
+                film = c;
+            else if (strcmp(c->tag, "sampler") == 0)
+                sampler = c;
+            else
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s> is not supported inside "
+                                    "<sensor>", c->file, c->line, c->tag);
+        }
+    GET_OR_FAIL(op_film_build(film, &d->film, err));
+    GET_OR_FAIL(op_sampler_build(sampler, &d->sampler, err));
+    GET_OR_FAIL(op_camera_build(sensor, d->film.full_width, d->film.full_height, &d->camera, err));
+    if (sensor)
+        GET_OR_FAIL(op_limit_position(&d->limits, sensor, "the camera's position",
+                                      d->camera.origin, err));
+    GET_OR_FAIL(build_integrator(integrator, &d->integrator, err));
+    for (int i = 0; i < root->nchildren; i++) {
+        op_node *c = root->children[i];
+        if (strcmp(c->tag, "shape") == 0) {
+            GET_OR_FAIL(describe_shape(d, c, &tally, &sphere_counted, err));
+        } else if (strcmp(c->tag, "emitter") == 0) {
+            d->emitters++;
+            if (strcmp(c->type, "area") == 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be "
+                                    "nested in a <shape>", c->file, c->line);
+            if (strcmp(c->type, "envmap") == 0) {
+                const char *fn;
+                GET_OR_FAIL(op_node_string(c, "filename", NULL, &fn, err));
+                if (!fn)
+                    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\"> "
+                                        "needs a filename", c->file, c->line);
+                char file[4096];
+                op_path_join(file, sizeof file, d->dir, fn);
+                GET_OR_FAIL(find_image(d, c, file, 1, err));
+            }
+        } else if (strcmp(c->tag, "bsdf") != 0 && strcmp(c->tag, "texture") != 0 &&
+                   strcmp(c->tag, "subsurface") != 0 && strcmp(c->tag, "sensor") != 0 &&
+                   strcmp(c->tag, "integrator") != 0) {
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s type=\"%s\"> is not supported",
+                                c->file, c->line, c->tag, c->type ? c->type : "");
+        }
+    }
+    return OP_OK;
+}
+
+void op_describe_release(op_scene_description *d)
+{
+    op_desc_free(d->root);
+    op_strmap_free(&d->mesh_keys);
+    free(d->mesh_uses);
+    for (int i = 0; i < d->nfiles; i++)
+        free(d->files[i]);
+    free(d->files);
+    free(d->path);
+}
+
+void op_describe_info(const op_scene_description *d, op_scene_info *info)
+{
+    static const char *names[] = {"path", "direct", "normals", "uv", "albedo"};
+    memset(info, 0, sizeof *info);
+    info->width = d->film.width;
+    info->height = d->film.height;
+    info->full_width = d->film.full_width;
+    info->full_height = d->film.full_height;
+    info->spp = d->sampler.spp;
+    info->film_type = d->film.ldr ? "ldrfilm" : "hdrfilm";
+    info->film_filename = d->film.filename[0] ? d->film.filename : NULL;
+    info->film_extension = d->film.extension;
+    info->integrator = names[d->integrator.type];
+    info->shapes = d->shapes;
+    info->triangles = d->triangles;
+    info->emitters = d->emitters;
+    info->subsurface_shapes = d->subsurface_shapes;
+    info->instances = -1;
+    info->geometry_bytes = -1;
+    info->load_bytes = d->load_bytes;
+    info->files = (const char *const *)d->files;
+    info->nfiles = d->nfiles;
+}
