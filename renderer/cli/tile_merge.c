@@ -11,7 +11,8 @@ enum { MAX_LIST_BYTES = 16 << 20, MAX_REPORTED = 8 };
 
 typedef struct tile {
     int x, y, w, h, line;
-    char *file; /* resolved against the list's folder; points into the list buffer or owned */
+    char *file;     /* resolved against the list's folder (owned) */
+    size_t listed;  /* where the name as the list gives it starts in file */
 } tile;
 
 /* file relative to the folder of list (unless absolute), in a new string. */
@@ -45,16 +46,51 @@ static int next_int(char **s, int *v)
     return 1;
 }
 
-/* Whether a and b name one file: the same name, or the same existing file. */
-static int same_file(const char *a, const char *b)
+/* A tile's file and where it is listed, for finding a file listed twice. */
+typedef struct listed {
+    char *key; /* the file's real path when it exists, else its name as resolved */
+    int line;
+} listed;
+
+static int by_key_then_line(const void *a, const void *b)
 {
-    if (strcmp(a, b) == 0)
-        return 1;
-    char *ra = realpath(a, NULL), *rb = ra ? realpath(b, NULL) : NULL;
-    int same = ra && rb && strcmp(ra, rb) == 0;
-    free(ra);
-    free(rb);
-    return same;
+    const listed *x = a, *y = b;
+    int c = strcmp(x->key, y->key);
+    return c ? c : (x->line > y->line) - (x->line < y->line);
+}
+
+/* OP_ERR_INPUT when two of the n tiles name one file (the same name, or the same existing
+ * file), naming the earliest line that repeats one and the line it repeats. */
+static op_status check_repeats(const char *path, const tile *t, int n, op_error *err)
+{
+    listed *l = calloc((size_t)n, sizeof *l);
+    op_status st = l ? OP_OK : op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    for (int i = 0; i < n && !st; i++) {
+        l[i].line = t[i].line;
+        l[i].key = realpath(t[i].file, NULL);
+        if (!l[i].key)
+            l[i].key = strdup(t[i].file);
+        if (!l[i].key)
+            st = op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    if (!st) {
+        qsort(l, (size_t)n, sizeof *l, by_key_then_line);
+        int first = -1, again = -1; /* lines: a file's first listing, the earliest repeat */
+        for (int i = 1; i < n; i++)
+            if (strcmp(l[i].key, l[i - 1].key) == 0 && (again < 0 || l[i].line < again) &&
+                (i < 2 || strcmp(l[i - 1].key, l[i - 2].key) != 0)) {
+                first = l[i - 1].line;
+                again = l[i].line;
+            }
+        for (int i = 0; again >= 0 && i < n; i++)
+            if (t[i].line == again)
+                st = op_error_set(err, OP_ERR_INPUT, "%s:%d: %s is listed twice (line %d too)",
+                                  path, again, t[i].file + t[i].listed, first);
+    }
+    for (int i = 0; l && i < n; i++)
+        free(l[i].key);
+    free(l);
+    return st;
 }
 
 static void free_tiles(tile *t, int n)
@@ -112,24 +148,22 @@ static op_status parse_list(const char *path, tile **out, int *n, op_error *err)
                 t = g;
                 cap = nc;
             }
-            t[count] = (tile){x, y, w, h, line + 1, resolve(path, file)};
+            t[count] = (tile){x, y, w, h, line + 1, resolve(path, file), 0};
+            if (t[count].file)
+                t[count].listed = strlen(t[count].file) - fl;
             if (!t[count].file) {
                 st = op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
                 break;
             }
             count++;
-            for (int k = 0; k < count - 1; k++)
-                if (same_file(t[k].file, t[count - 1].file)) {
-                    st = op_error_set(err, OP_ERR_INPUT, "%s:%d: %s is listed twice (line %d "
-                                      "too)", path, line + 1, file, t[k].line);
-                    break;
-                }
         }
         s = nl ? nl + 1 : NULL;
     }
     free(data);
     if (st == OP_OK && count == 0)
         st = op_error_set(err, OP_ERR_INPUT, "%s: no tiles listed", path);
+    if (st == OP_OK)
+        st = check_repeats(path, t, count, err);
     if (st) {
         free_tiles(t, count);
         return st;
