@@ -38,7 +38,7 @@ if(OPALINE_BUILD_TESTS)
 endif()
 
 # Embree 4 (Debian 13 and later) or Embree 3 (Debian 12): the renderer's one acceleration module
-# (renderer/lib/accel.c) adapts to either through OPALINE_EMBREE_MAJOR.
+# (renderer/lib/geometry/accel.c) adapts to either through OPALINE_EMBREE_MAJOR.
 find_package(embree 4 QUIET CONFIG)
 if(NOT embree_FOUND)
   find_package(embree 3.13 QUIET CONFIG)
