@@ -7,7 +7,7 @@
  * grids (interpolation, the normalization's ball, the thinned receivers: 32 each), the
  * receiver and source maps (11) and the pre-pass cache's copy (25): about 420 (measured: 352
  * for a Marble square of 754579 points). A measured material's scatter accumulators take at
- * most 16 x 12 bytes per point and SSS_SCATTER_BYTES (subsurface.c's MAX_ACC_BYTES) more. */
+ * most 16 x 12 bytes per point and SSS_SCATTER_BYTES (sss/scatter.c's MAX_ACC_BYTES) more. */
 enum { SSS_BYTES_PER_POINT = 448, IMAGE_BYTES_PER_PIXEL = 2 * 4 * sizeof(float) };
 #define SSS_SCATTER_BYTES (256LL * 1024 * 1024)
 

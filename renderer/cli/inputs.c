@@ -64,7 +64,7 @@ op_status op_inputs_print(const op_inputs *in, FILE *f, op_error *err)
     return OP_OK;
 }
 
-/* A string with its length, so that concatenations cannot collide (as sss_cache.c's key). */
+/* A string with its length, so that concatenations cannot collide (as sss/cache_file.c's key). */
 static void h_str(XXH3_state_t *h, const char *s)
 {
     uint64_t n = strlen(s);
