@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # The subsurface renderer against the Monte Carlo generator's own volumetric transport
-# (docs/subsurface-rendering.md, "Against the Monte Carlo generator's transport"): for one
-# channel of several media of the table, a slab under a hard-edged spot (radius 2 diffusion
-# lengths L) and under uniform light: (a) the exact answer of a Monte Carlo Rd row (op_mc_generate, normal incidence, 3 independent
-# rows), (b) the renderer's exitance with those rows as a raw material, (c) the renderer's dipole,
-# (d) the dipole's closed form; at 1, 2 and 4 L outside the spot's edge, in total and under
-# uniform light. The program is opaline-bench-sss-reference (bench/bench_sss_reference.c, built
-# with the tests: OPALINE_BUILD_TESTS=ON).
+# (docs/subsurface-rendering.md, "Against the Monte Carlo generator's transport"): for one channel
+# of several media of the table, a slab under a hard-edged spot (radius 2 diffusion lengths L) and
+# under uniform light: (a) the exact answer of a Monte Carlo Rd row (op_mc_generate, normal
+# incidence, 3 independent rows), (b) the renderer's exitance with those rows as a raw material,
+# (c) the renderer's dipole, (d) the dipole's closed form; at 1, 2 and 4 L outside the spot's
+# edge, in total and under uniform light. The program is opaline-bench-sss-reference
+# (bench/bench_sss_reference.c, built with the tests: OPALINE_BUILD_TESTS=ON).
 # Usage: bench/bench_sss_reference.sh [BUILD_DIR] [PHOTONS] [MEDIUM]
 #   defaults: build, 200000 photons per row, every medium of the program's table. A Release build.
 set -euo pipefail
