@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench_factor_larger_than_ram.sh - a dataset larger than this machine's memory, made by the
-# generator and factored by svd T=10 streamed from the file in row blocks (issue 17).
+# generator and factored by svd T=10 streamed from the file in row blocks.
 #
 # The dataset is a Chess4x4-like chessboard (Marble, Skin1, eta 1.3, pixel 0.455 mm, K 29) of
 # 1.2 x MemTotal bytes (--ram-mib replaces MemTotal: a smaller run of the same kind). Both the

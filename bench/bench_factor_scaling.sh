@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench_factor_scaling.sh - how the factorizer's cost grows with the dataset (issue 17): time and
+# bench_factor_scaling.sh - how the factorizer's cost grows with the dataset: time and
 # peak memory of the whole `opaline-factor factor` command against the dataset's size, for each
 # method, with the exponent of a least-squares fit time ~ bytes^e (and memory ~ bytes^e), on
 # chessboards made by the generator (Chess4x4's media and pixel size, 0.455 mm):

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench_factor_speed.sh - the whole `opaline-factor factor` command on Chess4x4 (277 x 277
-# pixels, K 29, 3 channels, 774 MB), the goals of issue 17: svd T=10 <= 2.5 s, tucker T=15 P=7
+# pixels, K 29, 3 channels, 774 MB), against its time goals: svd T=10 <= 2.5 s, tucker T=15 P=7
 # <= 5 s, kcta C=32 K_m=1 T=4 <= 6 s (wall time of the whole command, report included), error
 # figures unchanged or better. Each configuration runs REPEATS times, interleaved with
 # scikit-learn's randomized_svd of the same three channels (rank 10, n_iter 4 and 7) in the same

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench_methods.sh - every factorization method side by side, run time against error (issue 7/7).
+# bench_methods.sh - every factorization method side by side, run time against error.
 #
 # usage: bash bench/bench_methods.sh [--quick] [--out DIR] [--build DIR] [--repeats N]
 #                                    [--datasets a,b] [--skip CONFIGS] [--no-baselines] [--no-plots]

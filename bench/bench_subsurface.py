@@ -8,7 +8,7 @@ light and a dim constant sky, RES x RES, with the measured chessboards Chess4x4 
     Chess8x8) for every T in TERMS, factored here with `opaline-factor factor`;
 each rendered at SPP samples per pixel, REPEAT times, with the `sobol` sampler (opaline's
 Owen-scrambled Sobol numbers, what the Blender add-on writes; --sampler independent for plain
-random numbers, as before 2026-11-25). Reported per material: the factorization
+random numbers). Reported per material: the factorization
 time (cached), the subsurface pre-pass and the camera pass (the renderer's own `subsurface
 pre-pass: X s` and `camera pass: X s` lines), the process wall time, the render process's peak
 resident memory (GNU time; the renderer does not report memory), RMSE, relative RMSE (RMSE / mean
@@ -37,7 +37,7 @@ bench/methods_bench). Everything goes to OUT: datasets/ (only those not found in
 PRESETS/datasets),
 materials/ (factored materials and their reports, reused while newer than the dataset and
 opaline-factor), scenes/, images/, results.csv, convergence.csv, results.json. The last line is
-the verdict against the goal of issue 18: svd T = 10 on Chess4x4 converged (1 %) in at most 3 s
+the verdict against the goal: svd T = 10 on Chess4x4 converged (1 %) in at most 3 s
 with PSNR against raw of at least 47.8 dB (the goal is stated for 512 x 512 on a 2-core machine)."""
 
 import argparse

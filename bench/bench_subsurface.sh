@@ -5,7 +5,7 @@
 # factorization, subsurface pre-pass and camera-pass times, wall time, peak resident memory, RMSE
 # and PSNR against raw at equal samples; for raw and svd T = 10 the time to reach 1 % relative
 # RMSE against a 16x-sample reference of the same method; the verdict against the goal (svd
-# T = 10 converged in <= 3 s with PSNR >= 47.8 dB at 512 x 512, issue 18). Details: bench_subsurface.py,
+# T = 10 converged in <= 3 s with PSNR >= 47.8 dB at 512 x 512). Details: bench_subsurface.py,
 # docs/subsurface-rendering.md.
 # Usage: bench/bench_subsurface.sh [BUILD_DIR] [THREADS] [SPP] [PRESETS_DIR]
 #   defaults: build, 2 threads, 16 samples per pixel, BUILD_DIR/presets. Use a Release build.

@@ -1,4 +1,4 @@
-"""File > Export > opaline scene's options (issue 15): selected objects only, a frame range (one
+"""File > Export > opaline scene's options: selected objects only, a frame range (one
 XML per frame), samples, and "collect materials" (the material files copied beside the XML and
 named relatively, so the exported folder can be moved: checked by opaline-render --check after
 moving it and deleting the originals). Run through the operator, as the menu does."""

@@ -1,4 +1,4 @@
-"""The material panel and render settings under the opaline engine (issue 15): which standard
+"""The material panel and render settings under the opaline engine: which standard
 panels show, where the opaline panel sits and what it says, the render settings reaching the
 XML, the Interior IOR only where it acts, the no-UV warning and its fix, the preset chooser's
 items, its categories (from the recipes) and filter, the albedo preview nodes the add-on

@@ -414,7 +414,7 @@ static void bad_arguments(void **state)
 
 /* Extreme --log-a/--log-b: a transform that loses the data (values underflowing, infinite, or
  * past what the reconstruction can hold) is refused naming both options; a poor but faithful one
- * is accepted and its error reported (before: --log-a 1e30 gave relative error 1.0, exit 0). */
+ * is accepted and its error reported. */
 static void log_transform_extremes(void **state)
 {
     ds_spec d = ds_chess(12, 12, 5, 0.3);
@@ -655,12 +655,11 @@ static void single_and_double_precision(void **state)
     free(d.v);
 }
 
-/* What the quick benchmark checked on its datasets, on a small one: the raw method reproduces
+/* On a small dataset: the raw method reproduces
  * the dataset exactly; the svd method's error does not grow with T (beyond float noise) while
  * its file grows; and each channel's stored factors are within 1 % of the best rank-T
  * approximation (Eckart-Young) of the matrix the method factors, built here independently:
- * every row circularly shifted to start at its maximum, divided by it, then ln(v / 100 + 1).
- * (The quick benchmark's run no longer checks its figures: tests/e2e/test_bench_quick.sh.) */
+ * every row circularly shifted to start at its maximum, divided by it, then ln(v / 100 + 1). */
 static void method_errors_on_a_dataset(void **state)
 {
     ds_spec d = ds_chess(24, 20, 7, 0.1);

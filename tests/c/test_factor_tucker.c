@@ -174,7 +174,7 @@ static void regression_on_chessboard(void **state)
 }
 
 /* Random kernels: nothing for the colour fit to find, so high degrees only risk overfitting
- * with huge coefficients (before: P = 10 gave 15.6 x the signal). */
+ * with huge coefficients. */
 static ds_spec random_data(int w, int h, int k)
 {
     ds_spec d = ds_new(w, h, k, 3);

@@ -1,7 +1,6 @@
 /* test_media_table.c - the one media table (op_medium_lookup): the renderer's dipole and the
  * dataset generator read the same coefficients and index of refraction, so the same "Marble"
- * has the same total diffuse reflectance in both (issue 17: it was 0.8665 in the generator, at
- * eta 1.3, and 0.8302 in the renderer, at 1.5). */
+ * has the same total diffuse reflectance in both. */
 #include "test_support.h"
 
 #include "commands.h"

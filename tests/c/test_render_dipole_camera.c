@@ -97,7 +97,7 @@ static void test_uniform_irradiance(void **state)
         double want = ref_total(c), sum = 0.0;
         for (int i = 0; i < 16 * 16; i++) {
             double v = M_PI * img.pixels[4 * i + c];
-            /* per pixel within 2 % (before the hierarchical sum, within 5 %: -2.9 % to +2.6 %) */
+            /* per pixel within 2 % */
             if (fabs(v - want) > 0.02 * want)
                 fail_msg("channel %d, pixel (%d, %d): pi L = %.4f, Rd_total %.4f", c, i % 16,
                          i / 16, v, want);
@@ -145,9 +145,7 @@ static void test_spot(void **state)
             fail_msg("channel %d: power leaving %.6g W, Rd_total x power in %.6g W", c, sum, want);
         /* radial falloff against the convolution of the profile with the disk at the pixel
          * centres: at the centre, and 35 mm outside the disk (1.9 and 3.4 diffusion lengths in
-         * red and green; blue, 10 diffusion lengths out there, is checked at the centre only).
-         * Before the hierarchical sum the render was 7 % (red) and 20 % (green) too bright
-         * there (a 5 mm kernel pixel and a 10 mm interpolation radius). */
+         * red and green; blue, 10 diffusion lengths out there, is checked at the centre only). */
         static const struct {
             double r, tol[3];
         } rings[] = {{0.0, {0.01, 0.01, 0.01}}, {65.0, {0.03, 0.03, -1.0}}};

@@ -1,5 +1,5 @@
-/* test_robust_scene.c - bad scenes and resource bombs (issue 14): positions beyond what single
- * precision can trace are refused at load (so --check and rendering agree) with the element's
+/* test_robust_scene.c - bad scenes and resource bombs: positions beyond what single precision
+ * can trace are refused at load (so --check and rendering agree) with the element's
  * line; entity references in attributes are refused at once; images, kernels and irradiance
  * points over a limit are refused naming the limit and accepted when it is raised; rejected
  * shapes free their meshes (LeakSanitizer runs on this program); `$$` is a literal `$`; a
@@ -191,8 +191,8 @@ static void huge_directions_render(void **state)
                    "z=\"0\"/></emitter>\n</scene>\n", NULL, 8, "direction");
 }
 
-/* 20000 references to an internal entity in one attribute: refused at once (expanding it was
- * quadratic: a 54 KB file took 90 s); a billion-laughs nest too. */
+/* 20000 references to an internal entity in one attribute: refused at once (expanding them
+ * would take time quadratic in their number); a billion-laughs nest too. */
 static void entities_refused_quickly(void **state)
 {
     (void)state;
@@ -610,7 +610,7 @@ static void film_too_large(void **state)
                  "</scene>\n", NULL);
 }
 
-/* Denormal numbers are numbers: strtod's ERANGE for them no longer refuses them. */
+/* Denormal numbers are numbers: strtod's ERANGE for them does not refuse them. */
 static void denormal_numbers(void **state)
 {
     (void)state;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Input files under hostile conditions (issue 14): every reader of both programs, given a
+# Input files under hostile conditions: every reader of both programs, given a
 # directory, a FIFO, /dev/zero or a missing file, refuses at once with exit 2 and a message
 # naming the file and what it is; a material truncated while a render has it mapped ends with
 # exit 2 and a message (not SIGBUS); a material with CRLF META opens; bad section tags, absurd

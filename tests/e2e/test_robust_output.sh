@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Output never destroys what it replaces, and an interrupted opaline-factor leaves nothing behind
-# (issue 14, docs/limits.md "Output files and interruption"):
+# (docs/limits.md "Output files and interruption"):
 #  - a character device (made with mknod here) and a FIFO are written through, never replaced;
 #  - a symlink stays a link and its target is replaced (a dangling one gets its target made);
 #  - a 0600 file keeps its mode (and, as root, its owner);

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What an output may replace, for both programs (issue 26, docs/limits.md "Output files and
+# What an output may replace, for both programs (docs/limits.md "Output files and
 # interruption"), each class through several of the outputs it concerns:
 #  - a symbolic link that another user planted in a sticky world-writable folder is never
 #    written through (render images, the pre-pass cache, the factor's material, report and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Bad scenes and resource bombs through opaline-render (issue 14): `--check` and rendering agree
+# Bad scenes and resource bombs through opaline-render: `--check` and rendering agree
 # on a camera or light too far for single precision (exit 2 naming the line, never Embree's
 # abort), an attribute with 20000 entity references is refused in well under 2 s, a PNG whose
 # header says 16384 x 16384 is refused before decoding, `--limit` raises and lowers a limit,
@@ -166,8 +166,8 @@ for mode in --check --estimate; do
 done
 expect 2 "laughs.xml:6: <default name=\"d4\">: attribute value: the attribute values after \$parameter expansion add up to more than the limit of 100000 bytes" -- "$T/laughs.xml" --check --limit attribute-bytes=100000
 
-# 2,500 spheres in about 60 KB: one shared unit sphere, placed 2,500 times (each was tessellated
-# and put in the BVH: 5 GB and 44 s); a generous bound on the peak memory of --check
+# 2,500 spheres in about 60 KB: one shared unit sphere, placed 2,500 times (not 2,500 tessellated
+# copies in the BVH); a generous bound on the peak memory of --check
 python3 - "$T/spheres.xml" <<'PY'
 import sys
 s = ['<scene version="0.6.0">']

@@ -69,7 +69,7 @@ expect 1000000 0 "" -- "$T/spheres.xml" --check
 expect 1000000 1 "out of memory" -- "$T/laughs.xml" --check --limit attribute-bytes=1e11
 
 # every address-space limit from 100 MB to 700 MB: the scene loads, or "out of memory" with
-# exit 1 (never another message or code: Embree's device used to fail as an internal error);
+# exit 1 (never another message or code, such as an internal error from Embree's device);
 # at least one of them must be out of memory, so that the path is taken
 nomem=0
 for kb in 100000 150000 200000 250000 300000 400000 500000 700000; do
