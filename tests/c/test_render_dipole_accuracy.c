@@ -49,7 +49,7 @@ static double diffusion_length(const medium *m, int c)
 }
 
 /* Renders nothing: loads the scene text, runs the pre-pass as a render would (camera-marked
- * receivers, 2 threads) and returns the scene and cache. */
+ * receivers, 2 threads) and returns the scene and the pre-pass's result. */
 static op_sss_prepass *prepass(const char *name, const char *text, op_scene **scene,
                                double *seconds)
 {

@@ -57,7 +57,7 @@ static const char *write_scene(void)
     return op_test_write_temp("sheen_mirror.xml", text);
 }
 
-/* The image of scene with the pre-pass cache given: the renderer's own pixel loop (render.c),
+/* The image of scene with the pre-pass's result given: the renderer's own pixel loop (render.c),
  * seed 0. */
 static void image_with(const op_scene *s, const op_sss_prepass *cache, float *out)
 {

@@ -36,7 +36,7 @@ op_renderer *op_test_render(const char *path, int spp, int threads, uint64_t see
 op_image op_test_render_image(const char *path, int spp, int threads, uint64_t seed);
 /* Loads the scene at path and runs its subsurface pre-pass as a render would (camera-marked
  * receivers, 2 threads, seed 0), failing the test on any error; *seconds gets the pre-pass's
- * wall time. The caller frees the cache and the scene. */
+ * wall time. The caller frees the pre-pass (op_sss_prepass_free) and the scene. */
 struct op_sss_prepass *op_test_sss_prepass(const char *path, op_scene **scene, double *seconds);
 /* The same with the build's everywhere (1: every point, no camera pass) and threads. */
 struct op_sss_prepass *op_test_sss_prepass_with(const char *path, int everywhere, int threads,
