@@ -519,7 +519,7 @@ static void many_defaults(void **state)
 }
 
 /* Spheres share one tessellated unit sphere, placed as instances: 100 spheres hold one mesh
- * (2,500 of them took 5 GB and 44 s for --check, each tessellated and put in the BVH). */
+ * (2,500 spheres each tessellated and put in the BVH would take 5 GB and 44 s for --check). */
 static void spheres_share_one_mesh(void **state)
 {
     (void)state;
