@@ -3,8 +3,8 @@
 # exit 2 naming their limit before they reach the address-space limit (a <default> billion laughs
 # expanded takes 5 GB and ends "out of memory"), 2,500 spheres load in 1 GB (one shared mesh;
 # 2,500 copies would take 5 GB), and an allocation that fails anywhere while loading (the scene
-# reader, libxml2, Embree's device: "cannot create a device (error 4)") says "out of memory", exit
-# 1.
+# reader, libxml2, Embree's device: "cannot create a device (error 4)") says "out of memory",
+# exit 1.
 # Asserts exit codes and messages, never times. The sanitizers cannot run under ulimit -v
 # (their shadow memory reserves terabytes of address space): in such a build this test skips
 # (77) and says so; a build without OPALINE_SANITIZE runs it. Needs python3.
