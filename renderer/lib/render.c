@@ -130,18 +130,9 @@ const op_scene_description *op_scene_description_of(const op_scene *s)
 
 void op_scene_get_info(const op_scene *s, op_scene_info *info)
 {
-    static const char *names[] = {"path", "direct", "normals", "uv", "albedo"};
-    memset(info, 0, sizeof *info);
-    info->width = s->film.width;
-    info->height = s->film.height;
-    info->full_width = s->film.full_width;
-    info->full_height = s->film.full_height;
-    info->spp = s->sampler.spp;
-    info->film_type = s->film.ldr ? "ldrfilm" : "hdrfilm";
-    info->film_filename = s->film.filename[0] ? s->film.filename : NULL;
-    info->film_extension = s->film.extension;
-    info->integrator = names[s->integrator.type];
+    op_describe_info(s->desc, info); /* the film, sampler and integrator are the description's */
     info->shapes = s->nshapes;
+    info->triangles = info->instances = info->geometry_bytes = 0;
     for (int i = 0; i < s->nshapes; i++) {
         const op_trimesh *m = &s->shapes[i].mesh;
         info->triangles += m->ntris;
@@ -155,9 +146,6 @@ void op_scene_get_info(const op_scene *s, op_scene_info *info)
         info->geometry_bytes += op_accel_bytes(s->accel);
     info->emitters = s->nemitters;
     info->subsurface_shapes = s->nsss;
-    info->load_bytes = s->desc->load_bytes;
-    info->files = (const char *const *)s->desc->files;
-    info->nfiles = s->desc->nfiles;
 }
 
 const char *op_scene_description_image_format(const op_scene_description *d, const char *path)
