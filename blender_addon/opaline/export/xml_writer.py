@@ -124,27 +124,14 @@ def _umask_mode():
 
 
 def write_file(path, text):
-    """Writes text to path through a temporary file renamed into place (never half-written)."""
-    import os
-    import tempfile
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".opaline-", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, _umask_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """Writes text (UTF-8) to path through a temporary file renamed into place (never
+    half-written)."""
+    write_bytes(path, [text.encode("utf-8")])
 
 
 def write_bytes(path, chunks):
-    """Like write_file for binary content given as an iterable of bytes-like chunks."""
+    """Writes the bytes-like chunks (an iterable) to path through a temporary file renamed into
+    place (never half-written)."""
     import os
     import tempfile
     folder = os.path.dirname(os.path.abspath(path))
