@@ -86,10 +86,10 @@ static const char *slab_scene(const char *name, const char *sss_xml, const char 
     return op_test_write_temp(name, text);
 }
 
-static op_v3 lookup(const op_sss_prepass *cache, double x, double y)
+static op_v3 lookup(const op_sss_prepass *pre, double x, double y)
 {
     op_v3 m;
-    if (!op_sss_lookup(cache, 0, v3((float)x, (float)y, 0.0f), v3(0.0f, 0.0f, 1.0f), &m))
+    if (!op_sss_lookup(pre, 0, v3((float)x, (float)y, 0.0f), v3(0.0f, 0.0f, 1.0f), &m))
         fail_msg("no exitance at (%g, %g) mm: not a receiver", x, y);
     return m;
 }
@@ -105,13 +105,13 @@ static void ring(double rho, double *px, double *py)
 }
 
 /* Mean exitance per channel on the ring at rho. */
-static op_v3 ring_exitance(const op_sss_prepass *cache, double rho)
+static op_v3 ring_exitance(const op_sss_prepass *pre, double rho)
 {
     double px[NANG], py[NANG];
     ring(rho, px, py);
     op_v3 s = v3s(0.0f);
     for (int j = 0; j < NANG; j++)
-        s = v3_add(s, v3_scale(lookup(cache, px[j], py[j]), 1.0f / NANG));
+        s = v3_add(s, v3_scale(lookup(pre, px[j], py[j]), 1.0f / NANG));
     return s;
 }
 
@@ -147,11 +147,11 @@ static void measure(const mcref_result *r, const mcref_case *k, const char *sss_
     op_scene *scene = NULL;
     double secs = 0.0;
     const char *path = slab_scene("spot.xml", sss_xml, spot, S, V);
-    op_sss_prepass *cache = op_test_sss_prepass(path, &scene, &secs);
+    op_sss_prepass *pre = op_test_sss_prepass(path, &scene, &secs);
     *seconds = secs;
-    *points = op_sss_prepass_points(cache, 0);
+    *points = op_sss_prepass_points(pre, 0);
     for (int q = 0; q < 3; q++) {
-        op_v3 m = ring_exitance(cache, distance_of(r, q));
+        op_v3 m = ring_exitance(pre, distance_of(r, q));
         for (int c = 0; c < 3; c++)
             got[c][q] = chan(m, c);
     }
@@ -160,26 +160,26 @@ static void measure(const mcref_result *r, const mcref_case *k, const char *sss_
     if (k->full) { /* the ring integral of the exitance out to its support */
         double dr = 0.5 * r->pix, tot[3] = {0, 0, 0};
         for (double rho = 0.5 * dr; rho < reach + dr; rho += dr) {
-            op_v3 m = ring_exitance(cache, rho);
+            op_v3 m = ring_exitance(pre, rho);
             for (int c = 0; c < 3; c++)
                 tot[c] += 2.0 * M_PI * rho * dr * chan(m, c);
         }
         for (int c = 0; c < 3; c++)
             got[c][3] = tot[c];
     }
-    op_sss_prepass_free(cache);
+    op_sss_prepass_free(pre);
     op_scene_free(scene);
     /* uniform light: the mean over 5 x 5 positions at the centre */
     path = slab_scene("uniform.xml", sss_xml, unil, S, V);
-    cache = op_test_sss_prepass(path, &scene, &secs);
+    pre = op_test_sss_prepass(path, &scene, &secs);
     *seconds += secs;
     op_v3 s = v3s(0.0f);
     for (int j = 0; j < 5; j++)
         for (int i = 0; i < 5; i++)
-            s = v3_add(s, v3_scale(lookup(cache, r->pix * (i - 2), r->pix * (j - 2)), 1.0f / 25));
+            s = v3_add(s, v3_scale(lookup(pre, r->pix * (i - 2), r->pix * (j - 2)), 1.0f / 25));
     for (int c = 0; c < 3; c++)
         uni[c] = chan(s, c);
-    op_sss_prepass_free(cache);
+    op_sss_prepass_free(pre);
     op_scene_free(scene);
 }
 

@@ -103,8 +103,8 @@ static void slab_exitance(const char *path, double inner, double out[3])
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);
     OP_ASSERT_OK(st, err);
     op_sss_prepass_options o = {2, 0, NULL, NULL, NULL, 0, NULL, &op_path_transport};
-    op_sss_prepass *cache = NULL;
-    st = op_sss_prepass_run(scene, &o, &cache, &err);
+    op_sss_prepass *pre = NULL;
+    st = op_sss_prepass_run(scene, &o, &pre, &err);
     OP_ASSERT_OK(st, err);
     out[0] = out[1] = out[2] = 0.0;
     int n = 0;
@@ -112,7 +112,7 @@ static void slab_exitance(const char *path, double inner, double out[3])
         for (int i = 0; i < 9; i++) {
             op_v3 p = v3((float)(inner * (i / 4.0 - 1.0)), (float)(inner * (j / 4.0 - 1.0)), 0.0f);
             op_v3 m;
-            if (!op_sss_lookup(cache, 0, p, v3(0.0f, 0.0f, 1.0f), &m))
+            if (!op_sss_lookup(pre, 0, p, v3(0.0f, 0.0f, 1.0f), &m))
                 fail_msg("%s: no exitance at (%g, %g)", path, p.x, p.y);
             out[0] += m.x;
             out[1] += m.y;
@@ -121,7 +121,7 @@ static void slab_exitance(const char *path, double inner, double out[3])
         }
     for (int c = 0; c < 3; c++)
         out[c] /= n;
-    op_sss_prepass_free(cache);
+    op_sss_prepass_free(pre);
     op_scene_free(scene);
 }
 

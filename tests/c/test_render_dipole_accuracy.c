@@ -114,7 +114,7 @@ static void test_spot_every_distance(void **state)
         scene_text(text, sizeof text, m, x0, x1, -y, y, em, 0.5 * (s0 + s1), w, 64, 2);
         op_scene *scene = NULL;
         double secs = 0.0;
-        op_sss_prepass *cache = prepass("spot.xml", text, &scene, &secs);
+        op_sss_prepass *pre = prepass("spot.xml", text, &scene, &secs);
         for (int c = 0; c < 3; c++) {
             double L = diffusion_length(m, c);
             printf("%-10s  %d  %6.3f ", m->name, c, L);
@@ -122,7 +122,7 @@ static void test_spot_every_distance(void **state)
                 double x = a + (double)(1 << q) * L;
                 double want = ref_dipole_spot(m->sp[c], m->sa[c], m->eta, a, D, x);
                 op_v3 got;
-                if (!op_sss_lookup(cache, 0, v3((float)x, 0.0f, 0.0f), v3(0.0f, 0.0f, 1.0f), &got))
+                if (!op_sss_lookup(pre, 0, v3((float)x, 0.0f, 0.0f), v3(0.0f, 0.0f, 1.0f), &got))
                     fail_msg("%s: no exitance at x = %g mm (not a receiver)", m->name, x);
                 double g = c == 0 ? got.x : c == 1 ? got.y : got.z, rel = g / want - 1.0;
                 printf("  %+7.2f %%", 100.0 * rel);
@@ -131,10 +131,10 @@ static void test_spot_every_distance(void **state)
                     printf(" <-");
                 }
             }
-            printf(c == 2 ? "   (%d points, %.2f s)\n" : "\n", op_sss_prepass_points(cache, 0),
+            printf(c == 2 ? "   (%d points, %.2f s)\n" : "\n", op_sss_prepass_points(pre, 0),
                    secs);
         }
-        op_sss_prepass_free(cache);
+        op_sss_prepass_free(pre);
         op_scene_free(scene);
     }
     if (failures)
@@ -164,12 +164,12 @@ static void test_uniform_every_medium(void **state)
                    0.0, w, 4, 4);
         op_scene *scene = NULL;
         double secs = 0.0;
-        op_sss_prepass *cache = prepass("uniform.xml", text, &scene, &secs);
+        op_sss_prepass *pre = prepass("uniform.xml", text, &scene, &secs);
         op_v3 got = v3s(0.0f);
         for (int j = 0; j < 5; j++)
             for (int i = 0; i < 5; i++) {
                 op_v3 p = v3((float)(w * (i - 2) / 5.0), (float)(w * (j - 2) / 5.0), 0.0f), e;
-                if (!op_sss_lookup(cache, 0, p, v3(0.0f, 0.0f, 1.0f), &e))
+                if (!op_sss_lookup(pre, 0, p, v3(0.0f, 0.0f, 1.0f), &e))
                     fail_msg("%s: no exitance at (%g, %g)", m->name, p.x, p.y);
                 got = v3_add(got, v3_scale(e, 1.0f / 25.0f));
             }
@@ -183,8 +183,8 @@ static void test_uniform_every_medium(void **state)
                 printf(" <-");
             }
         }
-        printf("   (%d points, %.2f s)\n", op_sss_prepass_points(cache, 0), secs);
-        op_sss_prepass_free(cache);
+        printf("   (%d points, %.2f s)\n", op_sss_prepass_points(pre, 0), secs);
+        op_sss_prepass_free(pre);
         op_scene_free(scene);
     }
     if (failures)

@@ -164,9 +164,9 @@ static op_sss_prepass *prepass_patch(const char *mat, int tiles, int spot, doubl
     OP_ASSERT_OK(op_scene_load(path, NULL, 0, scene, &err), err);
     op_sss_prepass_options o = {threads, 0, NULL, NULL, NULL, everywhere, NULL,
                                 &op_path_transport};
-    op_sss_prepass *cache = NULL;
-    OP_ASSERT_OK(op_sss_prepass_run(*scene, &o, &cache, &err), err);
-    return cache;
+    op_sss_prepass *pre = NULL;
+    OP_ASSERT_OK(op_sss_prepass_run(*scene, &o, &pre, &err), err);
+    return pre;
 }
 
 static op_sss_prepass *prepass(const char *mat, int spot, double density, int threads,
@@ -177,14 +177,14 @@ static op_sss_prepass *prepass(const char *mat, int spot, double density, int th
 
 /* The exitance op_sss_lookup gives at the central tile's pixel centres (3 x W x W) of a
  * pre-pass of the patch of `tiles` tiles. */
-static void lookup_tile(const op_sss_prepass *cache, int tiles, float *out)
+static void lookup_tile(const op_sss_prepass *pre, int tiles, float *out)
 {
     int c0 = tiles / 2 * W;
     for (int j = c0; j < c0 + W; j++)
         for (int i = c0; i < c0 + W; i++) {
             op_v3 m;
             op_v3 p = v3((float)centre(tiles, i), (float)centre(tiles, j), 0.0f);
-            assert_true(op_sss_lookup(cache, 0, p, v3(0.0f, 0.0f, 1.0f), &m));
+            assert_true(op_sss_lookup(pre, 0, p, v3(0.0f, 0.0f, 1.0f), &m));
             float *o = out + 3 * ((j - c0) * W + (i - c0));
             o[0] = m.x;
             o[1] = m.y;
@@ -234,9 +234,9 @@ static void compare(const float *got, const double *ref, const char *what)
 static void rendered(const char *mat, int spot, double density, int threads, float *out)
 {
     op_scene *scene = NULL;
-    op_sss_prepass *cache = prepass(mat, spot, density, threads, &scene);
-    lookup_tile(cache, TILES, out);
-    op_sss_prepass_free(cache);
+    op_sss_prepass *pre = prepass(mat, spot, density, threads, &scene);
+    lookup_tile(pre, TILES, out);
+    op_sss_prepass_free(pre);
     op_scene_free(scene);
 }
 

@@ -59,9 +59,9 @@ static const char *write_scene(void)
 
 /* The image of scene with the pre-pass's result given: the renderer's own pixel loop (render.c),
  * seed 0. */
-static void image_with(const op_scene *s, const op_sss_prepass *cache, float *out)
+static void image_with(const op_scene *s, const op_sss_prepass *pre, float *out)
 {
-    const op_trace_ctx ctx = {s, cache};
+    const op_trace_ctx ctx = {s, pre};
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             double acc[3] = {0, 0, 0};
