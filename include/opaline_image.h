@@ -61,6 +61,11 @@ op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op
  * (OP_ERR_INPUT naming the limit "image-pixels") before anything is decoded or allocated. */
 op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
                                 int *encoded, op_error *err);
+/* The width, height and channels (as op_image_read would give them) of an OpenEXR, PNG or PFM
+ * file, read from its header: no pixel is decoded and no pixel limit applies. The readers'
+ * errors for a file they refuse before decoding; 0, 0, 0 then. */
+op_status op_image_read_size(const char *path, int *width, int *height, int *channels,
+                             op_error *err);
 
 #ifdef __cplusplus
 }

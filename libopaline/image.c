@@ -139,7 +139,7 @@ static op_status check_pixels(const char *path, const char *kind, uint64_t w, ui
  * prints), as 8-bit sRGB, decoded to linear light when decode is set (else byte / 255); alpha
  * stays as stored. Grey+alpha becomes RGBA. */
 static op_status read_png(const char *path, FILE *f, int decode, uint64_t max_pixels,
-                          op_image *img, op_error *err)
+                          int header_only, op_image *img, op_error *err)
 {
     png_image pi;
     memset(&pi, 0, sizeof pi);
@@ -161,9 +161,11 @@ static op_status read_png(const char *path, FILE *f, int decode, uint64_t max_pi
         return OP_ERR_FORMAT;
     }
     op_status st = check_pixels(path, "PNG", pi.width, pi.height, max_pixels, err);
-    if (st == OP_OK)
+    if (st == OP_OK && header_only)
+        *img = (op_image){(int)pi.width, (int)pi.height, c, NULL};
+    else if (st == OP_OK)
         st = op_image_alloc(img, (int)pi.width, (int)pi.height, c, err);
-    if (st != OP_OK) {
+    if (st != OP_OK || header_only) {
         png_image_free(&pi);
         return st;
     }
@@ -370,7 +372,7 @@ op_status op_image_write_exr_attr(const char *path, const op_image *img, int hal
 /* Reads the first part of a flat (not deep) scanline or tiled OpenEXR file; channels R, G, B
  * and A (or Y) by name, any pixel type, converted to float. */
 static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_pixels,
-                          op_image *img, op_error *err)
+                          int header_only, op_image *img, op_error *err)
 {
     exr_io io;
     exr_context_t ctx = NULL;
@@ -429,6 +431,10 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
             slot_of[3] = 3;
     } else {
         st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR file has no R, G, B or Y channels", path);
+        goto done;
+    }
+    if (header_only) {
+        *img = (op_image){(int)w, (int)h, c, NULL};
         goto done;
     }
     if ((st = op_image_alloc(img, (int)w, (int)h, c, err)) != OP_OK)
@@ -663,7 +669,7 @@ static int pfm_token(const unsigned char *buf, size_t n, size_t *pos, char *tok,
 }
 
 static op_status read_pfm(const char *path, int fd, int64_t size, uint64_t max_pixels,
-                          op_image *img, op_error *err)
+                          int header_only, op_image *img, op_error *err)
 {
     unsigned char head[128];
     ssize_t got = pread(fd, head, sizeof head, 0);
@@ -690,6 +696,10 @@ static op_status read_pfm(const char *path, int fd, int64_t size, uint64_t max_p
     if ((uint64_t)size < pos + count * sizeof(float))
         return op_error_set(err, OP_ERR_FORMAT, "%s: truncated PFM (%lld bytes, need %zu)", path,
                             (long long)size, pos + count * sizeof(float));
+    if (header_only) {
+        *img = (op_image){(int)w, (int)h, c, NULL};
+        return OP_OK;
+    }
     op_status st = op_image_alloc(img, (int)w, (int)h, c, err);
     if (st != OP_OK)
         return st;
@@ -744,9 +754,10 @@ op_status op_image_exr_attr(const char *path, const char *name, char *out, size_
     return st;
 }
 
-/* Reads any supported file; 8-bit ones are sRGB-decoded when decode is set. */
-static op_status read_any(const char *path, int decode, uint64_t max_pixels, op_image *img,
-                          int *encoded, op_error *err)
+/* Reads any supported file; 8-bit ones are sRGB-decoded when decode is set. With header_only,
+ * only img's size and channels are set (pixels NULL), from the header, nothing decoded. */
+static op_status read_any(const char *path, int decode, uint64_t max_pixels, int header_only,
+                          op_image *img, int *encoded, op_error *err)
 {
     memset(img, 0, sizeof *img);
     *encoded = 0;
@@ -765,20 +776,20 @@ static op_status read_any(const char *path, int decode, uint64_t max_pixels, op_
     static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
-        st = read_exr(path, fd, (int64_t)size, max_pixels, img, err);
+        st = read_exr(path, fd, (int64_t)size, max_pixels, header_only, img, err);
     } else if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
         FILE *f = fdopen(fd, "rb"); /* at offset 0: pread does not move it */
         if (!f) {
             close(fd);
             return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
         }
-        st = read_png(path, f, decode, max_pixels, img, err);
+        st = read_png(path, f, decode, max_pixels, header_only, img, err);
         *encoded = 1;
         fclose(f);
         return st;
     } else if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
                (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r')) {
-        st = read_pfm(path, fd, (int64_t)size, max_pixels, img, err);
+        st = read_pfm(path, fd, (int64_t)size, max_pixels, header_only, img, err);
     } else {
         st = op_error_set(err, OP_ERR_FORMAT, "%s: not an OpenEXR, PNG or PFM image", path);
     }
@@ -789,17 +800,29 @@ static op_status read_any(const char *path, int decode, uint64_t max_pixels, op_
 op_status op_image_read(const char *path, op_image *img, op_error *err)
 {
     int encoded;
-    return read_any(path, 1, OP_IMAGE_DEFAULT_MAX_PIXELS, img, &encoded, err);
+    return read_any(path, 1, OP_IMAGE_DEFAULT_MAX_PIXELS, 0, img, &encoded, err);
 }
 
 op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err)
 {
-    return read_any(path, 0, OP_IMAGE_DEFAULT_MAX_PIXELS, img, encoded, err);
+    return read_any(path, 0, OP_IMAGE_DEFAULT_MAX_PIXELS, 0, img, encoded, err);
 }
 
 op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
                                 int *encoded, op_error *err)
 {
     int ignored;
-    return read_any(path, decode, max_pixels, img, encoded ? encoded : &ignored, err);
+    return read_any(path, decode, max_pixels, 0, img, encoded ? encoded : &ignored, err);
+}
+
+op_status op_image_read_size(const char *path, int *width, int *height, int *channels,
+                             op_error *err)
+{
+    op_image img;
+    int encoded;
+    op_status st = read_any(path, 1, UINT64_MAX, 1, &img, &encoded, err);
+    *width = st ? 0 : img.width;
+    *height = st ? 0 : img.height;
+    *channels = st ? 0 : img.channels;
+    return st;
 }

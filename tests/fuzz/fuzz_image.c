@@ -1,5 +1,6 @@
 /* fuzz_image.c - the image reader (OpenEXR, PNG or PFM, chosen by content) on arbitrary bytes;
- * an image it accepts has positive dimensions and 1 to 4 channels. */
+ * an image it accepts has positive dimensions and 1 to 4 channels, and the header-only reader
+ * (op_image_read_size) gives the same size and channels for it. */
 #include "fuzz_support.h"
 
 #include "opaline.h"
@@ -7,13 +8,18 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    op_image img;
+    const char *path = op_fuzz_file(data, size, ".img");
+    int w, h, c;
     op_error err;
-    if (op_image_read(op_fuzz_file(data, size, ".img"), &img, &err) != OP_OK)
+    op_status sized = op_image_read_size(path, &w, &h, &c, &err);
+    op_image img;
+    if (op_image_read(path, &img, &err) != OP_OK)
         return 0;
     op_fuzz_require(img.width > 0 && img.height > 0 && img.channels >= 1 && img.channels <= 4 &&
                         img.pixels,
                     "image accepted with bad dimensions");
+    op_fuzz_require(sized == OP_OK && w == img.width && h == img.height && c == img.channels,
+                    "the header's size is not the image's");
     op_image_free(&img);
     return 0;
 }

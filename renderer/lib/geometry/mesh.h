@@ -32,6 +32,10 @@ op_status op_mesh_load_obj(const char *path, op_mesh *out, op_error *err);
  * vertex_indices (or vertex_index) lists of any integer types; other elements and properties
  * are skipped. */
 op_status op_mesh_load_ply(const char *path, op_mesh *out, op_error *err);
+/* The vertex and face counts a PLY file's header declares (0 for an element it lacks), read
+ * without loading the file; the loader's errors for a bad header. */
+op_status op_mesh_ply_counts(const char *path, uint64_t *vertices, uint64_t *faces,
+                             op_error *err);
 /* Chooses the loader by the file name's extension (.obj or .ply, any case). */
 op_status op_mesh_load(const char *path, op_mesh *out, op_error *err);
 /* Frees the arrays and zeroes *m. Accepts NULL and zeroed meshes. */

@@ -437,6 +437,35 @@ static op_status skip_element(ply_state *s, const element *e)
     return OP_OK;
 }
 
+op_status op_mesh_ply_counts(const char *path, uint64_t *vertices, uint64_t *faces,
+                             op_error *err)
+{
+    *vertices = *faces = 0;
+    op_file_view f;
+    op_status st = op_file_map(path, &f, err);
+    if (st != OP_OK)
+        return st;
+    element *elems = malloc(MAX_ELEMENTS * sizeof *elems);
+    ply_state s;
+    memset(&s, 0, sizeof s);
+    s.path = path;
+    s.err = err;
+    s.p = f.data ? (const char *)f.data : "";
+    s.end = s.p + f.size;
+    int nelems = 0;
+    st = elems ? read_header(&s, elems, &nelems)
+               : op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    for (int i = 0; i < nelems && st == OP_OK; i++) {
+        if (strcmp(elems[i].name, "vertex") == 0)
+            *vertices = elems[i].count;
+        else if (strcmp(elems[i].name, "face") == 0)
+            *faces = elems[i].count;
+    }
+    free(elems);
+    op_file_unmap(&f);
+    return st;
+}
+
 op_status op_mesh_load_ply(const char *path, op_mesh *out, op_error *err)
 {
     memset(out, 0, sizeof *out);

@@ -7,6 +7,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "geometry/mesh.h"
+#include "opaline_image.h"
 #include "scene/limits.h"
 #include "scene/scene_path.h"
 #include "scene/subsurface_desc.h"
@@ -24,19 +26,18 @@
 #define MATERIAL_FILE_FACTOR 3
 #define TEXTURE_BYTES_PER_TEXEL(channels) (12 + 4 * (channels))
 #define ENVMAP_BYTES_PER_TEXEL(channels) (16 + 4 * (channels))
-/* An image whose header is not understood here (the build says what is wrong with it):
- * counted as this many times its file size. */
+/* An image whose header the image reader refuses (the build says why): counted as this many
+ * times its file size. */
 #define UNKNOWN_IMAGE_FACTOR 64
 
 /* Records path in d->files once; *added: whether it is new. */
 static op_status add_file(op_scene_description *d, const char *path, int *added, op_error *err)
 {
     *added = 0;
-    for (int i = 0; i < d->nfiles; i++)
-        if (strcmp(d->files[i], path) == 0)
-            return OP_OK;
+    if (op_strmap_find(&d->file_keys, path, strlen(path)))
+        return OP_OK;
     if (!op_array_grow((void **)&d->files, &d->cap_files, d->nfiles, sizeof *d->files) ||
-        !(d->files[d->nfiles] = strdup(path)))
+        !(d->files[d->nfiles] = strdup(path)) || !op_strmap_add(&d->file_keys, path))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     d->nfiles++;
     *added = 1;
@@ -44,88 +45,25 @@ static op_status add_file(op_scene_description *d, const char *path, int *added,
 }
 
 /* Opens path as its reader would (the same refusal of a missing or unreadable file, and the
- * run's record of inputs), reads up to n bytes of its start into head (*got of them), closes
- * it and records it in d->files (*added: whether it is new there). *size: its size. */
-static op_status open_file(op_scene_description *d, const char *path, unsigned char *head,
-                           size_t n, size_t *got, uint64_t *size, int *added, op_error *err)
+ * run's record of inputs), closes it and records it in d->files (*added: whether it is new
+ * there). *size: its size. */
+static op_status open_file(op_scene_description *d, const char *path, uint64_t *size, int *added,
+                           op_error *err)
 {
     int fd;
     GET_OR_FAIL(op_file_open(path, &fd, size, err));
-    ssize_t r = n > 0 ? pread(fd, head, n, 0) : 0;
     close(fd);
-    *got = r > 0 ? (size_t)r : 0;
     return add_file(d, path, added, err);
 }
 
 /* open_file for node's file, its errors prefixed by node's element. */
 static op_status find_file(op_scene_description *d, const op_node *node, const char *path,
-                           unsigned char *head, size_t n, size_t *got, uint64_t *size,
-                           int *added, op_error *err)
+                           uint64_t *size, int *added, op_error *err)
 {
-    if (open_file(d, path, head, n, got, size, added, err))
+    if (open_file(d, path, size, added, err))
         return op_error_prefix(err, "%s:%d: <%s type=\"%s\">: ", node->file, node->line, node->tag,
                                node->type ? node->type : "");
     return OP_OK;
-}
-
-static uint32_t be32(const unsigned char *p)
-{
-    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-
-static int32_t le32(const unsigned char *p)
-{
-    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-                     (uint32_t)p[3] << 24);
-}
-
-/* Width x height and channels of an image from the n bytes of its start (PNG's IHDR, PFM's
- * text header, OpenEXR's dataWindow, counted as 4 channels); 0 when not understood. */
-static int image_header(const unsigned char *h, size_t n, long long *texels, int *channels)
-{
-    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    static const unsigned char exr[4] = {0x76, 0x2f, 0x31, 0x01};
-    if (n >= 26 && memcmp(h, png, 8) == 0) {
-        static const int per_type[7] = {1, 0, 3, 1, 2, 0, 4};
-        *texels = (long long)be32(h + 16) * be32(h + 20);
-        *channels = h[25] < 7 && per_type[h[25]] ? per_type[h[25]] : 4;
-        return 1;
-    }
-    if (n >= 3 && h[0] == 'P' && (h[1] == 'F' || h[1] == 'f')) {
-        long w, ht;
-        if (sscanf((const char *)h + 2, "%ld %ld", &w, &ht) != 2 || w <= 0 || ht <= 0)
-            return 0;
-        *texels = (long long)w * ht;
-        *channels = h[1] == 'F' ? 3 : 1;
-        return 1;
-    }
-    if (n >= 8 && memcmp(h, exr, 4) == 0) {
-        size_t at = 8;
-        while (at < n && h[at]) { /* attributes: name, type, size, value; an empty name ends */
-            const char *name = (const char *)h + at;
-            size_t ln = strnlen(name, n - at), lt;
-            if (at + ln + 1 >= n)
-                return 0;
-            lt = strnlen((const char *)h + at + ln + 1, n - at - ln - 1);
-            size_t value = at + ln + 1 + lt + 1 + 4;
-            if (value > n)
-                return 0;
-            int32_t size = le32(h + value - 4);
-            if (size < 0 || (size_t)size > n - value)
-                return 0;
-            if (strcmp(name, "dataWindow") == 0 && size == 16) {
-                long long w = (long long)le32(h + value + 8) - le32(h + value) + 1;
-                long long ht = (long long)le32(h + value + 12) - le32(h + value + 4) + 1;
-                if (w <= 0 || ht <= 0)
-                    return 0;
-                *texels = w * ht;
-                *channels = 4;
-                return 1;
-            }
-            at = value + (size_t)size;
-        }
-    }
-    return 0;
 }
 
 /* The mesh file an obj/ply shape node names, resolved against the scene's folder, and its
@@ -207,20 +145,18 @@ int op_describe_mesh_index(const op_scene_description *d, const char *key)
 static op_status find_image(op_scene_description *d, const op_node *node, const char *path,
                             int envmap, op_error *err)
 {
-    unsigned char head[4096];
-    size_t got = 0;
     uint64_t size = 0;
     int added = 0;
-    GET_OR_FAIL(find_file(d, node, path, head, sizeof head, &got, &size, &added, err));
-    long long texels;
-    int channels;
+    GET_OR_FAIL(find_file(d, node, path, &size, &added, err));
     if (!added) /* the texture cache holds it once */
         return OP_OK;
-    if (!image_header(head, got, &texels, &channels))
+    int w, h, channels;
+    op_error ignored;
+    if (op_image_read_size(path, &w, &h, &channels, &ignored) != OP_OK)
         d->load_bytes += (long long)size * UNKNOWN_IMAGE_FACTOR;
     else
-        d->load_bytes += texels * (envmap ? ENVMAP_BYTES_PER_TEXEL(channels) :
-                                            TEXTURE_BYTES_PER_TEXEL(channels));
+        d->load_bytes += (long long)w * h * (envmap ? ENVMAP_BYTES_PER_TEXEL(channels) :
+                                                      TEXTURE_BYTES_PER_TEXEL(channels));
     return OP_OK;
 }
 
@@ -249,23 +185,14 @@ static op_status find_textures(op_scene_description *d, op_node *node, op_error 
 }
 
 /* The triangles of a mesh file as far as its header tells: a PLY's faces (at least twice its
- * vertices, as a closed mesh of quads has); an OBJ's from its size. */
-static long long file_triangles(const char *kind, const unsigned char *bytes, size_t n,
-                                uint64_t size)
+ * vertices, as a closed mesh of quads has); an OBJ's, or a PLY's whose header is refused (the
+ * build says why), from its size. */
+static long long file_triangles(const char *kind, const char *path, uint64_t size)
 {
-    char head[4097];
-    memcpy(head, bytes, n < sizeof head - 1 ? n : sizeof head - 1);
-    head[n < sizeof head - 1 ? n : sizeof head - 1] = '\0';
-    long long faces = 0, verts = 0;
-    if (strcmp(kind, "ply") == 0) {
-        const char *v = strstr(head, "element vertex "), *f = strstr(head, "element face ");
-        if (v)
-            verts = atoll(v + strlen("element vertex "));
-        if (f)
-            faces = atoll(f + strlen("element face "));
-        if (v && f && strstr(head, "end_header"))
-            return faces > 2 * verts ? faces : 2 * verts;
-    }
+    uint64_t verts, faces;
+    op_error ignored;
+    if (strcmp(kind, "ply") == 0 && op_mesh_ply_counts(path, &verts, &faces, &ignored) == OP_OK)
+        return (long long)(faces > 2 * verts ? faces : 2 * verts);
     return (long long)(size / OBJ_BYTES_PER_TRIANGLE);
 }
 
@@ -279,15 +206,13 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
     d->shapes++;
     if (strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0) {
         char path[4096], key[4200];
-        unsigned char head[4096];
-        size_t got = 0;
         uint64_t size = 0;
         int face, fliptex, added = 0;
         GET_OR_FAIL(op_describe_mesh(d, node, path, sizeof path, &face, &fliptex, key,
                                      sizeof key, err));
-        GET_OR_FAIL(find_file(d, node, path, head, sizeof head, &got, &size, &added, err));
+        GET_OR_FAIL(find_file(d, node, path, &size, &added, err));
         d->triangles = -1;
-        d->load_bytes += (long long)size + file_triangles(t, head, got, size) *
+        d->load_bytes += (long long)size + file_triangles(t, path, size) *
                                                OP_LOAD_BYTES_PER_TRIANGLE;
     } else {
         op_trimesh m;
@@ -339,10 +264,9 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
     op_subsurface_spec spec;
     GET_OR_FAIL(op_subsurface_read(sss, d->dir, &d->limits, &desc, &spec, err));
     if (!desc.is_dipole) {
-        size_t got = 0;
         uint64_t size = 0;
         int added = 0;
-        if (open_file(d, spec.path, NULL, 0, &got, &size, &added, err))
+        if (open_file(d, spec.path, &size, &added, err))
             return op_subsurface_error(sss, &spec, err);
         if (added) /* opened once, shared by the shapes that name it */
             d->load_bytes += (long long)size * MATERIAL_FILE_FACTOR;
@@ -503,6 +427,7 @@ void op_describe_release(op_scene_description *d)
 {
     op_desc_free(d->root);
     op_strmap_free(&d->mesh_keys);
+    op_strmap_free(&d->file_keys);
     free(d->mesh_uses);
     for (int i = 0; i < d->nfiles; i++)
         free(d->files[i]);

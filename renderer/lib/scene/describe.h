@@ -29,6 +29,7 @@ struct op_scene_description {
     char **files;             /* the files the scene names (meshes, images, materials), as
                                  resolved, each once, in the order the build reads them */
     int nfiles, cap_files;
+    op_strmap file_keys;      /* the files' names, for listing each once */
     long long load_bytes;     /* the estimated peak memory of building the scene */
     /* the meshes (files, or the unit sphere) that shapes which may become instances place: by
      * op_describe_mesh's key, their index k in mesh_uses, the number of such shapes placing
