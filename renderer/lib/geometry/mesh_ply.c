@@ -437,25 +437,43 @@ static op_status skip_element(ply_state *s, const element *e)
     return OP_OK;
 }
 
+/* Maps path and reads its header into elems (allocated, *nelems of them) with s set to read
+ * the data after it. On failure everything is released; else the caller frees elems and
+ * unmaps f. */
+static op_status ply_open(const char *path, op_error *err, op_file_view *f, ply_state *s,
+                          element **elems, int *nelems)
+{
+    *nelems = 0;
+    op_status st = op_file_map(path, f, err);
+    if (st != OP_OK)
+        return st;
+    *elems = malloc(MAX_ELEMENTS * sizeof **elems);
+    memset(s, 0, sizeof *s);
+    s->path = path;
+    s->err = err;
+    s->p = f->data ? (const char *)f->data : "";
+    s->end = s->p + f->size;
+    st = *elems ? read_header(s, *elems, nelems)
+                : op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    if (st != OP_OK) {
+        free(*elems);
+        op_file_unmap(f);
+    }
+    return st;
+}
+
 op_status op_mesh_ply_counts(const char *path, uint64_t *vertices, uint64_t *faces,
                              op_error *err)
 {
     *vertices = *faces = 0;
     op_file_view f;
-    op_status st = op_file_map(path, &f, err);
+    ply_state s;
+    element *elems;
+    int nelems;
+    op_status st = ply_open(path, err, &f, &s, &elems, &nelems);
     if (st != OP_OK)
         return st;
-    element *elems = malloc(MAX_ELEMENTS * sizeof *elems);
-    ply_state s;
-    memset(&s, 0, sizeof s);
-    s.path = path;
-    s.err = err;
-    s.p = f.data ? (const char *)f.data : "";
-    s.end = s.p + f.size;
-    int nelems = 0;
-    st = elems ? read_header(&s, elems, &nelems)
-               : op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
-    for (int i = 0; i < nelems && st == OP_OK; i++) {
+    for (int i = 0; i < nelems; i++) {
         if (strcmp(elems[i].name, "vertex") == 0)
             *vertices = elems[i].count;
         else if (strcmp(elems[i].name, "face") == 0)
@@ -463,30 +481,20 @@ op_status op_mesh_ply_counts(const char *path, uint64_t *vertices, uint64_t *fac
     }
     free(elems);
     op_file_unmap(&f);
-    return st;
+    return OP_OK;
 }
 
 op_status op_mesh_load_ply(const char *path, op_mesh *out, op_error *err)
 {
     memset(out, 0, sizeof *out);
     op_file_view f;
-    op_status st = op_file_map(path, &f, err);
+    ply_state s;
+    element *elems;
+    int nelems;
+    op_status st = ply_open(path, err, &f, &s, &elems, &nelems);
     if (st != OP_OK)
         return st;
-    element *elems = malloc(MAX_ELEMENTS * sizeof *elems);
-    if (!elems) {
-        op_file_unmap(&f);
-        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
-    }
-    ply_state s;
-    memset(&s, 0, sizeof s);
-    s.path = path;
-    s.err = err;
-    s.p = f.data ? (const char *)f.data : "";
-    s.end = s.p + f.size;
-    int nelems = 0;
     tri_vec tris = {NULL, 0, 0};
-    st = read_header(&s, elems, &nelems);
     uint64_t nverts = 0;
     int vertex_elem = -1;
     for (int i = 0; i < nelems && st == OP_OK; i++)
