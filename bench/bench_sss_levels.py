@@ -41,7 +41,7 @@ def square(medium, half_mm):
     return f"""<scene version="0.6.0"><integrator type="path"/> {cam} {SPOT}
  <shape type="rectangle"><transform name="toWorld"><scale x="{half_mm}" y="{half_mm}" z="1"/>
   </transform><subsurface type="dipole"><string name="material" value="{medium}"/>
-  <float name="scale" value="1000"/><integer name="irrSamples" value="1"/></subsurface></shape>
+  <float name="sceneUnitsPerMetre" value="1000"/><integer name="irrSamples" value="1"/></subsurface></shape>
 </scene>
 """
 
@@ -53,7 +53,7 @@ def sphere(medium):
   <spectrum name="intensity" value="3e6"/></emitter>
  <shape type="sphere"><point name="center" x="0" y="500" z="1000"/><float name="radius" value="500"/>
   <subsurface type="dipole"><string name="material" value="{medium}"/>
-  <float name="scale" value="1000"/><integer name="irrSamples" value="1"/></subsurface></shape>
+  <float name="sceneUnitsPerMetre" value="1000"/><integer name="irrSamples" value="1"/></subsurface></shape>
 </scene>
 """
 

@@ -117,7 +117,7 @@ def k_axis(builds, names, out, threads, repeat):
         path = os.path.join(out, f"marble_160mm_d{d:.4f}.xml")
         with open(path, "w") as f:
             f.write(scene_text(160, '<subsurface type="dipole"><string name="material" '
-                               'value="Marble"/><float name="scale" value="1000"/>'
+                               'value="Marble"/><float name="sceneUnitsPerMetre" value="1000"/>'
                                f'<float name="density" value="{d:.6g}"/>'
                                '<integer name="irrSamples" value="4"/></subsurface>'))
         k = 2.0 * DIPOLE_REACH_MM / (DIPOLE_SPACING_MM / math.sqrt(d)) + 1
@@ -132,7 +132,7 @@ def k_axis(builds, names, out, threads, repeat):
         path = os.path.join(out, f"raw_k{K}.xml")
         with open(path, "w") as f:
             f.write(scene_text(100, f'<subsurface type="raw"><string name="material" '
-                               f'value="{os.path.abspath(opm)}"/><float name="scale" '
+                               f'value="{os.path.abspath(opm)}"/><float name="sceneUnitsPerMetre" '
                                'value="1000"/><integer name="irrSamples" value="4"/>'
                                '</subsurface>'))
         mscenes.append((K, path))
@@ -176,7 +176,7 @@ def main():
         path = os.path.join(out, f"marble_{side}mm.xml")
         with open(path, "w") as f:
             f.write(scene_text(side, '<subsurface type="dipole"><string name="material" '
-                               'value="Marble"/><float name="scale" value="1000"/>'
+                               'value="Marble"/><float name="sceneUnitsPerMetre" value="1000"/>'
                                '<integer name="irrSamples" value="4"/></subsurface>'))
         scenes.append((side, path))
     if os.environ.get("SERIES", "points k").find("points") >= 0:

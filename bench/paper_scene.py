@@ -38,7 +38,7 @@ def scene_xml(method, material, spp, res, mesh=None, scale=SCALE, sampler="indep
     sobol for opaline's low-discrepancy numbers, which bench_subsurface uses)."""
     sub = """    <subsurface type="%s">
       <string name="material" value="%s"/>
-      <float name="scale" value="%g"/>
+      <float name="sceneUnitsPerMetre" value="%g"/>
     </subsurface>""" % (method, material, scale)
     if mesh:
         shape = """  <shape type="obj">

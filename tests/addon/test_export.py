@@ -497,7 +497,7 @@ class TestMaterials(Base):
         # The renderer does not know this folder: the file is named by path.
         self.assertEqual(value(sub, "string", "material"),
                          os.path.join(folder, "SVD_S10_Test.opm"))
-        self.assertClose(value(sub, "float", "scale"), [10.0])
+        self.assertClose(value(sub, "float", "sceneUnitsPerMetre"), [10.0])
         # Measured Rd contains its boundary: no IOR is written for it (dipole only).
         self.assertIsNone(prop(sub, "float", "intIOR"))
         os.environ["OPALINE_PRESETS_PATH"] = folder

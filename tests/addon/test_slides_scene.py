@@ -87,7 +87,7 @@ class TestSlidesScene(unittest.TestCase):
         names = {c.get("name"): c.get("value") for c in subs[0]}
         self.assertTrue(names["material"] == PRESET or names["material"].endswith(
             PRESET + ".opm"), names["material"])
-        self.assertEqual(float(names["scale"]), 10.0)
+        self.assertEqual(float(names["sceneUnitsPerMetre"]), 10.0)
         self.assertEqual(res.lights, 1)
 
     def test_render(self):

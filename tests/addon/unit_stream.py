@@ -92,7 +92,7 @@ SCENE = """<scene version="0.6.0"><integrator type="path"><integer name="maxDept
 </scene>
 """
 TRANSLUCENT = ('<subsurface type="dipole"><string name="material" value="Skin1"/>'
-               '<float name="scale" value="1000"/><integer name="irrSamples" value="2"/>'
+               '<float name="sceneUnitsPerMetre" value="1000"/><integer name="irrSamples" value="2"/>'
                '<integer name="maxPoints" value="%d"/></subsurface>')
 
 

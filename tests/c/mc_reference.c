@@ -263,7 +263,7 @@ void mcref_run(const mcref_case *k, mcref_result *r)
     char xml[2048];
     snprintf(xml, sizeof xml,
              "<subsurface type=\"raw\"><string name=\"material\" value=\"%s\"/>"
-             "<float name=\"scale\" value=\"1000\"/><integer name=\"irrSamples\" value=\"1\"/>"
+             "<float name=\"sceneUnitsPerMetre\" value=\"1000\"/><integer name=\"irrSamples\" value=\"1\"/>"
              "</subsurface>",
              mat);
     measure(r, k, xml, r->got, r->uni_got, &r->raw_seconds, &r->points);
@@ -271,7 +271,7 @@ void mcref_run(const mcref_case *k, mcref_result *r)
         snprintf(xml, sizeof xml,
                  "<subsurface type=\"dipole\"><rgb name=\"sigmaA\" value=\"%.9g\"/>"
                  "<rgb name=\"sigmaS\" value=\"%.9g\"/><float name=\"intIOR\" value=\"%.9g\"/>"
-                 "<float name=\"scale\" value=\"1000\"/><integer name=\"irrSamples\" value=\"1\"/>"
+                 "<float name=\"sceneUnitsPerMetre\" value=\"1000\"/><integer name=\"irrSamples\" value=\"1\"/>"
                  "</subsurface>",
                  r->sa, r->sp, r->eta);
         double got[3][4], uni[3];

@@ -86,10 +86,13 @@ static const char *slab_scene(const char *name, double half, const char *body)
              " <emitter type=\"directional\"><vector name=\"direction\" x=\"0\" y=\"0\" z=\"-1\"/>"
              "  <rgb name=\"irradiance\" value=\"1\"/></emitter>"
              " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"%g\"/>"
-             "  </transform><subsurface type=\"dipole\">%s"
+             "  </transform><subsurface type=\"dipole\">%s%s"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
-             half / 2.0, half, body);
+             half / 2.0, half,
+             strstr(body, "name=\"scale\"") || strstr(body, "sceneUnitsPerMetre")
+                 ? "" : "<float name=\"sceneUnitsPerMetre\" value=\"1\"/>",
+             body);
     op_test_write_text(path, text);
     return path;
 }
@@ -132,9 +135,9 @@ static void test_slab_total_reflectance(void **state)
      * 8 mm the test reads stays inside */
     double m[3], mm[3];
     slab_exitance(slab_scene("m.xml", 0.025, ""), 0.004, m);
-    /* the same in a millimetre scene: scale = 1000 scene units per metre */
+    /* the same in a millimetre scene: sceneUnitsPerMetre 1000 */
     slab_exitance(slab_scene("mm.xml", 25.0, "<string name=\"material\" value=\"skin1\"/>"
-                                             "<float name=\"scale\" value=\"1000\"/>"),
+                                             "<float name=\"sceneUnitsPerMetre\" value=\"1000\"/>"),
                   4.0, mm);
     for (int c = 0; c < 3; c++) {
         double want = ref_dipole_total(skin_sp[c], skin_a[c], 1.3);
@@ -161,6 +164,23 @@ static void test_slab_total_reflectance(void **state)
     for (int c = 0; c < 3; c++) {
         assert_true(fabs(e[c] - m[c]) < 1e-3 * m[c]);
         assert_true(fabs(f[c] - m[c]) < 1e-3 * m[c]);
+    }
+    /* Mitsuba's meaning of scale: explicit coefficients are per scene unit, times scale (here
+     * 1/mm x 1000 in a metre scene); the named table's entries are x 100, times scale (here
+     * x 100 x 0.01 = 1/mm in a millimetre scene) */
+    double ms[3], mt[3];
+    snprintf(body, sizeof body,
+             "<rgb name=\"sigmaA\" value=\"%g, %g, %g\"/><rgb name=\"sigmaS\" value=\"%g, %g, %g\"/>"
+             "<float name=\"intIOR\" value=\"1.3\"/><float name=\"scale\" value=\"1000\"/>",
+             skin_a[0], skin_a[1], skin_a[2], skin_sp[0], skin_sp[1], skin_sp[2]);
+    slab_exitance(slab_scene("mts_explicit.xml", 0.025, body), 0.004, ms);
+    slab_exitance(slab_scene("mts_table.xml", 25.0, "<string name=\"material\" value=\"skin1\"/>"
+                                                    "<float name=\"scale\" value=\"0.01\"/>"),
+                  4.0, mt);
+    for (int c = 0; c < 3; c++) {
+        if (fabs(ms[c] - m[c]) > 1e-3 * m[c] || fabs(mt[c] - mm[c]) > 1e-3 * mm[c])
+            fail_msg("channel %d: Mitsuba scale: %.5f vs %.5f (explicit), %.5f vs %.5f (table)",
+                     c, ms[c], m[c], mt[c], mm[c]);
     }
     /* marble: a far longer footprint */
     double mb[3];
@@ -193,6 +213,8 @@ static void test_errors(void **state)
     expect_error("<rgb name=\"sigmaA\" value=\"0\"/><rgb name=\"sigmaS\" value=\"0\"/>",
                  "not both 0");
     expect_error("<float name=\"intIOR\" value=\"0.5\"/>", "[1, 3]");
+    expect_error("<float name=\"scale\" value=\"2\"/><float name=\"sceneUnitsPerMetre\" "
+                 "value=\"2\"/>", "not both");
 }
 
 int main(void)

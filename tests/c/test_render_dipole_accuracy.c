@@ -74,7 +74,7 @@ static void scene_text(char *text, size_t cap, const medium *m, double x0, doubl
              " <shape type=\"rectangle\"><transform name=\"toWorld\">"
              "  <scale x=\"%.9g\" y=\"%.9g\" z=\"1\"/><translate x=\"%.9g\" y=\"%.9g\" z=\"0\"/>"
              "  </transform><subsurface type=\"dipole\">"
-             "  <string name=\"material\" value=\"%s\"/><float name=\"scale\" value=\"1000\"/>"
+             "  <string name=\"material\" value=\"%s\"/><float name=\"sceneUnitsPerMetre\" value=\"1000\"/>"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
              fov, cx, 2.0 * w, cx, nx, ny, emitter, 0.5 * (x1 - x0), 0.5 * (y1 - y0),

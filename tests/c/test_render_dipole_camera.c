@@ -76,7 +76,7 @@ static op_image render_slab(const char *name, double half, double cx, double vie
              " %s"
              " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"%g\"/>"
              "  </transform><subsurface type=\"dipole\">"
-             "  <string name=\"material\" value=\"Skimmilk\"/><float name=\"scale\" value=\"1\"/>"
+             "  <string name=\"material\" value=\"Skimmilk\"/><float name=\"sceneUnitsPerMetre\" value=\"1\"/>"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
              fov, cx, cx, nx, ny, emitter, half);
@@ -193,7 +193,7 @@ static void test_receivers_thinned(void **state)
         "  <spectrum name=\"intensity\" value=\"6400\"/></emitter>"
         " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"80\"/>"
         "  </transform><subsurface type=\"dipole\"><string name=\"material\" value=\"Marble\"/>"
-        "  <float name=\"scale\" value=\"1000\"/><float name=\"density\" value=\"0.0625\"/>"
+        "  <float name=\"sceneUnitsPerMetre\" value=\"1000\"/><float name=\"density\" value=\"0.0625\"/>"
         "  <integer name=\"irrSamples\" value=\"4\"/></subsurface></shape></scene>");
     op_scene *s2 = NULL, *s1 = NULL, *sall = NULL;
     double secs;
@@ -258,7 +258,7 @@ static op_sss_prepass *large_slab(int cap, int everywhere, op_scene **scene)
              "  <float name=\"beamWidth\" value=\"5.71\"/></emitter>"
              " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale x=\"100\" y=\"100\" "
              "  z=\"1\"/></transform><subsurface type=\"dipole\">"
-             "  <string name=\"material\" value=\"Marble\"/><float name=\"scale\" value=\"1000\"/>"
+             "  <string name=\"material\" value=\"Marble\"/><float name=\"sceneUnitsPerMetre\" value=\"1000\"/>"
              "  <integer name=\"maxPoints\" value=\"%d\"/>"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape></scene>",
              cap);

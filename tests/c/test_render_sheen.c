@@ -83,7 +83,7 @@ static const char *raw_body(const char *mat, const char *bsdf, char *buf, size_t
 {
     snprintf(buf, n,
              "<subsurface type=\"raw\"><string name=\"material\" value=\"%s\"/>"
-             " <float name=\"scale\" value=\"80\"/><integer name=\"irrSamples\" value=\"16\"/>"
+             " <float name=\"sceneUnitsPerMetre\" value=\"80\"/><integer name=\"irrSamples\" value=\"16\"/>"
              "</subsurface>%s",
              mat, bsdf);
     return buf;
@@ -133,7 +133,7 @@ static void test_dipole_furnace(void **state)
     static const double sp[3] = {2.19, 2.62, 3.00}, sa[3] = {0.0021, 0.0041, 0.0071};
     static const char *body =
         "<subsurface type=\"dipole\"><string name=\"material\" value=\"Marble\"/>"
-        " <float name=\"scale\" value=\"1\"/><integer name=\"irrSamples\" value=\"8\"/>"
+        " <float name=\"sceneUnitsPerMetre\" value=\"1\"/><integer name=\"irrSamples\" value=\"8\"/>"
         "</subsurface><transform name=\"toWorld\"><scale value=\"0.2\"/></transform>"
         "<bsdf type=\"dielectric\"><float name=\"intIOR\" value=\"1.5\"/>"
         "<float name=\"extIOR\" value=\"1\"/></bsdf>";
@@ -169,7 +169,7 @@ static double brightest(const char *mat, const char *bsdf, op_image *keep)
              "  <emitter type=\"area\"><rgb name=\"radiance\" value=\"40\"/></emitter></shape>"
              " <shape type=\"sphere\"><float name=\"radius\" value=\"1\"/>"
              "  <subsurface type=\"raw\"><string name=\"material\" value=\"%s\"/>"
-             "  <float name=\"scale\" value=\"40\"/><integer name=\"irrSamples\" value=\"4\"/>"
+             "  <float name=\"sceneUnitsPerMetre\" value=\"40\"/><integer name=\"irrSamples\" value=\"4\"/>"
              "  </subsurface>%s</shape>"
              "</scene>",
              mat, bsdf);

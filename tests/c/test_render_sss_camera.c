@@ -50,7 +50,7 @@ static void sss_element(char *out, size_t n, const char *mat)
 {
     snprintf(out, n,
              "<subsurface type=\"raw\"><string name=\"material\" value=\"%s\"/>"
-             "<float name=\"scale\" value=\"80\"/><integer name=\"irrSamples\" value=\"1\"/>"
+             "<float name=\"sceneUnitsPerMetre\" value=\"80\"/><integer name=\"irrSamples\" value=\"1\"/>"
              "</subsurface>",
              mat);
 }

@@ -154,7 +154,7 @@ static op_sss_prepass *prepass_patch(const char *mat, int tiles, int spot, doubl
              " %s"
              " <shape type=\"obj\"><string name=\"filename\" value=\"%s\"/>"
              "  <subsurface type=\"raw\">"
-             "  <string name=\"material\" value=\"%s\"/><float name=\"scale\" value=\"%.9g\"/>"
+             "  <string name=\"material\" value=\"%s\"/><float name=\"sceneUnitsPerMetre\" value=\"%.9g\"/>"
              "  <float name=\"density\" value=\"%g\"/>%s"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",

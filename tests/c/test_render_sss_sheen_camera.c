@@ -29,7 +29,7 @@ static const char *write_scene(void)
     op_test_write_gaussian_raw(mat, albedo, 1);
     snprintf(sss, sizeof sss,
              "<subsurface type=\"raw\"><string name=\"material\" value=\"%s\"/>"
-             "<float name=\"scale\" value=\"40\"/><integer name=\"irrSamples\" value=\"1\"/>"
+             "<float name=\"sceneUnitsPerMetre\" value=\"40\"/><integer name=\"irrSamples\" value=\"1\"/>"
              "</subsurface>",
              mat);
     /* camera at (0, -3, 3) looking at the origin (fov 20: it sees the floor only); the floor's

@@ -51,7 +51,7 @@ static void test_flat_uniform_exitance(void **state)
              " <emitter type=\"directional\"><vector name=\"direction\" x=\"0\" y=\"0\" z=\"-1\"/>"
              "  <rgb name=\"irradiance\" value=\"1\"/></emitter>"
              " <shape type=\"rectangle\"><subsurface type=\"raw\">"
-             "  <string name=\"material\" value=\"%s\"/><float name=\"scale\" value=\"80\"/>"
+             "  <string name=\"material\" value=\"%s\"/><float name=\"sceneUnitsPerMetre\" value=\"80\"/>"
              "  <integer name=\"irrSamples\" value=\"1\"/></subsurface></shape>"
              "</scene>",
              mat);
@@ -106,7 +106,7 @@ static void test_preset_path_and_threads(void **state)
                " </emitter>"
                " <shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0\" z=\"0.5\"/>"
                "  <float name=\"radius\" value=\"0.5\"/><subsurface type=\"raw\">"
-               "  <string name=\"material\" value=\"HomogTest\"/><float name=\"scale\" value=\"10\"/>"
+               "  <string name=\"material\" value=\"HomogTest\"/><float name=\"sceneUnitsPerMetre\" value=\"10\"/>"
                "  <integer name=\"irrSamples\" value=\"2\"/></subsurface></shape>"
                " <shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"3\"/>"
                "  </transform></shape>"

@@ -287,7 +287,7 @@ static const char *sss_scene(const char *material, const char *scale, const char
     static char buf[2048];
     snprintf(buf, sizeof buf, HEAD SENSOR LOOK "</sensor>\n"
              "<shape type=\"rectangle\"><subsurface type=\"raw\">\n"
-             "<string name=\"material\" value=\"%s\"/><float name=\"scale\" value=\"%s\"/>"
+             "<string name=\"material\" value=\"%s\"/><float name=\"sceneUnitsPerMetre\" value=\"%s\"/>"
              "<integer name=\"maxPoints\" value=\"%s\"/></subsurface></shape>\n</scene>\n",
              material, scale, max_points);
     return buf;

@@ -56,7 +56,7 @@ PY
 # The moved renderer, a preset by name, no environment: found in the moved prefix.
 mkdir -p "$T/cli"
 sphere_scene "$T/cli/scene.xml" 48 36 2 \
-  "<subsurface type=\"svd\"><string name=\"material\" value=\"$PRESET\"/><float name=\"scale\" value=\"15\"/><integer name=\"irrSamples\" value=\"1\"/><integer name=\"maxPoints\" value=\"3000\"/></subsurface>"
+  "<subsurface type=\"svd\"><string name=\"material\" value=\"$PRESET\"/><float name=\"sceneUnitsPerMetre\" value=\"15\"/><integer name=\"irrSamples\" value=\"1\"/><integer name=\"maxPoints\" value=\"3000\"/></subsurface>"
 (cd "$T" && "${clean[@]}" "$P/bin/opaline-render" -v -v -t 2 -o "$T/cli/out.pfm" \
    "$T/cli/scene.xml") 2>"$T/cli/log" || { cat "$T/cli/log"; echo "FAIL: CLI render"; exit 1; }
 grep -qF "material preset \"$PRESET\" is $P/share/opaline/presets/$PRESET.opm" "$T/cli/log" ||

@@ -144,7 +144,7 @@ cat > "$T/large.xml" <<'XML'
   <spectrum name="intensity" value="40000"/><float name="cutoffAngle" value="5.71"/>
   <float name="beamWidth" value="5.71"/></emitter>
  <shape type="rectangle"><transform name="toWorld"><scale x="150" y="150" z="1"/></transform>
-  <subsurface type="dipole"><string name="material" value="Marble"/><float name="scale" value="1000"/>
+  <subsurface type="dipole"><string name="material" value="Marble"/><float name="sceneUnitsPerMetre" value="1000"/>
   <integer name="maxPoints" value="60000"/><integer name="irrSamples" value="1"/></subsurface></shape>
 </scene>
 XML

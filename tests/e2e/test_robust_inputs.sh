@@ -200,7 +200,7 @@ done
 # before). /proc/PID/maps says when it is mapped; retried once if the render won the race.
 "$FACTOR" dataset chess4x4 --pixels 48 --kernel 15 -o "$T/big.opm" 2>/dev/null || fail "dataset"
 sphere_scene "$T/trunc.xml" 96 72 64 \
-  '<subsurface type="raw"><string name="material" value="mapped.opm"/><float name="scale" value="5"/></subsurface>'
+  '<subsurface type="raw"><string name="material" value="mapped.opm"/><float name="sceneUnitsPerMetre" value="5"/></subsurface>'
 truncated_render() {
   cp "$T/big.opm" "$T/mapped.opm"
   "$RENDER" -q -t 2 -o "$T/trunc.pfm" "$T/trunc.xml" 2>"$T/err" &

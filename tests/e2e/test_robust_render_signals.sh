@@ -22,7 +22,7 @@ fail() { echo "FAIL: $*"; [ -f "$T/err" ] && sed 's/^/  stderr: /' "$T/err" | he
 # 128 x 96 pixels = 12 tiles, after a subsurface pre-pass (irradiance at 2372 points, then
 # scattering with a 29 x 29 kernel) of seconds in the sanitizer build.
 sphere_scene "$T/scene.xml" 128 96 96 \
-  "<subsurface type=\"svd\"><string name=\"material\" value=\"$MAT\"/><float name=\"scale\" value=\"80\"/><integer name=\"irrSamples\" value=\"128\"/></subsurface>"
+  "<subsurface type=\"svd\"><string name=\"material\" value=\"$MAT\"/><float name=\"sceneUnitsPerMetre\" value=\"80\"/><integer name=\"irrSamples\" value=\"128\"/></subsurface>"
 
 # The complete image of an earlier run.
 "$R" -t 2 -o "$T/out.pfm" "$T/scene.xml" 2>"$T/err" || fail "the complete render failed"

@@ -11,7 +11,7 @@ e2e_setup thin_path opaline-factor opaline-render
 "$BIN/opaline-factor" factor "$T/d.opm" --method svd -T 4 -o "$T/m.opm"
 
 sphere_scene "$T/scene.xml" 64 48 4 \
-  '<subsurface type="svd"><string name="material" value="m.opm"/><float name="scale" value="5"/><integer name="irrSamples" value="2"/></subsurface>'
+  '<subsurface type="svd"><string name="material" value="m.opm"/><float name="sceneUnitsPerMetre" value="5"/><integer name="irrSamples" value="2"/></subsurface>'
 
 "$BIN/opaline-render" --check "$T/scene.xml"
 "$BIN/opaline-render" -q -t 2 -o "$T/out.pfm" "$T/scene.xml"

@@ -226,7 +226,7 @@ def subsurface_for(mat, find_preset, renderer_finds, xml_dir, warn, prepass=None
         value = material_ref(path) if material_ref is not None else os.path.abspath(path)
     e = Element("subsurface", {"type": typ})
     e.string("material", value)
-    e.float("scale", s.scale)
+    e.float("sceneUnitsPerMetre", s.scale)
     if typ == "dipole":
         e.float("intIOR", s.ior)
     if prepass is not None:

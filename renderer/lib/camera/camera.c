@@ -1,6 +1,7 @@
 /* camera.c - the perspective camera (see camera.h for its conventions). */
 #include "camera/camera.h"
 
+#include <math.h>
 #include <string.h>
 
 op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_camera *cam,
@@ -9,8 +10,10 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
     memset(cam, 0, sizeof *cam);
     cam->full_width = full_width;
     cam->full_height = full_height;
-    double fov = 45.0, near_clip = 0.01, far_clip = 10000.0;
-    const char *axis = "x";
+    /* without fov, Mitsuba's default lens: 50 mm on the diagonal of a 36 x 24 mm film */
+    double fov = 2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * 50.0)) * 180.0 / M_PI;
+    double near_clip = 0.01, far_clip = 10000.0;
+    const char *axis = "diagonal";
     op_matrix4 to_world = op_matrix4_identity();
     if (sensor) {
         if (!sensor->type || strcmp(sensor->type, "perspective") != 0)
@@ -18,11 +21,16 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
                                 "type (only \"perspective\")", sensor->file, sensor->line,
                                 sensor->type ? sensor->type : "");
         sensor->used = 1;
-        if (op_node_float(sensor, "fov", 45.0, &fov, err) || op_node_string(sensor, "fovAxis", "x",
-                &axis, err) || op_node_float(sensor, "nearClip", 0.01, &near_clip, err) ||
+        /* fovAxis says along what fov is measured (Mitsuba ignores it without fov) */
+        const char *fov_axis;
+        if (op_node_float(sensor, "fov", fov, &fov, err) ||
+            op_node_string(sensor, "fovAxis", "x", &fov_axis, err) ||
+            op_node_float(sensor, "nearClip", 0.01, &near_clip, err) ||
             op_node_float(sensor, "farClip", 10000.0, &far_clip, err) ||
             op_node_transform(sensor, "toWorld", &to_world, err))
             return err ? err->status : OP_ERR_INPUT;
+        if (op_node_has(sensor, "fov"))
+            axis = fov_axis;
         if (!(fov > 0.0 && fov < 180.0))
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: fov %g is not in (0, 180) "
                                 "degrees", sensor->file, sensor->line, fov);

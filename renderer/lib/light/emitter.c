@@ -87,7 +87,7 @@ static int cdf_find(const float *cdf, int n, float u, float *frac)
     return lo;
 }
 
-op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
+op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
                            long long max_pixels, op_emitter *e, op_error *err)
 {
     memset(e, 0, sizeof *e);
@@ -166,21 +166,19 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         if (!fn)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\"> needs a "
                                 "filename", node->file, node->line);
-        char path[4096];
-        if (fn[0] == '/' || !base_dir)
-            snprintf(path, sizeof path, "%s", fn);
-        else
-            snprintf(path, sizeof path, "%s/%s", base_dir, fn);
+        char *path = op_node_resolve(node, fn);
+        if (!path)
+            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
         e->type = OP_EM_ENVMAP;
         op_status st = op_image_read_limited(path, 1, (uint64_t)max_pixels, &e->env, NULL, err);
+        if (st == OP_OK && e->env.channels < 3) {
+            op_image_free(&e->env);
+            st = op_error_set(err, OP_ERR_INPUT, "%s: needs an RGB image", path);
+        }
+        free(path);
         if (st)
             return op_error_prefix(err, "%s:%d: <emitter type=\"envmap\">: ", node->file,
                                    node->line);
-        if (e->env.channels < 3) {
-            op_image_free(&e->env);
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: envmap %s: needs an RGB image",
-                                node->file, node->line, path);
-        }
         e->value = v3s((float)scale);
         /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
         op_matrix4 inv;

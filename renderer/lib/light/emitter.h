@@ -45,9 +45,9 @@ typedef struct op_light_sample {
     float pdf;    /* solid-angle density, 0 for delta lights */
 } op_light_sample;
 
-/* Builds an emitter node; for an area emitter, mesh/shape are its shape's. base_dir resolves an
- * envmap's relative filename; an envmap of more than max_pixels pixels is refused. */
-op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
+/* Builds an emitter node; for an area emitter, mesh/shape are its shape's. An envmap's file is
+ * found by op_node_resolve; one of more than max_pixels pixels is refused. */
+op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
                            long long max_pixels, op_emitter *e, op_error *err);
 void op_emitter_free(op_emitter *e);
 int op_emitter_is_env(const op_emitter *e);

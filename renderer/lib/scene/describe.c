@@ -9,6 +9,7 @@
 
 #include "geometry/mesh.h"
 #include "opaline_image.h"
+#include "scene/integrator_desc.h"
 #include "scene/limits.h"
 #include "scene/scene_path.h"
 #include "scene/subsurface_desc.h"
@@ -66,9 +67,9 @@ static op_status find_file(op_scene_description *d, const op_node *node, const c
     return OP_OK;
 }
 
-/* The mesh file an obj/ply shape node names, resolved against the scene's folder, and its
+/* The mesh file an obj/ply shape node names, found as op_node_resolve finds it, and its
  * loading options; key gets "face flip path" identifying one loaded mesh. */
-static op_status file_mesh(const op_scene_description *d, op_node *node, char *path, size_t n, int *face,
+static op_status file_mesh(op_node *node, char *path, size_t n, int *face,
                            int *fliptex, char *key, size_t nk, op_error *err)
 {
     const char *t = node->type, *fn;
@@ -78,7 +79,11 @@ static op_status file_mesh(const op_scene_description *d, op_node *node, char *p
                             node->file, node->line, t);
     GET_OR_FAIL(op_node_bool(node, "faceNormals", 0, face, err));
     GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, fliptex, err));
-    op_path_join(path, n, d->dir, fn);
+    char *found = op_node_resolve(node, fn);
+    if (!found)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    snprintf(path, n, "%s", found);
+    free(found);
     snprintf(key, nk, "%d %d %s", *face, *fliptex, path);
     return OP_OK;
 }
@@ -99,7 +104,7 @@ op_status op_describe_mesh(const op_scene_description *d, op_node *node, char *p
                            int *face, int *fliptex, char *key, size_t nk, op_error *err)
 {
     if (strcmp(node->type, "sphere") != 0)
-        return file_mesh(d, node, path, n, face, fliptex, key, nk, err);
+        return file_mesh(node, path, n, face, fliptex, key, nk, err);
     *face = *fliptex = 0;
     snprintf(path, n, "%s", "");
     snprintf(key, nk, "%s", "sphere");
@@ -274,78 +279,6 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
     return bsdf ? find_textures(d, bsdf, err) : OP_OK;
 }
 
-static op_status build_integrator(op_node *n, op_integrator *ig, op_error *err)
-{
-    ig->type = OP_INT_DIRECT;
-    ig->max_depth = 2;
-    ig->rr_depth = 5;
-    ig->hide_emitters = 0;
-    ig->emitter_samples = ig->bsdf_samples = 1;
-    if (!n)
-        return OP_OK;
-    n->used = 1;
-    const char *t = n->type;
-    long long md, rr;
-    if (strcmp(t, "field") == 0) {
-        const char *f;
-        GET_OR_FAIL(op_node_string(n, "field", "shNormal", &f, err));
-        if (strcmp(f, "shNormal") == 0 || strcmp(f, "geoNormal") == 0)
-            ig->type = OP_INT_NORMALS;
-        else if (strcmp(f, "uv") == 0)
-            ig->type = OP_INT_UV;
-        else if (strcmp(f, "albedo") == 0)
-            ig->type = OP_INT_ALBEDO;
-        else
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"field\">: field "
-                                "\"%s\" is not shNormal, geoNormal, uv or albedo", n->file, n->line,
-                                f);
-        return OP_OK;
-    }
-    if (strcmp(t, "normals") == 0) {
-        ig->type = OP_INT_NORMALS;
-        return OP_OK;
-    }
-    if (strcmp(t, "uv") == 0) {
-        ig->type = OP_INT_UV;
-        return OP_OK;
-    }
-    if (strcmp(t, "albedo") == 0) {
-        ig->type = OP_INT_ALBEDO;
-        return OP_OK;
-    }
-    if (strcmp(t, "path") != 0 && strcmp(t, "direct") != 0)
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"%s\">: unknown "
-                            "integrator (path, direct, field, normals, uv, albedo)", n->file,
-                            n->line, t);
-    ig->type = strcmp(t, "path") == 0 ? OP_INT_PATH : OP_INT_DIRECT;
-    GET_OR_FAIL(op_node_bool(n, "hideEmitters", 0, &ig->hide_emitters, err));
-    if (ig->type == OP_INT_DIRECT) {
-        long long es, bs;
-        GET_OR_FAIL(op_node_int(n, "emitterSamples", 1, &es, err));
-        GET_OR_FAIL(op_node_int(n, "bsdfSamples", 1, &bs, err));
-        if (es < 0 || es > 65536 || bs < 0 || bs > 65536)
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"direct\">: "
-                                "emitterSamples %lld and bsdfSamples %lld must be in 0..65536",
-                                n->file, n->line, es, bs);
-        int strict;
-        GET_OR_FAIL(op_node_bool(n, "strictNormals", 0, &strict, err));
-        ig->emitter_samples = (int)es;
-        ig->bsdf_samples = (int)bs;
-        return OP_OK;
-    }
-    GET_OR_FAIL(op_node_int(n, "maxDepth", -1, &md, err));
-    GET_OR_FAIL(op_node_int(n, "rrDepth", 5, &rr, err));
-    int strict;
-    GET_OR_FAIL(op_node_bool(n, "strictNormals", 0, &strict, err));
-    if (md < -1 || md == 0 || md > 100000 || rr < 1 || rr > 100000)
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <integrator type=\"path\">: maxDepth %lld "
-                            "(-1 or >= 1) or rrDepth %lld (>= 1) out of range", n->file, n->line,
-                            md, rr);
-    ig->max_depth = (int)md;
-    ig->rr_depth = (int)rr;
-    return OP_OK;
-}
-
 op_status op_describe(op_node *root, const char *path, const op_scene_limits *limits,
                       op_scene_description *d, op_error *err)
 {
@@ -393,7 +326,7 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
     if (sensor)
         GET_OR_FAIL(op_limit_position(&d->limits, sensor, "the camera's position",
                                       d->camera.origin, err));
-    GET_OR_FAIL(build_integrator(integrator, &d->integrator, err));
+    GET_OR_FAIL(op_integrator_read(integrator, &d->integrator, err));
     for (int i = 0; i < root->nchildren; i++) {
         op_node *c = root->children[i];
         if (strcmp(c->tag, "shape") == 0) {
@@ -409,9 +342,13 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                 if (!fn)
                     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\"> "
                                         "needs a filename", c->file, c->line);
-                char file[4096];
-                op_path_join(file, sizeof file, d->dir, fn);
-                GET_OR_FAIL(find_image(d, c, file, 1, err));
+                char *file = op_node_resolve(c, fn);
+                if (!file)
+                    return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+                op_status st = find_image(d, c, file, 1, err);
+                free(file);
+                if (st != OP_OK)
+                    return st;
             }
         } else if (strcmp(c->tag, "bsdf") != 0 && strcmp(c->tag, "texture") != 0 &&
                    strcmp(c->tag, "subsurface") != 0 && strcmp(c->tag, "sensor") != 0 &&

@@ -34,7 +34,9 @@ typedef struct op_integrator {
 /* A measured subsurface material on one shape. */
 typedef struct op_sss_desc {
     op_material *material; /* owned by the scene's material list (shared between shapes) */
-    double scale;          /* multiplies the material's physical size */
+    double scale;          /* sceneUnitsPerMetre: scene units one metre of material covers
+                              (measured materials; a dipole: as its coefficients' unit) */
+    int units_given;       /* sceneUnitsPerMetre was given (else a dipole's scale is Mitsuba's) */
     int irr_samples;       /* paths per irradiance point */
     double density;        /* irradiance points per material pixel area */
     int max_points;

@@ -85,7 +85,7 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
     if (!op_array_grow((void **)&s->emitters, &b->cap_emitters, s->nemitters, sizeof *s->emitters))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_emitter *e = &s->emitters[s->nemitters];
-    op_status st = op_emitter_build(node, mesh, shape, b->dir, b->lim->image_pixels, e, err);
+    op_status st = op_emitter_build(node, mesh, shape, b->lim->image_pixels, e, err);
     if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT))
         st = op_limit_position(b->lim, node, "the light's position", e->pos, err);
     if (st) {

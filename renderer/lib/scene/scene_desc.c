@@ -9,11 +9,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Every node is allocated as a desc_node so that the tree can keep traversal marks and
  * capacities beside the public fields. */
 typedef struct desc_node {
     op_node n; /* first: an op_node * is a desc_node * */
+    const op_desc_tree *tree;
     int mark;  /* traversal state: 0 unvisited, 1 on the stack, 2 done */
     int cap_props, cap_children;
 } desc_node;
@@ -24,6 +26,8 @@ struct op_desc_tree {
     int nnodes, cap_nodes;
     char **files;
     int nfiles, cap_files;
+    char **folders; /* <path> folders, in the order a name is looked up in them */
+    int nfolders, cap_folders;
 };
 
 static char *dup_or_null(const char *s, int *fail)
@@ -81,6 +85,7 @@ op_desc_tree *op_desc_tree_new(void)
         return NULL;
     }
     t->root.n.used = 1;
+    t->root.tree = t;
     return t;
 }
 
@@ -97,6 +102,7 @@ static void node_free_fields(op_node *n)
     free(n->name);
     for (int i = 0; i < n->nprops; i++) {
         free(n->props[i].name);
+        free(n->props[i].spelled);
         if (n->props[i].kind == OP_PROP_STRING)
             free(n->props[i].value.s);
     }
@@ -120,6 +126,9 @@ void op_desc_tree_free(op_desc_tree *t)
     for (int i = 0; i < t->nfiles; i++)
         free(t->files[i]);
     free(t->files);
+    for (int i = 0; i < t->nfolders; i++)
+        free(t->folders[i]);
+    free(t->folders);
     free(t);
 }
 
@@ -157,6 +166,7 @@ op_node *op_desc_node_new(op_desc_tree *t, const char *tag, const char *type, co
     d->n.name = dup_or_null(name, &fail);
     d->n.file = file;
     d->n.line = line;
+    d->tree = t;
     if (fail) {
         node_free_fields(&d->n);
         free(d);
@@ -287,7 +297,7 @@ op_status op_prop_error(const op_node *n, const op_prop *p, op_error *err, op_st
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
     return op_error_set(err, status, "%s:%d: %s: parameter '%s': %s", p->file ? p->file : "?",
-                        p->line, op_node_describe(n, desc, sizeof desc), p->name, msg);
+                        p->line, op_node_describe(n, desc, sizeof desc), op_prop_name(p), msg);
 }
 
 /* ---------------------------------------------------------------- navigation */
@@ -324,21 +334,83 @@ void op_node_mark_used(op_node *n)
     n->used = 1;
 }
 
-char *op_node_resolve(const op_node *n, const char *rel)
+static char *join(const char *dir, size_t dl, const char *rel)
 {
-    if (rel[0] == '/' || !n->file || !strchr(n->file, '/'))
-        return strdup(rel);
-    const char *slash = strrchr(n->file, '/');
-    size_t dl = (size_t)(slash - n->file) + 1, rl = strlen(rel);
-    char *out = malloc(dl + rl + 1);
+    size_t rl = strlen(rel);
+    char *out = malloc(dl + rl + 2);
     if (!out)
         return NULL;
-    memcpy(out, n->file, dl);
-    memcpy(out + dl, rel, rl + 1);
+    memcpy(out, dir, dl);
+    out[dl] = '/';
+    memcpy(out + dl + 1, rel, rl + 1);
     return out;
 }
 
+static size_t folder_len(const char *file)
+{
+    const char *slash = file ? strrchr(file, '/') : NULL;
+    return slash ? (size_t)(slash - file) : 0;
+}
+
+char *op_desc_tree_resolve(const op_desc_tree *t, const char *file, const char *rel)
+{
+    if (rel[0] == '/')
+        return strdup(rel);
+    const char *main_file = t->root.n.file;
+    const char *dirs[3]; /* candidates; NULL: the working directory */
+    size_t lens[3];
+    int nc = 0;
+    dirs[nc] = file, lens[nc] = folder_len(file), nc++;
+    if (main_file && (folder_len(main_file) != lens[0] ||
+                      (file && strncmp(main_file, file, lens[0]) != 0)))
+        dirs[nc] = main_file, lens[nc] = folder_len(main_file), nc++;
+    dirs[nc] = NULL, lens[nc] = 0, nc++;
+    char *first = NULL;
+    for (int i = 0; i < nc + t->nfolders; i++) {
+        const char *dir = i < nc ? dirs[i] : t->folders[i - nc];
+        size_t dl = i < nc ? lens[i] : strlen(dir);
+        char *cand = dl > 0 ? join(dir, dl, rel) : strdup(rel);
+        if (!cand) {
+            free(first);
+            return NULL;
+        }
+        if (access(cand, F_OK) == 0) {
+            free(first);
+            return cand;
+        }
+        if (first)
+            free(cand);
+        else
+            first = cand;
+    }
+    return first;
+}
+
+char *op_node_resolve(const op_node *n, const char *rel)
+{
+    return op_desc_tree_resolve(((const desc_node *)n)->tree, n->file, rel);
+}
+
+int op_desc_tree_add_folder(op_desc_tree *t, const char *folder)
+{
+    if (!op_array_grow((void **)&t->folders, &t->cap_folders, t->nfolders, sizeof *t->folders))
+        return -1;
+    char *f = strdup(folder);
+    if (!f)
+        return -1;
+    /* a later <path> is searched first, as Mitsuba prepends it */
+    memmove(t->folders + 1, t->folders, (size_t)t->nfolders * sizeof *t->folders);
+    t->folders[0] = f;
+    t->nfolders++;
+    return 0;
+}
+
 /* ---------------------------------------------------------------- getters */
+
+const char *op_prop_name(const op_prop *p)
+{
+    return p->spelled ? p->spelled : p->name;
+}
 
 op_prop *op_node_prop(const op_node *n, const char *name)
 {
@@ -483,7 +555,7 @@ static int report_node(op_node *n)
         if (!n->props[i].used) {
             op_log(OP_LOG_WARN, "%s:%d: %s: unused parameter '%s'",
                    n->props[i].file ? n->props[i].file : "?", n->props[i].line,
-                   op_node_describe(n, desc, sizeof desc), n->props[i].name);
+                   op_node_describe(n, desc, sizeof desc), op_prop_name(&n->props[i]));
             count++;
         }
     for (int i = 0; i < n->nchildren; i++)

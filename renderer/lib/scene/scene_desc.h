@@ -16,6 +16,7 @@
 #include "opaline.h"
 #include "opaline_render.h" /* op_scene_limits */
 #include "math/transform.h"      /* op_matrix4 */
+#include "scene/dialect.h"
 
 typedef enum op_prop_kind {
     OP_PROP_FLOAT,
@@ -29,7 +30,9 @@ typedef enum op_prop_kind {
 } op_prop_kind;
 
 typedef struct op_prop {
-    char *name;
+    char *name;    /* the Mitsuba 0.6 name the builders ask for (dialect.h) */
+    char *spelled; /* the name as the file wrote it, when that differs (a Mitsuba 3 name); or
+                    * NULL. Messages name the property by op_prop_name() */
     op_prop_kind kind;
     union {
         double f;       /* FLOAT */
@@ -52,6 +55,7 @@ struct op_node {
     char *name;  /* the name attribute of a nested object (e.g. a named texture); may be NULL */
     const char *file;
     int line;
+    op_dialect dialect; /* of the file that defines the node */
     op_prop *props;
     int nprops;
     op_node **children; /* in document order; referenced nodes appear where the <ref> was */
@@ -107,8 +111,11 @@ op_node *op_node_child(const op_node *n, const char *tag, int k);
 int op_node_count(const op_node *n, const char *tag);
 /* Marks an object consumed, so op_desc_report_unused does not name it. */
 void op_node_mark_used(op_node *n);
-/* rel joined to the folder of the file that defines n when rel is relative (as given
- * otherwise); malloc'd, NULL when out of memory. */
+/* The file rel names, found as Mitsuba finds it: as given when absolute; else the first that
+ * exists of rel in the folder of the file that defines n, in the main scene file's folder, in
+ * the working directory, and in each <path> folder (the last one given first); when none
+ * exists, the first of these (so that a message names where it was expected). Malloc'd, NULL
+ * when out of memory. */
 char *op_node_resolve(const op_node *n, const char *rel);
 /* Writes <tag type="..." id="..."> describing n into buf; returns buf. */
 const char *op_node_describe(const op_node *n, char *buf, size_t cap);
@@ -121,6 +128,9 @@ op_status op_prop_error(const op_node *n, const op_prop *p, op_error *err, op_st
                         const char *fmt, ...) __attribute__((format(printf, 5, 6)));
 /* The property named name (not marked used), or NULL. */
 op_prop *op_node_prop(const op_node *n, const char *name);
+
+/* The name of p as its file spells it. */
+const char *op_prop_name(const op_prop *p);
 
 /* Logs a warning "file:line: <tag type=...>: unused parameter 'x'" (or unused object) for
  * everything not marked used; returns the count. */

@@ -24,6 +24,11 @@ op_prop *op_desc_prop_add(op_node *n, const char *name, op_prop_kind kind, const
 /* Appends child (may be NULL for a placeholder filled in later) under the given name (copied,
  * may be NULL). Returns the child's index, or -1 when out of memory. */
 int op_desc_child_add(op_node *parent, op_node *child, const char *name);
+/* Appends a <path> folder (copied) to those names are looked up in; a later one is searched
+ * first. -1 when out of memory. */
+int op_desc_tree_add_folder(op_desc_tree *t, const char *folder);
+/* rel as Mitsuba finds it (op_node_resolve) for a name written in file. */
+char *op_desc_tree_resolve(const op_desc_tree *t, const char *file, const char *rel);
 /* Finds a reference cycle among the nodes reachable from the root: returns a node on it, or
  * NULL when there is none. Placeholders must all be filled. */
 op_node *op_desc_tree_find_cycle(op_desc_tree *t);

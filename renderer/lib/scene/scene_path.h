@@ -8,4 +8,8 @@
  * n - 1 bytes. */
 void op_path_join(char *out, size_t n, const char *dir, const char *name);
 
+/* rel in the folder of file (rel itself when absolute or file has no folder); malloc'd, NULL
+ * when out of memory. */
+char *op_path_beside(const char *file, const char *rel);
+
 #endif

@@ -10,7 +10,9 @@
  * they come and refused past their limits before the work or memory. Every error names
  * "file:line: <element ...>: what". */
 #include "scene/scene_color.h"
+#include "scene/dialect.h"
 #include "scene/scene_desc_internal.h"
+#include "scene/scene_path.h"
 #include "math/transform.h"
 
 #include <ctype.h>
@@ -51,6 +53,7 @@ typedef struct xml_ctx {
     char *stack[MAX_INCLUDE_DEPTH]; /* canonical paths of the files being read */
     int depth;
     const char *file; /* the file being walked (interned) */
+    op_dialect dialect; /* that file's */
 } xml_ctx;
 
 static op_status nomem(xml_ctx *c)
@@ -229,6 +232,40 @@ static op_status get_attr(xml_ctx *c, xmlNode *e, const char *name, int required
 
 /* ---------------------------------------------------------------- numbers */
 
+/* Reads attribute "name" (required or not) into *out as the Mitsuba 0.6 name of what the
+ * file's dialect spells (dialect.h); *spelled gets the name as written when that differs (else
+ * NULL). Both malloc'd; a name spelled in the other dialect is an error. */
+static op_status get_name(xml_ctx *c, xmlNode *e, int required, char **out, char **spelled)
+{
+    *spelled = NULL;
+    op_status st = get_attr(c, e, "name", required, out);
+    if (st != OP_OK || !*out)
+        return st;
+    char canon[256], hint[256];
+    int r = op_dialect_param_name(c->dialect, *out, canon, sizeof canon, hint, sizeof hint);
+    if (r == -2) {
+        st = elem_error(c, e, "name '%.60s...' is too long", *out);
+    } else if (r == -1) {
+        st = elem_error(c, e, "'%s' is how %s spells a parameter, but this file declares a %s "
+                        "scene (version attribute of <scene>)%s%s%s", *out,
+                        op_dialect_label(c->dialect == OP_DIALECT_MITSUBA_3 ? OP_DIALECT_MITSUBA_0
+                                                                             : OP_DIALECT_MITSUBA_3),
+                        op_dialect_label(c->dialect), hint[0] ? ": write '" : "", hint,
+                        hint[0] ? "', or declare the other version" : "");
+    } else if (strcmp(canon, *out) != 0) {
+        *spelled = *out;
+        *out = strdup(canon);
+        if (!*out)
+            st = nomem(c);
+    }
+    if (st != OP_OK) {
+        free(*out);
+        free(*spelled);
+        *out = *spelled = NULL;
+    }
+    return st;
+}
+
 static int parse_double(const char *s, double *out)
 {
     char *end;
@@ -390,6 +427,7 @@ typedef enum elem_class {
     EL_INCLUDE,
     EL_ALIAS,
     EL_DEFAULT,
+    EL_PATH,
     EL_SCENE
 } elem_class;
 
@@ -420,6 +458,8 @@ static elem_class classify(const char *name)
         return EL_ALIAS;
     if (strcmp(name, "default") == 0)
         return EL_DEFAULT;
+    if (strcmp(name, "path") == 0)
+        return EL_PATH;
     if (strcmp(name, "scene") == 0)
         return EL_SCENE;
     return EL_UNKNOWN;
@@ -592,15 +632,16 @@ static op_status parse_rgb(xml_ctx *c, xmlNode *e, const char *s, int srgb, doub
 static op_status value_element(xml_ctx *c, xmlNode *e, op_node *parent, elem_class cls)
 {
     const char *tag = (const char *)e->name;
-    char *name = NULL, *value = NULL;
-    op_status st = get_attr(c, e, "name", 1, &name);
+    char *name = NULL, *spelled = NULL, *value = NULL;
+    op_status st = get_name(c, e, 1, &name, &spelled);
     if (st != OP_OK)
         return st;
     op_prop *prev = op_node_prop(parent, name);
     if (prev) {
-        st = elem_error(c, e, "parameter '%s' is given twice (first at %s:%d)", name, prev->file,
-                        prev->line);
+        st = elem_error(c, e, "parameter '%s' is given twice (first at %s:%d)",
+                        spelled ? spelled : name, prev->file, prev->line);
         free(name);
+        free(spelled);
         return st;
     }
     int line = (int)xmlGetLineNo(e);
@@ -673,8 +714,7 @@ static op_status value_element(xml_ctx *c, xmlNode *e, op_node *parent, elem_cla
                 if (op_color_parse_spectrum(value, tmp.value.v, &sub) != OP_OK)
                     st = elem_error(c, e, "%s", sub.message);
             } else {
-                op_node where = {.file = c->file};
-                char *path = op_node_resolve(&where, fname);
+                char *path = op_desc_tree_resolve(c->tree, c->file, fname);
                 if (!path)
                     st = nomem(c);
                 else if (op_color_read_spectrum_file(path, tmp.value.v, &sub) != OP_OK)
@@ -712,11 +752,14 @@ static op_status value_element(xml_ctx *c, xmlNode *e, op_node *parent, elem_cla
         } else {
             p->value = tmp.value;
             tmp.value.s = NULL; /* now owned by the tree */
+            p->spelled = spelled;
+            spelled = NULL;
         }
     }
     if (tmp.kind == OP_PROP_STRING)
         free(tmp.value.s);
     free(name);
+    free(spelled);
     free(value);
     return st;
 }
@@ -729,10 +772,10 @@ static op_status parse_file(xml_ctx *c, const char *path, xmlNode *from, op_node
 static op_status object_element(xml_ctx *c, xmlNode *e, op_node *parent)
 {
     static const char *const ok[] = {"type", "id", "name", NULL};
-    char *type = NULL, *id = NULL, *name = NULL;
+    char *type = NULL, *id = NULL, *name = NULL, *spelled = NULL;
     op_status st;
     if ((st = check_attrs(c, e, ok)) == OP_OK && (st = get_attr(c, e, "type", 1, &type)) == OP_OK &&
-        (st = get_attr(c, e, "id", 0, &id)) == OP_OK && (st = get_attr(c, e, "name", 0, &name)) == OP_OK) {
+        (st = get_attr(c, e, "id", 0, &id)) == OP_OK && (st = get_name(c, e, 0, &name, &spelled)) == OP_OK) {
         if (!*type)
             st = elem_error(c, e, "empty type");
         else if (id && !*id)
@@ -747,12 +790,15 @@ static op_status object_element(xml_ctx *c, xmlNode *e, op_node *parent)
                              (int)xmlGetLineNo(e));
         if (!n || op_desc_child_add(parent, n, NULL) < 0)
             st = nomem(c);
+        else
+            n->dialect = c->dialect;
     }
     if (st == OP_OK && id)
         st = id_insert(c, id, n, c->file, (int)xmlGetLineNo(e));
     free(type);
     free(id);
     free(name);
+    free(spelled);
     if (st == OP_OK)
         st = process_children(c, e, n);
     return st;
@@ -775,14 +821,16 @@ static op_status process_element(xml_ctx *c, xmlNode *e, op_node *parent)
         return elem_error(c, e, "<%s> is only allowed inside <transform>", tag);
     case EL_REF: {
         static const char *const ok[] = {"id", "name", NULL};
-        char *id = NULL, *name = NULL;
+        char *id = NULL, *name = NULL, *spelled = NULL;
         if (in_scene)
             return elem_error(c, e, "<ref> must be inside an object");
         if ((st = check_attrs(c, e, ok)) != OP_OK || (st = check_empty(c, e)) != OP_OK ||
-            (st = get_attr(c, e, "id", 1, &id)) != OP_OK || (st = get_attr(c, e, "name", 0, &name)) != OP_OK) {
+            (st = get_attr(c, e, "id", 1, &id)) != OP_OK ||
+            (st = get_name(c, e, 0, &name, &spelled)) != OP_OK) {
             free(id);
             return st;
         }
+        free(spelled);
         int index = op_desc_child_add(parent, NULL, name);
         st = index < 0 ? nomem(c)
                        : pending_add(c, &c->refs, &c->nrefs, &c->cap_refs, parent, index, id, NULL,
@@ -807,25 +855,39 @@ static op_status process_element(xml_ctx *c, xmlNode *e, op_node *parent)
         char *fname = NULL;
         if ((st = check_attrs(c, e, ok)) == OP_OK && (st = check_empty(c, e)) == OP_OK &&
             (st = get_attr(c, e, "filename", 1, &fname)) == OP_OK) {
-            op_node where = {.file = c->file};
             if (++c->includes > c->lim->include_count) {
                 free(fname);
                 return elem_error(c, e, "more than %lld <include> elements are read (include-count, "
                                   "nested ones counted each time; raise it with --limit "
                                   "include-count=VALUE)", c->lim->include_count);
             }
-            char *path = op_node_resolve(&where, fname);
+            char *path = op_desc_tree_resolve(c->tree, c->file, fname);
             st = path ? parse_file(c, path, e, parent) : nomem(c);
             free(path);
         }
         free(fname);
         return st;
     }
-    case EL_DEFAULT:
-        /* Read before the walk by parse_file; elsewhere than in <scene> it is misplaced. */
-        if (!in_scene || e->parent == NULL || xmlStrcmp(e->parent->name, (const xmlChar *)"scene"))
-            return elem_error(c, e, "<default> must be directly inside <scene>");
+    case EL_DEFAULT: /* read before the walk, by read_defaults */
         return OP_OK;
+    case EL_PATH: {
+        static const char *const ok[] = {"value", NULL};
+        char *value = NULL;
+        if (!in_scene)
+            return elem_error(c, e, "<path> must be directly inside <scene>");
+        if ((st = check_attrs(c, e, ok)) == OP_OK && (st = check_empty(c, e)) == OP_OK &&
+            (st = get_attr(c, e, "value", 1, &value)) == OP_OK) {
+            /* relative to the folder of the file that holds it */
+            char *dir = *value ? op_path_beside(c->file, value) : NULL;
+            if (!*value)
+                st = elem_error(c, e, "empty value");
+            else if (!dir || op_desc_tree_add_folder(c->tree, dir) != 0)
+                st = nomem(c);
+            free(dir);
+        }
+        free(value);
+        return st;
+    }
     case EL_SCENE:
         return elem_error(c, e, "<scene> may only be the root element of a file");
     case EL_UNKNOWN:
@@ -919,8 +981,8 @@ static op_status read_whole(xml_ctx *c, const char *path, xmlNode *from, char **
     return st;
 }
 
-/* Checks <scene version="X.Y.Z">: 0.5 and 0.6 are read silently, other 0.x and 1.x with a
- * warning, and 2.0 and later (Mitsuba 3) are refused. */
+/* Reads <scene version="X.Y.Z"> into c->dialect: 0.5 and 0.6 silently, other 0.x and 1.x as
+ * 0.6 with a warning, 2.x and 3.x as Mitsuba 3 (dialect.h). */
 static op_status check_version(xml_ctx *c, xmlNode *root)
 {
     static const char *const ok[] = {"version", NULL};
@@ -928,20 +990,43 @@ static op_status check_version(xml_ctx *c, xmlNode *root)
     op_status st;
     if ((st = check_attrs(c, root, ok)) != OP_OK || (st = get_attr(c, root, "version", 1, &v)) != OP_OK)
         return st;
-    int major = -1, minor = -1, patch = 0, used = 0;
-    int n = sscanf(v, "%d.%d%n.%d%n", &major, &minor, &used, &patch, &used);
-    if (n < 2 || major < 0 || minor < 0 || v[used] != '\0') {
-        st = elem_error(c, root, "bad version '%s': expected major.minor.patch such as 0.6.0", v);
-    } else if (major >= 2) {
-        st = elem_error(c, root,
-                        "version %s is a Mitsuba 3 scene, which is not supported (its parameter "
-                        "names and objects differ): export the scene for Mitsuba 0.6",
-                        v);
-    } else if (!(major == 0 && (minor == 5 || minor == 6))) {
+    int unusual = 0;
+    if (op_dialect_from_version(v, &c->dialect, &unusual) != 0)
+        st = elem_error(c, root, "bad version '%s': expected major.minor.patch of a Mitsuba "
+                        "release (0.4 to 0.6, 2.x or 3.x), such as 0.6.0 or 3.0.0", v);
+    else if (unusual)
         op_log(OP_LOG_WARN, "%s:%ld: <scene>: version %s is not 0.5 or 0.6; reading it as 0.6",
                c->file, xmlGetLineNo(root), v);
-    }
     free(v);
+    return st;
+}
+
+/* Reads every <default> of the file (in <scene> or, as Mitsuba's schema allows, inside an
+ * object) before the walk, so that a parameter may be used above its <default>. */
+static op_status read_defaults(xml_ctx *c, xmlNode *parent)
+{
+    op_status st = OP_OK;
+    for (xmlNode *k = parent->children; k && st == OP_OK; k = k->next) {
+        if (k->type != XML_ELEMENT_NODE)
+            continue;
+        if (xmlStrcmp(k->name, (const xmlChar *)"default") != 0) {
+            if (classify((const char *)k->name) == EL_OBJECT)
+                st = read_defaults(c, k);
+            continue;
+        }
+        static const char *const ok[] = {"name", "value", NULL};
+        char *name = NULL, *value = NULL;
+        if ((st = check_attrs(c, k, ok)) == OP_OK && (st = check_empty(c, k)) == OP_OK &&
+            (st = get_attr(c, k, "name", 1, &name)) == OP_OK &&
+            (st = get_attr(c, k, "value", 1, &value)) == OP_OK) {
+            if (!*name || !ident_char((unsigned char)name[0], 1))
+                st = elem_error(c, k, "bad parameter name '%s'", name);
+            else
+                st = param_add(c, name, value);
+        }
+        free(name);
+        free(value);
+    }
     return st;
 }
 
@@ -973,6 +1058,7 @@ static op_status parse_file(xml_ctx *c, const char *path, xmlNode *from, op_node
         }
     }
     const char *saved_file = c->file;
+    op_dialect saved_dialect = c->dialect;
     const char *file = op_desc_tree_file(c->tree, path);
     if (!file) {
         free(buf);
@@ -1022,24 +1108,9 @@ static op_status parse_file(xml_ctx *c, const char *path, xmlNode *from, op_node
     if (!from) { /* the main file: the root node is this <scene> */
         parent->file = file;
         parent->line = (int)xmlGetLineNo(root);
+        parent->dialect = c->dialect;
     }
-    /* Defaults first, so that a parameter may be used above its <default>. */
-    for (xmlNode *k = root->children; k && st == OP_OK; k = k->next) {
-        if (k->type != XML_ELEMENT_NODE || xmlStrcmp(k->name, (const xmlChar *)"default") != 0)
-            continue;
-        static const char *const ok[] = {"name", "value", NULL};
-        char *name = NULL, *value = NULL;
-        if ((st = check_attrs(c, k, ok)) == OP_OK && (st = check_empty(c, k)) == OP_OK &&
-            (st = get_attr(c, k, "name", 1, &name)) == OP_OK &&
-            (st = get_attr(c, k, "value", 1, &value)) == OP_OK) {
-            if (!*name || !ident_char((unsigned char)name[0], 1))
-                st = elem_error(c, k, "bad parameter name '%s'", name);
-            else
-                st = param_add(c, name, value);
-        }
-        free(name);
-        free(value);
-    }
+    st = read_defaults(c, root);
     if (st == OP_OK)
         st = process_children(c, root, parent);
 out:
@@ -1050,6 +1121,7 @@ out:
     free(buf);
     free(c->stack[--c->depth]);
     c->file = saved_file;
+    c->dialect = saved_dialect;
     return st;
 }
 

@@ -9,8 +9,11 @@
 #include "opaline_render.h"
 #include "scene/material_name.h"
 
-/* The homogeneous dipole: a named medium or explicit coefficients, all in 1/mm, turned into
- * coefficients per scene unit (metres, times `scale`: 1000 / scale per mm). */
+/* The homogeneous dipole: a named medium or explicit coefficients, turned into coefficients per
+ * scene unit. With sceneUnitsPerMetre (opaline's meaning) the table and explicit coefficients
+ * are in 1/mm: per scene unit x 1000 / sceneUnitsPerMetre. Without it, Mitsuba's meaning
+ * (0.6 and 3 alike): explicit coefficients are per scene unit and the table's entries x 100,
+ * all multiplied by `scale` (default 1). Both given is an error. */
 static op_status build_dipole(op_node *node, op_sss_desc *d, op_error *err)
 {
     const char *name;
@@ -57,7 +60,18 @@ static op_status build_dipole(op_node *node, op_sss_desc *d, op_error *err)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: intIOR / "
                             "extIOR = %g must be in [1, 3] (the dipole's boundary fit)",
                             node->file, node->line, eta);
-    double per_unit = 1000.0 / d->scale; /* 1/mm -> 1/scene unit */
+    double per_unit;
+    if (d->units_given) {
+        per_unit = 1000.0 / d->scale; /* 1/mm -> 1/scene unit */
+    } else {
+        double mult;
+        GET_OR_FAIL(op_node_float(node, "scale", 1.0, &mult, err));
+        if (!(mult > 0.0 && mult < 1e9))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"dipole\">: scale "
+                                "%g must be > 0", node->file, node->line, mult);
+        per_unit = (explicit_ss || explicit_ta ? 1.0 : 100.0) * mult;
+        d->scale = 1000.0 / per_unit; /* the same coefficients, as sceneUnitsPerMetre */
+    }
     d->is_dipole = 1;
     d->dipole.eta = eta;
     double alb[3];
@@ -99,12 +113,27 @@ op_status op_subsurface_read(op_node *node, const char *scene_dir, const op_scen
     }
     const char *name = NULL;
     long long irr, maxp;
-    GET_OR_FAIL(op_node_float(node, "scale", 1.0, &d->scale, err));
+    /* sceneUnitsPerMetre is opaline's; on a measured material (no Mitsuba meaning to clash
+     * with) scale is read as it, as files written before it had its own name say */
+    d->units_given = op_node_has(node, "sceneUnitsPerMetre");
+    if (d->units_given && op_node_has(node, "scale"))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface type=\"%s\">: give either "
+                            "sceneUnitsPerMetre (scene units per metre of material) or scale (%s), "
+                            "not both", node->file, node->line, t, dipole ? "Mitsuba's "
+                            "multiplier of the coefficients" : "its older name");
+    if (!dipole && !d->units_given && op_node_has(node, "scale")) {
+        GET_OR_FAIL(op_node_float(node, "scale", 1.0, &d->scale, err));
+        op_log(OP_LOG_WARN, "%s:%d: <subsurface type=\"%s\">: scale is read as "
+               "sceneUnitsPerMetre, its name now (on a dipole, scale means Mitsuba's multiplier "
+               "of the coefficients)", node->file, node->line, t);
+    } else {
+        GET_OR_FAIL(op_node_float(node, "sceneUnitsPerMetre", 1.0, &d->scale, err));
+    }
     GET_OR_FAIL(op_node_int(node, "irrSamples", 16, &irr, err));
     GET_OR_FAIL(op_node_float(node, "density", 1.0, &d->density, err));
     GET_OR_FAIL(op_node_int(node, "maxPoints", lim->sss_max_points, &maxp, err));
     if (!(d->scale > 0.0 && d->scale < 1e9))
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: scale %g must be > 0",
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <subsurface>: sceneUnitsPerMetre %g must be > 0",
                             node->file, node->line, d->scale);
     if (irr < 1 || irr > 65536 || maxp < 1 || maxp > 50000000 ||
         !(d->density > 0.0 && d->density <= 64.0))
