@@ -139,6 +139,7 @@ static void colours(void **state)
              "    <rgb name=\"hex\" value=\"#FF8000\"/>\n"
              "    <srgb name=\"hex2\" value=\"#ff8000\"/>\n"
              "    <spectrum name=\"const\" value=\"0.5\"/>\n"
+             "    <spectrum name=\"bins\" value=\"0.5, 0, 0.25\"/>\n"
              "    <spectrum name=\"flat\" value=\"360:0.7, 830:0.7\"/>\n"
              "    <spectrum name=\"red\" value=\"400:0, 580:0, 600:1, 700:1\"/>\n"
              "    <spectrum name=\"file\" filename=\"%s\"/>\n"
@@ -171,6 +172,8 @@ static void colours(void **state)
     assert_float_equal(c[1], op_srgb_to_linear(128 / 255.0), 1e-12);
     OP_ASSERT_OK(op_node_color(n, "const", NULL, c, &err), err);
     assert_true(c[0] == 0.5 && c[1] == 0.5 && c[2] == 0.5); /* a constant spectrum is grey */
+    OP_ASSERT_OK(op_node_color(n, "bins", NULL, c, &err), err);
+    assert_true(c[0] == 0.5 && c[1] == 0 && c[2] == 0.25); /* Mitsuba 0.6's RGB bins */
     OP_ASSERT_OK(op_node_color(n, "flat", NULL, c, &err), err);
     for (int k = 0; k < 3; k++)
         assert_float_equal(c[k], 0.7, 1e-9);
@@ -482,6 +485,8 @@ static void errors(void **state)
     expect_error(HEAD "  <shape type=\"obj\">\n    <rgb name=\"c\" value=\"1, 2\"/>\n"
                       "  </shape>\n</scene>\n",
                  4, "bad colour");
+    expect_error(HEAD "  <shape type=\"obj\">\n    <spectrum name=\"c\" value=\"0.5, 0.2\"/>\n"
+                      "  </shape>\n</scene>\n", 4, "three (linear RGB");
     expect_error(HEAD "  <shape type=\"obj\">\n    <spectrum name=\"c\" value=\"500:1, 400:1\"/>\n"
                       "  </shape>\n</scene>\n",
                  4, "wavelengths must increase");

@@ -331,11 +331,14 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
         op_node *c = root->children[i];
         if (strcmp(c->tag, "shape") == 0) {
             GET_OR_FAIL(describe_shape(d, c, &tally, &sphere_counted, err));
+        } else if (strcmp(c->tag, "emitter") == 0 && strcmp(c->type, "area") == 0) {
+            /* defined here with an id (Mitsuba 3's way), it lights the shapes that <ref> it */
+            if (!c->id)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be "
+                                    "nested in a <shape>, or have an id a <shape> refers to",
+                                    c->file, c->line);
         } else if (strcmp(c->tag, "emitter") == 0) {
             d->emitters++;
-            if (strcmp(c->type, "area") == 0)
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"area\"> must be "
-                                    "nested in a <shape>", c->file, c->line);
             if (strcmp(c->type, "envmap") == 0) {
                 const char *fn;
                 GET_OR_FAIL(op_node_string(c, "filename", NULL, &fn, err));

@@ -351,10 +351,11 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         int idx = -1;
         if (strcmp(c->tag, "shape") == 0) {
             GET_OR_FAIL(add_shape(b, c, err));
-        } else if (strcmp(c->tag, "emitter") == 0) {
+        } else if (strcmp(c->tag, "emitter") == 0 && strcmp(c->type, "area") != 0) {
             GET_OR_FAIL(add_emitter(b, c, NULL, -1, &idx, err));
-        } /* the rest is built where referenced (the description refused what is not
-             supported); unreferenced objects are reported as unused */
+        } /* the rest (an area emitter with an id among them) is built where referenced (the
+             description refused what is not supported); unreferenced objects are reported
+             as unused */
     }
     /* shapes no longer move: point area emitters at their meshes */
     for (int i = 0; i < s->nemitters; i++)

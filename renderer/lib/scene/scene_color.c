@@ -143,15 +143,28 @@ op_status op_color_from_samples(const double *lambda_nm, const double *value, in
 op_status op_color_parse_spectrum(const char *text, double rgb[3], op_error *err)
 {
     if (!strchr(text, ':')) {
-        char *end;
-        double v;
-        if (!op_scan_double(text, &end, &v))
-            return op_error_set(err, OP_ERR_INPUT, "bad spectrum value '%s'", text);
-        while (isspace((unsigned char)*end))
-            end++;
-        if (*end)
-            return op_error_set(err, OP_ERR_INPUT, "bad spectrum value '%s'", text);
-        rgb[0] = rgb[1] = rgb[2] = v;
+        /* one value: a grey; a plain list is one value per spectral bin, which Mitsuba 0.6's
+         * (default) RGB build has three of: linear RGB */
+        double v[4];
+        int n = 0;
+        const char *p = text;
+        for (;;) {
+            while (isspace((unsigned char)*p) || (n > 0 && *p == ','))
+                p++;
+            if (!*p)
+                break;
+            char *end;
+            if (n == 4 || !op_scan_double(p, &end, &v[n]))
+                break;
+            n++;
+            p = end;
+        }
+        if (*p || (n != 1 && n != 3))
+            return op_error_set(err, OP_ERR_INPUT, "bad spectrum value '%s': expected one value, "
+                                "three (linear RGB, as Mitsuba 0.6's RGB build reads a plain list) "
+                                "or 'wavelength:value' pairs", text);
+        for (int c = 0; c < 3; c++)
+            rgb[c] = v[n == 1 ? 0 : c];
         return OP_OK;
     }
     double *l = malloc(MAX_SAMPLES * sizeof(double)), *v = malloc(MAX_SAMPLES * sizeof(double));
