@@ -6,6 +6,7 @@
 #                                 against Mitsuba 3's reference (docs/testing.md)
 #   SCENE <tab> refused:TEXT      it is refused, and its reason (as scripts/mitsuba-corpus-report
 #                                 gives it: the error without its file:line) contains TEXT
+# and, after another tab, an optional note (why a refusal is final, for instance).
 # Each scene is classified by scripts/mitsuba-corpus-report (fails < refused < render < match).
 # The test fails when a scene does worse than its line (a crash or time-out is worse than
 # anything, a refusal worse than a render, a render that no longer matches worse than a match)
@@ -42,9 +43,9 @@ with open(expect_path) as f:
         if not line.strip() or line.startswith("#"):
             continue
         fields = line.rstrip("\n").split("\t")
-        want = fields[1] if len(fields) == 2 else ""
+        want = fields[1] if len(fields) in (2, 3) else ""  # the third: a note
         if not (want in ("render", "match") or (want.startswith("refused:") and len(want) > 8)):
-            problems.append("%s:%d: not SCENE<tab>render|match|refused:TEXT: %r" % (
+            problems.append("%s:%d: not SCENE<tab>render|match|refused:TEXT[<tab>NOTE]: %r" % (
                 expect_path, n, line.rstrip("\n")))
             continue
         if fields[0] in expected:
