@@ -95,6 +95,17 @@ static int parse_double(const char *s, double lo, double hi, double *out)
     return 1;
 }
 
+/* 1 when a is an option that takes a value (all of them but --help). */
+static int takes_value(const char *a)
+{
+    static const char *const names[] = {"--spp",   "--ref-spp",   "--block", "--alpha",
+                                        "--space", "--var-floor", "--crop"};
+    for (size_t i = 0; i < sizeof names / sizeof *names; i++)
+        if (!strcmp(a, names[i]))
+            return 1;
+    return 0;
+}
+
 /* Fills o from the command line; 0 after printing why when it is not a valid one, -1 after
  * printing the usage for --help. */
 static int parse_options(int argc, char **argv, options *o)
@@ -109,7 +120,11 @@ static int parse_options(int argc, char **argv, options *o)
             usage(stdout);
             return -1;
         }
-        if (a[0] == '-' && a[1] == '-' && !v) {
+        if (a[0] == '-' && a[1] && !takes_value(a)) {
+            op_log(OP_LOG_ERROR, "unknown option %s (--help lists them)", a);
+            return 0;
+        }
+        if (a[0] == '-' && a[1] && !v) {
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             return 0;
         }
@@ -126,7 +141,7 @@ static int parse_options(int argc, char **argv, options *o)
             if (!parse_double(v, 0, 1, &o->alpha))
                 goto bad_value;
         } else if (!strcmp(a, "--var-floor")) {
-            if (!parse_double(v, -1e-300, 1e300, &o->var_floor))
+            if (!parse_double(v, -1, 1e300, &o->var_floor) || o->var_floor < 0)
                 goto bad_value;
         } else if (!strcmp(a, "--space")) {
             if (strcmp(v, "xyz") && strcmp(v, "rgb"))
@@ -146,9 +161,6 @@ static int parse_options(int argc, char **argv, options *o)
             o->crop_x = (int)x;
             o->crop_y = (int)y;
             o->cropped = 1;
-        } else if (a[0] == '-' && a[1]) {
-            op_log(OP_LOG_ERROR, "unknown option %s (--help lists them)", a);
-            return 0;
         } else {
             if (nfiles == 3) {
                 op_log(OP_LOG_ERROR, "one RENDER, one REFERENCE and one VARIANCE: %s is a fourth",

@@ -202,6 +202,10 @@ cases = [
     (["--spp", "16", "--space", "lab", good], "ref.pfm", "var.pfm", "--space lab",
      "an unknown --space"),
     (["--spp", "16", "--crop", "3", good], "ref.pfm", "var.pfm", "--crop 3", "--crop without Y"),
+    (["--spp", "16", good, "--sp"], "ref.pfm", "var.pfm", "unknown option --sp",
+     "an unknown option"),
+    (["--spp", "16", "--var-floor", "-1", good], "ref.pfm", "var.pfm", "--var-floor -1",
+     "a negative --var-floor"),
 ]
 for args, ref, var, needle, what in cases:
     rc, out, err = run(args, ref=ref, var=var)
