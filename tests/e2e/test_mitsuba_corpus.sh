@@ -141,7 +141,15 @@ grep -q '^FAIL: s/unknown.xml does worse' "$T/mini.out" || fail "a lost render w
 grep -q '^FAIL: s/sky_path.xml\|^FAIL: s/plain.xml' "$T/mini.out" \
   && fail "a scene that keeps its line failed"
 grep -qF "  $(tsv s/plain.xml render)" "$T/mini.out" || fail "a scene doing better got no new line"
-echo "ok   the small corpus: classified as built, its wrong table caught"
+python3 "$SRC/scripts/mitsuba-corpus-report" --bin "$BIN" --corpus "$M" --spp 32 >"$T/mini.md" \
+  2>"$T/err" || fail "scripts/mitsuba-corpus-report (Markdown) failed on the small corpus"
+for want in '| s/ | 4 | 3 | 2 | 1 | 1 | 0 |' \
+            '| `<integrator type="opaline_test_unknown">: unknown integrator` | 1 | s 1 |' \
+            '- `s/wrong_path.xml`: does not match at 32 spp'; do
+  grep -qF -- "$want" "$T/mini.md" \
+    || { cat "$T/mini.md"; fail "the Markdown report lacks '$want'"; }
+done
+echo "ok   the small corpus: classified as built, its wrong table caught, its Markdown report"
 
 classify "$CORPUS" "$T/results.tsv"
 judge "$SRC/tests/e2e/mitsuba_corpus_expect.tsv" "$T/results.tsv"
