@@ -174,14 +174,19 @@ static void colours(void **state)
     assert_true(c[0] == 0.5 && c[1] == 0.5 && c[2] == 0.5); /* a constant spectrum is grey */
     OP_ASSERT_OK(op_node_color(n, "bins", NULL, c, &err), err);
     assert_true(c[0] == 0.5 && c[1] == 0 && c[2] == 0.25); /* Mitsuba 0.6's RGB bins */
+    /* Mitsuba 0.6 reads spectra plainly: flat is the equal-energy white (1.205, 0.948, 0.909
+     * in sRGB; the CIE fit's integrals agree with the tables to about 1 %) */
+    double one[3] = {1, 1, 1}, e_white[3];
+    op_color_xyz_to_rgb(one, e_white);
+    assert_float_equal(e_white[0], 1.2049, 1e-3);
     OP_ASSERT_OK(op_node_color(n, "flat", NULL, c, &err), err);
     for (int k = 0; k < 3; k++)
-        assert_float_equal(c[k], 0.7, 1e-9);
+        assert_float_equal(c[k], 0.7 * e_white[k], 0.02 * 0.7);
     OP_ASSERT_OK(op_node_color(n, "red", NULL, c, &err), err);
     assert_true(c[0] > 0.5 && c[0] > 5 * c[2] && c[0] > 2 * c[1]);
     OP_ASSERT_OK(op_node_color(n, "file", NULL, c, &err), err);
     for (int k = 0; k < 3; k++)
-        assert_float_equal(c[k], 0.25, 1e-9);
+        assert_float_equal(c[k], 0.25 * e_white[k], 0.02 * 0.25);
     OP_ASSERT_OK(op_node_color(n, "d65ish", NULL, c, &err), err);
     for (int k = 0; k < 3; k++) /* close to white: D65 is near a 6504 K black body */
         assert_true(c[k] > 0.85 && c[k] < 1.15);
@@ -192,6 +197,25 @@ static void colours(void **state)
     assert_true(c[0] == 0.25 && c[2] == 0.25);
     op_desc_free(root);
     unlink(spec_path);
+
+    /* Mitsuba 3 reads a reflectance's spectrum white-balanced, an emitter's plainly, and a
+     * constant emitter spectrum as the equal-energy white scaled */
+    OP_ASSERT_OK(parse_text("<scene version=\"3.0.0\">\n"
+                            "  <bsdf type=\"x\"><spectrum name=\"flat\" value=\"360:0.7, 830:0.7\"/>"
+                            "</bsdf>\n"
+                            "  <emitter type=\"y\"><spectrum name=\"radiance\" value=\"2\"/>"
+                            "<spectrum name=\"flat\" value=\"360:1, 830:1\"/></emitter>\n"
+                            "</scene>\n", NULL, 0, &root, &err, path), err);
+    OP_ASSERT_OK(op_node_color(root->children[0], "flat", NULL, c, &err), err);
+    for (int k = 0; k < 3; k++)
+        assert_float_equal(c[k], 0.7, 1e-9);
+    OP_ASSERT_OK(op_node_color(root->children[1], "radiance", NULL, c, &err), err);
+    for (int k = 0; k < 3; k++)
+        assert_float_equal(c[k], 2 * e_white[k], 1e-9);
+    OP_ASSERT_OK(op_node_color(root->children[1], "flat", NULL, c, &err), err);
+    for (int k = 0; k < 3; k++)
+        assert_float_equal(c[k], e_white[k], 0.02);
+    op_desc_free(root);
 
     /* The colour module directly: XYZ of the D65 white maps to (1, 1, 1). */
     double xyz[3] = {0.95047, 1.0, 1.08883}, rgb[3];

@@ -111,8 +111,8 @@ static double sampled(const void *user, double lambda)
     return s->v[lo] + t * (s->v[hi] - s->v[lo]);
 }
 
-op_status op_color_from_samples(const double *lambda_nm, const double *value, int n, double rgb[3],
-                                op_error *err)
+op_status op_color_from_samples(const double *lambda_nm, const double *value, int n,
+                                op_spectrum_reading how, double rgb[3], op_error *err)
 {
     if (n < 1)
         return op_error_set(err, OP_ERR_INPUT, "a spectrum needs at least one sample");
@@ -134,13 +134,19 @@ op_status op_color_from_samples(const double *lambda_nm, const double *value, in
     integrate(sampled, &s, xyz);
     integrate(flat_one, NULL, white_xyz);
     op_color_xyz_to_rgb(xyz, rgb);
+    if (how == OP_SPECTRUM_PLAIN) {
+        for (int k = 0; k < 3; k++)
+            rgb[k] = fmax(rgb[k] / white_xyz[1], 0.0);
+        return OP_OK;
+    }
     op_color_xyz_to_rgb(white_xyz, white);
     for (int k = 0; k < 3; k++)
         rgb[k] /= white[k];
     return OP_OK;
 }
 
-op_status op_color_parse_spectrum(const char *text, double rgb[3], op_error *err)
+op_status op_color_parse_spectrum(const char *text, op_spectrum_reading how, double rgb[3],
+                                  op_error *err)
 {
     if (!strchr(text, ':')) {
         /* one value: a grey; a plain list is one value per spectral bin, which Mitsuba 0.6's
@@ -196,13 +202,14 @@ op_status op_color_parse_spectrum(const char *text, double rgb[3], op_error *err
         p = end;
     }
     if (st == OP_OK)
-        st = op_color_from_samples(l, v, n, rgb, err);
+        st = op_color_from_samples(l, v, n, how, rgb, err);
     free(l);
     free(v);
     return st;
 }
 
-op_status op_color_read_spectrum_file(const char *path, double rgb[3], op_error *err)
+op_status op_color_read_spectrum_file(const char *path, op_spectrum_reading how, double rgb[3],
+                                      op_error *err)
 {
     FILE *f;
     op_status opened = op_file_open_stream(path, &f, NULL, err);
@@ -245,7 +252,7 @@ op_status op_color_read_spectrum_file(const char *path, double rgb[3], op_error 
         st = op_error_set(err, OP_ERR_INPUT, "%s: read error", path);
     fclose(f);
     if (st == OP_OK) {
-        st = op_color_from_samples(l, v, n, rgb, err);
+        st = op_color_from_samples(l, v, n, how, rgb, err);
         if (st != OP_OK)
             op_error_prefix(err, "%s: ", path);
     }

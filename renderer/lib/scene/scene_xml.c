@@ -708,16 +708,29 @@ static op_status value_element(xml_ctx *c, xmlNode *e, op_node *parent, elem_cla
         if ((st = check_attrs(c, e, ok)) == OP_OK && (st = get_attr(c, e, "value", 0, &value)) == OP_OK &&
             (st = get_attr(c, e, "filename", 0, &fname)) == OP_OK) {
             op_error sub = {0};
+            /* Mitsuba 0.6's RGB build reads every spectrum plainly, Mitsuba 3 an emitter's;
+             * Mitsuba 3's constant emitter spectrum is the equal-energy white, scaled */
+            int emitter = strcmp(parent->tag, "emitter") == 0;
+            op_spectrum_reading how = c->dialect == OP_DIALECT_MITSUBA_0 || emitter
+                                          ? OP_SPECTRUM_PLAIN
+                                          : OP_SPECTRUM_REFLECTANCE;
             if ((value != NULL) == (fname != NULL)) {
                 st = elem_error(c, e, "give exactly one of value and filename");
             } else if (value) {
-                if (op_color_parse_spectrum(value, tmp.value.v, &sub) != OP_OK)
+                if (op_color_parse_spectrum(value, how, tmp.value.v, &sub) != OP_OK)
                     st = elem_error(c, e, "%s", sub.message);
+                else if (emitter && c->dialect == OP_DIALECT_MITSUBA_3 && !strchr(value, ':') &&
+                         tmp.value.v[0] == tmp.value.v[1] && tmp.value.v[1] == tmp.value.v[2]) {
+                    double e_white[3], one[3] = {1.0, 1.0, 1.0};
+                    op_color_xyz_to_rgb(one, e_white);
+                    for (int k = 0; k < 3; k++)
+                        tmp.value.v[k] *= e_white[k];
+                }
             } else {
                 char *path = op_desc_tree_resolve(c->tree, c->file, fname);
                 if (!path)
                     st = nomem(c);
-                else if (op_color_read_spectrum_file(path, tmp.value.v, &sub) != OP_OK)
+                else if (op_color_read_spectrum_file(path, how, tmp.value.v, &sub) != OP_OK)
                     st = elem_error(c, e, "%s", sub.message);
                 free(path);
             }
