@@ -4,26 +4,25 @@
 #include <string.h>
 #include <strings.h>
 
-/* Named indices of refraction (Mitsuba's table, a subset). */
+#include "bsdf/conductor_table.h"
+
+/* Named indices of refraction: Mitsuba 0.6's table (src/bsdfs/ior.h there, Hecht's Optics at
+ * ~589 nm), where "air" (1.000277) and "silicone oil" (1.52045) keep the values opaline has
+ * always rendered them with, and opaline's own additions ("ice", "glass", "sapphire",
+ * "polycarbonate", "skin"). */
 static const struct {
     const char *name;
     double ior;
-} iors[] = {{"vacuum", 1.0},     {"air", 1.00028},        {"water", 1.3330},
-            {"ice", 1.31},       {"fused quartz", 1.458}, {"glass", 1.5},
-            {"bk7", 1.5046},     {"sapphire", 1.77},      {"diamond", 2.419},
-            {"acrylic glass", 1.49}, {"polypropylene", 1.49}, {"pet", 1.575},
-            {"polycarbonate", 1.58}, {"ethanol", 1.361},  {"skin", 1.4},
-            {"silicone oil", 1.52008}};
-
-/* Conductors: RGB (roughly 650, 550, 450 nm) eta and k. */
-static const struct {
-    const char *name;
-    float eta[3], k[3];
-} metals[] = {{"Cu", {0.200f, 0.924f, 1.102f}, {3.912f, 2.452f, 2.142f}},
-              {"Au", {0.143f, 0.374f, 1.442f}, {3.983f, 2.385f, 1.603f}},
-              {"Ag", {0.155f, 0.117f, 0.138f}, {4.828f, 3.122f, 2.147f}},
-              {"Al", {1.657f, 0.880f, 0.521f}, {9.224f, 6.270f, 4.837f}},
-              {"Cr", {3.105f, 3.182f, 2.223f}, {3.330f, 3.332f, 3.181f}}};
+} iors[] = {{"vacuum", 1.0},          {"helium", 1.000036},    {"hydrogen", 1.000132},
+            {"air", 1.00028},         {"carbon dioxide", 1.00045}, {"water", 1.3330},
+            {"acetone", 1.36},        {"ethanol", 1.361},      {"carbon tetrachloride", 1.461},
+            {"glycerol", 1.4729},     {"benzene", 1.501},      {"silicone oil", 1.52008},
+            {"bromine", 1.661},       {"water ice", 1.31},     {"ice", 1.31},
+            {"fused quartz", 1.458},  {"pyrex", 1.470},        {"acrylic glass", 1.49},
+            {"polypropylene", 1.49},  {"bk7", 1.5046},         {"sodium chloride", 1.544},
+            {"amber", 1.55},          {"pet", 1.575},          {"diamond", 2.419},
+            {"glass", 1.5},           {"sapphire", 1.77},      {"polycarbonate", 1.58},
+            {"skin", 1.4}};
 
 static op_status read_ior(op_node *n, const char *name, const char *def, double *out, op_error *err)
 {
@@ -42,9 +41,9 @@ static op_status read_ior(op_node *n, const char *name, const char *def, double 
                                 p->file, p->line, n->type, name, p->value.s);
         }
         GET_OR_FAIL(op_node_float(n, name, 1.0, out, err));
-        if (!(*out >= 1.0 && *out < 10.0))
+        if (!(*out > 0.0 && *out < 10.0))
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: %s %g is not in "
-                                "[1, 10)", p->file, p->line, n->type, name, *out);
+                                "(0, 10)", p->file, p->line, n->type, name, *out);
         return OP_OK;
     }
     for (size_t k = 0; k < sizeof iors / sizeof iors[0]; k++)
@@ -139,6 +138,82 @@ static op_status read_alpha(op_node *node, float *out, op_error *err)
     return OP_OK;
 }
 
+/* A microfacet model's distribution as Mitsuba 0.6 reads it: distribution (beckmann, ggx,
+ * phong, or as: Phong read through alphaU/alphaV), alpha (default 0.1) or both alphaU and
+ * alphaV, sampleVisible (default true). Alphas below 1e-4 are raised to it with a warning. */
+static op_status read_microfacet(op_node *node, op_microfacet *out, op_error *err)
+{
+    const char *dist;
+    double au = 0.1, av = 0.1;
+    int visible;
+    GET_OR_FAIL(op_node_string(node, "distribution", "beckmann", &dist, err));
+    op_mf_type t;
+    if (strcasecmp(dist, "beckmann") == 0)
+        t = OP_MF_BECKMANN;
+    else if (strcasecmp(dist, "ggx") == 0)
+        t = OP_MF_GGX;
+    else if (strcasecmp(dist, "phong") == 0 || strcasecmp(dist, "as") == 0)
+        t = OP_MF_PHONG;
+    else
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown distribution "
+                            "\"%s\" (beckmann, ggx, phong, as)", node->file, node->line,
+                            node->type, dist);
+    int has_u = op_node_has(node, "alphaU"), has_v = op_node_has(node, "alphaV");
+    if (op_node_has(node, "alpha") && (has_u || has_v))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: give alpha or "
+                            "alphaU/alphaV, not both", node->file, node->line, node->type);
+    if (has_u != has_v)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: alphaU and alphaV go "
+                            "together", node->file, node->line, node->type);
+    if (has_u) {
+        GET_OR_FAIL(op_node_float(node, "alphaU", 0.1, &au, err));
+        GET_OR_FAIL(op_node_float(node, "alphaV", 0.1, &av, err));
+    } else {
+        GET_OR_FAIL(op_node_float(node, "alpha", 0.1, &au, err));
+        av = au;
+    }
+    GET_OR_FAIL(op_node_bool(node, "sampleVisible", 1, &visible, err));
+    if (!(au >= 1e-4 && av >= 1e-4)) {
+        op_log(OP_LOG_WARN, "%s:%d: <bsdf type=\"%s\">: roughness below 1e-4 raised to 1e-4",
+               node->file, node->line, node->type);
+        au = au >= 1e-4 ? au : 1e-4;
+        av = av >= 1e-4 ? av : 1e-4;
+    }
+    *out = op_mf_make(t, (float)au, (float)av, visible);
+    return OP_OK;
+}
+
+/* A conductor's complex index relative to the exterior: material (a name of conductor_table.h,
+ * default Cu; "none": a perfect mirror) with eta and k overriding either part of it, divided by
+ * extEta (default air). */
+static op_status read_conductor(op_node *node, op_bsdf *b, op_error *err)
+{
+    const char *mat;
+    double ext_ior = 1.0;
+    GET_OR_FAIL(op_node_string(node, "material", "Cu", &mat, err));
+    GET_OR_FAIL(read_ior(node, "extEta", "air", &ext_ior, err));
+    double me[3] = {0, 0, 0}, mk[3] = {1, 1, 1}, e[3], k[3];
+    int none = strcasecmp(mat, "none") == 0;
+    if (!none) {
+        const op_conductor *c = op_conductor_find(mat);
+        if (!c)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown material "
+                                "\"%s\" (Mitsuba's conductor names, docs/scene-format.md; none; "
+                                "or eta and k)", node->file, node->line, node->type, mat);
+        for (int i = 0; i < 3; i++) {
+            me[i] = c->eta[i];
+            mk[i] = c->k[i];
+        }
+    }
+    int given = op_node_has(node, "eta") || op_node_has(node, "k");
+    GET_OR_FAIL(op_node_color(node, "eta", me, e, err));
+    GET_OR_FAIL(op_node_color(node, "k", mk, k, err));
+    b->mirror = none && !given;
+    b->cond_eta = v3_scale(v3_from_d(e), (float)(1.0 / ext_ior));
+    b->cond_k = v3_scale(v3_from_d(k), (float)(1.0 / ext_ior));
+    return OP_OK;
+}
+
 void op_bsdf_default(op_bsdf *b)
 {
     memset(b, 0, sizeof *b);
@@ -178,6 +253,18 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
                              &b->refl_tex, err);
     }
+    if (strcmp(node->type, "roughdiffuse") == 0) {
+        double alpha;
+        b->type = OP_BSDF_ROUGHDIFFUSE;
+        GET_OR_FAIL(op_node_float(node, "alpha", 0.2, &alpha, err));
+        GET_OR_FAIL(op_node_bool(node, "useFastApprox", 0, &b->fast_approx, err));
+        if (!(alpha >= 0.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"roughdiffuse\">: alpha "
+                                "must be >= 0", node->file, node->line);
+        b->alpha = (float)alpha;
+        return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
+                             &b->refl_tex, err);
+    }
     int rough_dielectric = strcmp(node->type, "roughdielectric") == 0;
     if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0 ||
         rough_dielectric) {
@@ -185,42 +272,23 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         GET_OR_FAIL(read_ior(node, "intIOR", "bk7", &int_ior, err));
         GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
         GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
-        op_v3 t;
-        GET_OR_FAIL(read_reflectance(node, "specularTransmittance", NULL, 1.0, &t, err));
-        if (rough_dielectric)
-            GET_OR_FAIL(read_alpha(node, &b->alpha, err));
+        GET_OR_FAIL(read_reflectance(node, "specularTransmittance", NULL, 1.0, &b->transmittance,
+                                     err));
+        if (rough_dielectric) {
+            GET_OR_FAIL(read_microfacet(node, &b->mf, err));
+            b->alpha = fminf(fmaxf(b->mf.alpha_u, 0.001f), 1.0f);
+        }
         b->eta = (float)(int_ior / ext_ior);
         return OP_OK;
     }
-    if (strcmp(node->type, "conductor") == 0) {
-        b->type = OP_BSDF_CONDUCTOR;
-        const char *mat;
-        GET_OR_FAIL(op_node_string(node, "material", "Cu", &mat, err));
-        GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
-        GET_OR_FAIL(read_ior(node, "extEta", "air", &ext_ior, err));
-        if (op_node_has(node, "eta") || op_node_has(node, "k")) {
-            double e[3], k[3], one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
-            GET_OR_FAIL(op_node_color(node, "eta", one, e, err));
-            GET_OR_FAIL(op_node_color(node, "k", zero, k, err));
-            b->cond_eta = v3_scale(v3_from_d(e), (float)(1.0 / ext_ior));
-            b->cond_k = v3_scale(v3_from_d(k), (float)(1.0 / ext_ior));
-            return OP_OK;
-        }
-        if (strcasecmp(mat, "none") == 0) {
-            b->mirror = 1;
-            return OP_OK;
-        }
-        for (size_t i = 0; i < sizeof metals / sizeof metals[0]; i++)
-            if (strcasecmp(metals[i].name, mat) == 0) {
-                b->cond_eta = v3_scale(v3(metals[i].eta[0], metals[i].eta[1], metals[i].eta[2]),
-                                       (float)(1.0 / ext_ior));
-                b->cond_k = v3_scale(v3(metals[i].k[0], metals[i].k[1], metals[i].k[2]),
-                                     (float)(1.0 / ext_ior));
-                return OP_OK;
-            }
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"conductor\">: unknown material "
-                            "\"%s\" (Cu, Au, Ag, Al, Cr, none, or eta/k)", node->file, node->line,
-                            mat);
+    int rough_conductor = strcmp(node->type, "roughconductor") == 0;
+    if (strcmp(node->type, "conductor") == 0 || rough_conductor) {
+        b->type = rough_conductor ? OP_BSDF_ROUGHCONDUCTOR : OP_BSDF_CONDUCTOR;
+        if (rough_conductor)
+            GET_OR_FAIL(read_microfacet(node, &b->mf, err));
+        GET_OR_FAIL(read_textured(node, "specularReflectance", NULL, 1.0, tex, &b->specular,
+                                  &b->spec_tex, err));
+        return read_conductor(node, b, err);
     }
     if (strcmp(node->type, "plastic") == 0 || strcmp(node->type, "roughplastic") == 0) {
         int rough = strcmp(node->type, "roughplastic") == 0;
@@ -253,17 +321,20 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         return OP_OK;
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
-                        "(diffuse, dielectric, conductor, plastic, roughplastic, roughdielectric, "
-                        "coating, twosided, mask)",
+                        "(diffuse, roughdiffuse, dielectric, roughdielectric, conductor, "
+                        "roughconductor, plastic, roughplastic, coating, twosided, mask)",
                         node->file, node->line, node->type);
 }
 
 const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
 {
-    if (b->refl_tex.type == OP_TEX_NONE)
+    if (b->refl_tex.type == OP_TEX_NONE && b->spec_tex.type == OP_TEX_NONE)
         return b;
     *scratch = *b;
-    scratch->reflectance = op_texture_eval(&b->refl_tex, u, v);
+    if (b->refl_tex.type != OP_TEX_NONE)
+        scratch->reflectance = op_texture_eval(&b->refl_tex, u, v);
+    if (b->spec_tex.type != OP_TEX_NONE)
+        scratch->specular = op_texture_eval(&b->spec_tex, u, v);
     return scratch;
 }
 
@@ -306,43 +377,147 @@ static float fresnel_conductor1(float ci, float eta, float k)
     return 0.5f * (rp + rs);
 }
 
-/* GGX (Trowbridge-Reitz) normal distribution and its Smith G1. */
-static float ggx_d(op_v3 m, float a)
-{
-    if (m.z <= 0.0f)
-        return 0.0f;
-    float a2 = a * a, c2 = m.z * m.z;
-    float t = c2 * (a2 - 1.0f) + 1.0f;
-    return a2 / (OP_PI * t * t);
-}
-static float ggx_g1(op_v3 v, float a)
-{
-    float c2 = v.z * v.z;
-    if (c2 <= 0.0f)
-        return 0.0f;
-    float t2 = (1.0f - c2) / c2;
-    return 2.0f / (1.0f + sqrtf(1.0f + a * a * t2));
-}
-
-/* A microfacet normal m drawn with density D(m) m.z. */
-static op_v3 ggx_sample_m(float u1, float u2, float a)
-{
-    float t2 = a * a * u1 / fmaxf(1.0f - u1, 1e-7f);
-    float cz = 1.0f / sqrtf(1.0f + t2), sz = sqrtf(fmaxf(0.0f, 1.0f - cz * cz));
-    float phi = 2.0f * OP_PI * u2;
-    return v3(sz * cosf(phi), sz * sinf(phi), cz);
-}
-
 /* The GGX reflection of a dielectric interface (f |cos wo|, without the specular tint) and the
  * density of wo under ggx_sample_m's reflection. */
 static float ggx_reflect(op_v3 wi, op_v3 wo, float eta, float a, float *pdf)
 {
+    op_microfacet mf = op_mf_make(OP_MF_GGX, a, a, 0);
     op_v3 h = v3_norm(v3_add(wi, wo));
-    float ct, d = ggx_d(h, a);
+    float ct, d = op_mf_d(&mf, h);
     float fh = fresnel_dielectric(v3_dot(wi, h), eta, &ct);
-    float g = ggx_g1(wi, a) * ggx_g1(wo, a);
-    *pdf = d * h.z / (4.0f * v3_dot(wo, h));
+    float g = op_mf_g1(&mf, wi, h) * op_mf_g1(&mf, wo, h);
+    *pdf = op_mf_pdf(&mf, wi, h) / (4.0f * v3_dot(wo, h));
     return fh * d * g / (4.0f * wi.z);
+}
+
+/* A normal of the isotropic GGX distribution of roughness a, with density D(m) m.z. */
+static op_v3 ggx_sample_m(float u1, float u2, float a)
+{
+    op_microfacet mf = op_mf_make(OP_MF_GGX, a, a, 0);
+    return op_mf_sample(&mf, v3(0.0f, 0.0f, 1.0f), u1, u2);
+}
+
+/* A conductor's Fresnel reflectance at cos (1 for the mirror "none"). */
+static op_v3 fresnel_conductor(const op_bsdf *b, float ci)
+{
+    if (b->mirror)
+        return v3s(1.0f);
+    return v3(fresnel_conductor1(ci, b->cond_eta.x, b->cond_k.x),
+              fresnel_conductor1(ci, b->cond_eta.y, b->cond_k.y),
+              fresnel_conductor1(ci, b->cond_eta.z, b->cond_k.z));
+}
+
+/* The rough conductor (wi.z, wo.z > 0): specular F(wi.h) D(h) G(wi, wo) / (4 cos wi) and its
+ * density under the distribution's sampling of h, reflected. */
+static op_v3 rough_conductor(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
+{
+    op_v3 h = v3_norm(v3_add(wi, wo));
+    float d = op_mf_d(&b->mf, h);
+    if (d <= 0.0f)
+        return v3s(0.0f);
+    float g = op_mf_g1(&b->mf, wi, h) * op_mf_g1(&b->mf, wo, h);
+    *pdf = op_mf_pdf(&b->mf, wi, h) / (4.0f * v3_dot(wo, h));
+    return v3_scale(v3_mul(b->specular, fresnel_conductor(b, v3_dot(wi, h))),
+                    d * g / (4.0f * wi.z));
+}
+
+/* The rough dielectric interface (Walter et al. 2007), wi and wo on either side: reflection
+ * (wo on wi's side) tinted by specular, refraction tinted by transmittance and scaled for
+ * radiance by 1 / eta_rel^2 (eta_rel: the index of wo's side over wi's); the density is that
+ * of a normal h drawn for wi seen from its own side, then reflection with probability F(wi.h). */
+static op_v3 rough_dielectric(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
+{
+    *pdf = 0.0f;
+    if (wi.z == 0.0f || wo.z == 0.0f)
+        return v3s(0.0f);
+    int reflect = wi.z * wo.z > 0.0f;
+    float e = wi.z > 0.0f ? b->eta : 1.0f / b->eta;
+    op_v3 h = reflect ? v3_add(wi, wo) : v3_add(wi, v3_scale(wo, e));
+    float hl = v3_len(h);
+    if (!(hl > 0.0f))
+        return v3s(0.0f);
+    h = v3_scale(h, (h.z < 0.0f ? -1.0f : 1.0f) / hl);
+    float d = op_mf_d(&b->mf, h);
+    float ih = v3_dot(wi, h), oh = v3_dot(wo, h);
+    /* h must face wi and wo from their own sides */
+    if (d <= 0.0f || ih * wi.z <= 0.0f || oh * wo.z <= 0.0f)
+        return v3s(0.0f);
+    float ct, f = fresnel_dielectric(ih, b->eta, &ct);
+    float g = op_mf_g1(&b->mf, wi, h) * op_mf_g1(&b->mf, wo, h);
+    float pm = op_mf_pdf(&b->mf, wi.z > 0.0f ? wi : v3_neg(wi), h);
+    float ci = fabsf(wi.z);
+    if (reflect) {
+        *pdf = f * pm / (4.0f * fabsf(oh));
+        return v3_scale(b->specular, f * d * g / (4.0f * ci));
+    }
+    float den = hl; /* |ih + e oh|, without its cancellation */
+    *pdf = (1.0f - f) * pm * e * e * fabsf(oh) / (den * den);
+    return v3_scale(b->transmittance,
+                    (1.0f - f) * d * g * fabsf(ih * oh) / (ci * den * den));
+}
+
+/* A direction drawn for rough_dielectric: a normal for wi (seen from its own side), then
+ * reflection or refraction through it by its Fresnel reflectance. */
+static int rough_dielectric_sample(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
+                                   op_bsdf_sample *s)
+{
+    if (wi.z == 0.0f)
+        return 0;
+    op_v3 m = op_mf_sample(&b->mf, wi.z > 0.0f ? wi : v3_neg(wi), u1, u2);
+    float ct, c = v3_dot(wi, m), f = fresnel_dielectric(c, b->eta, &ct);
+    if (c * wi.z <= 0.0f)
+        return 0; /* a normal facing away (only drawn without visible normals) */
+    if (u3 < f) {
+        s->wo = v3_sub(v3_scale(m, 2.0f * c), wi);
+    } else {
+        /* refraction: wo = -wi / e + m (c / e - sign(c) cos_t) */
+        float e = c >= 0.0f ? b->eta : 1.0f / b->eta;
+        s->wo = v3_add(v3_scale(wi, -1.0f / e), v3_scale(m, c / e - (c >= 0.0f ? ct : -ct)));
+    }
+    if ((u3 < f) != (s->wo.z * wi.z > 0.0f))
+        return 0; /* reflected through the surface, or refracted back out of it */
+    op_v3 fv = rough_dielectric(b, wi, s->wo, &s->pdf);
+    if (!(s->pdf > 0.0f))
+        return 0;
+    s->weight = v3_scale(fv, 1.0f / s->pdf);
+    return 1;
+}
+
+/* Oren-Nayar's diffuse reflection as Mitsuba defines it (wi.z, wo.z > 0): the full model with
+ * its interreflection term, or the qualitative approximation (fast_approx); sigma = alpha /
+ * sqrt 2. */
+static op_v3 oren_nayar(const op_bsdf *b, op_v3 wi, op_v3 wo)
+{
+    float sigma = b->alpha * 0.70710678f, s2 = sigma * sigma;
+    float si = sqrtf(fmaxf(0.0f, 1.0f - wi.z * wi.z)), so = sqrtf(fmaxf(0.0f, 1.0f - wo.z * wo.z));
+    float cos_phi = 0.0f;
+    if (si > 1e-4f && so > 1e-4f)
+        cos_phi = fminf(fmaxf((wi.x * wo.x + wi.y * wo.y) / (si * so), -1.0f), 1.0f);
+    float sin_a, sin_b, tan_b;
+    if (wi.z > wo.z) {
+        sin_a = so;
+        sin_b = si;
+        tan_b = si / wi.z;
+    } else {
+        sin_a = si;
+        sin_b = so;
+        tan_b = so / wo.z;
+    }
+    float c1 = 1.0f - 0.5f * s2 / (s2 + 0.33f), tmp = s2 / (s2 + 0.09f);
+    if (b->fast_approx)
+        return v3_scale(b->reflectance,
+                        OP_INV_PI * wo.z * (c1 + 0.45f * tmp * fmaxf(cos_phi, 0.0f) * sin_a * tan_b));
+    float ti = acosf(fminf(wi.z, 1.0f)), to = acosf(fminf(wo.z, 1.0f));
+    float alpha = fmaxf(ti, to), beta = fminf(ti, to);
+    float tmp2 = 4.0f * OP_INV_PI * OP_INV_PI * alpha * beta, tmp3 = 2.0f * beta * OP_INV_PI;
+    float c2 = 0.45f * tmp * (cos_phi > 0.0f ? sin_a : sin_a - tmp3 * tmp3 * tmp3);
+    float c3 = 0.125f * tmp * tmp2 * tmp2, c4 = 0.17f * s2 / (s2 + 0.13f);
+    float tan_half = (sin_a + sin_b) / (sqrtf(fmaxf(0.0f, 1.0f - sin_a * sin_a)) +
+                                        sqrtf(fmaxf(0.0f, 1.0f - sin_b * sin_b)));
+    float single = c1 + cos_phi * c2 * tan_b + (1.0f - fabsf(cos_phi)) * c3 * tan_half;
+    float twice = c4 * (1.0f - cos_phi * tmp3 * tmp3);
+    op_v3 r = b->reflectance;
+    return v3_scale(v3_add(v3_scale(r, single), v3_scale(v3_mul(r, r), twice)), OP_INV_PI * wo.z);
 }
 
 /* Plastic's weights: probability of choosing the specular lobe. */
@@ -370,6 +545,8 @@ static op_v3 plastic_diffuse(const op_bsdf *b, op_v3 wi, op_v3 wo)
 op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
 {
     *pdf = 0.0f;
+    if (b->type == OP_BSDF_ROUGHDIELECTRIC)
+        return rough_dielectric(b, wi, wo, pdf);
     if (b->twosided && wi.z < 0.0f) {
         wi.z = -wi.z;
         wo.z = -wo.z;
@@ -396,6 +573,11 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
         if (b->alpha <= 0.0f)
             return v3s(0.0f);
         return v3_scale(b->specular, ggx_reflect(wi, wo, b->eta, b->alpha, pdf));
+    case OP_BSDF_ROUGHCONDUCTOR:
+        return rough_conductor(b, wi, wo, pdf);
+    case OP_BSDF_ROUGHDIFFUSE:
+        *pdf = wo.z * OP_INV_PI;
+        return oren_nayar(b, wi, wo);
     case OP_BSDF_THROUGH:
         *pdf = wo.z * OP_INV_PI;
         return v3_scale(v3_mul(b->reflectance, op_bsdf_through_at(b->through, wo.z)),
@@ -425,6 +607,8 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
 {
     int flip = 0;
     memset(s, 0, sizeof *s);
+    if (b->type == OP_BSDF_ROUGHDIELECTRIC)
+        return rough_dielectric_sample(b, wi, u1, u2, u3, s);
     if (b->twosided && wi.z < 0.0f) {
         wi.z = -wi.z;
         flip = 1;
@@ -450,7 +634,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
             float sgn = wi.z >= 0.0f ? 1.0f : -1.0f;
             s->wo = v3(-wi.x / e, -wi.y / e, -sgn * ct);
             /* radiance scaling by 1/e^2 across the interface */
-            s->weight = v3s(1.0f / (e * e));
+            s->weight = v3_scale(b->transmittance, 1.0f / (e * e));
         }
         return 1;
     }
@@ -460,15 +644,25 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         s->wo = v3(-wi.x, -wi.y, wi.z);
         s->delta = 1;
         s->pdf = 1.0f;
-        if (b->mirror)
-            s->weight = b->specular;
-        else
-            s->weight = v3_mul(b->specular,
-                               v3(fresnel_conductor1(wi.z, b->cond_eta.x, b->cond_k.x),
-                                  fresnel_conductor1(wi.z, b->cond_eta.y, b->cond_k.y),
-                                  fresnel_conductor1(wi.z, b->cond_eta.z, b->cond_k.z)));
+        s->weight = v3_mul(b->specular, fresnel_conductor(b, wi.z));
         break;
     }
+    case OP_BSDF_ROUGHCONDUCTOR: {
+        if (wi.z <= 0.0f)
+            return 0;
+        op_v3 m = op_mf_sample(&b->mf, wi, u1, u2);
+        s->wo = v3_sub(v3_scale(m, 2.0f * v3_dot(wi, m)), wi);
+        if (!weigh_sample(b, wi, s))
+            return 0;
+        break;
+    }
+    case OP_BSDF_ROUGHDIFFUSE:
+        if (wi.z <= 0.0f)
+            return 0;
+        s->wo = op_sample_cosine(u1, u2);
+        if (!weigh_sample(b, wi, s))
+            return 0;
+        break;
     case OP_BSDF_PLASTIC: {
         if (wi.z <= 0.0f)
             return 0;
@@ -525,7 +719,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         s->pdf = s->wo.z * OP_INV_PI;
         s->weight = v3_mul(b->reflectance, op_bsdf_through_at(b->through, s->wo.z));
         break;
-    case OP_BSDF_ROUGHDIELECTRIC:
+    case OP_BSDF_ROUGHDIELECTRIC: /* above: both sides, never flipped */
     case OP_BSDF_COATING:
         return 0; /* only as a boundary (op_bsdf_boundary), which scene building enforces */
     }
@@ -564,6 +758,7 @@ op_v3 op_bsdf_albedo(const op_bsdf *b)
 {
     switch (b->type) {
     case OP_BSDF_DIFFUSE:
+    case OP_BSDF_ROUGHDIFFUSE:
     case OP_BSDF_PLASTIC:
     case OP_BSDF_ROUGHPLASTIC:
         return b->reflectance;
@@ -589,7 +784,8 @@ enum { THROUGH_GRID = 48 }; /* lobe samples per axis when tabulating a rough she
 op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr, op_error *err)
 {
     static const char *names[] = {"diffuse", "dielectric", "conductor", "plastic", "roughplastic",
-                                  "roughdielectric", "coating", "sheen", "through"};
+                                  "roughdielectric", "coating", "sheen", "through",
+                                  "roughconductor", "roughdiffuse"};
     int rough = b->type == OP_BSDF_ROUGHPLASTIC || b->type == OP_BSDF_ROUGHDIELECTRIC;
     if (!(rough || b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_PLASTIC ||
           b->type == OP_BSDF_COATING) || b->masked || b->twosided)
@@ -597,6 +793,10 @@ op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr
                             "shape (dielectric, roughdielectric, plastic, roughplastic or coating)",
                             b->masked ? "masked " : (b->twosided ? "twosided " : ""),
                             names[b->type]);
+    if (b->type == OP_BSDF_ROUGHDIELECTRIC &&
+        (b->mf.type != OP_MF_GGX || b->mf.alpha_u != b->mf.alpha_v))
+        op_log(OP_LOG_DEBUG, "roughdielectric: as a translucent shape's boundary its distribution "
+               "is rendered as isotropic ggx of alpha %g", (double)b->alpha);
     op_bsdf_default(sheen);
     sheen->type = OP_BSDF_SHEEN;
     sheen->eta = b->eta;

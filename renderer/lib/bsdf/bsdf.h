@@ -1,10 +1,14 @@
-/* bsdf.h - surface scattering models: diffuse, dielectric, conductor, plastic, roughplastic
- * (GGX), each optionally two-sided, and Mitsuba's `mask` (cut-out opacity) around any of them;
- * and the boundary of a translucent shape (op_bsdf_boundary: the reflection of a dielectric,
- * roughdielectric, plastic, roughplastic or coating whose transmitted part is the subsurface
- * transport, docs/subsurface-rendering.md).
+/* bsdf.h - surface scattering models as Mitsuba 0.6 defines them: diffuse, roughdiffuse
+ * (Oren-Nayar), dielectric, roughdielectric (Walter et al. 2007), conductor, roughconductor
+ * (named conductors: conductor_table.h), plastic, roughplastic (GGX); the rough ones over the
+ * microfacet distributions of microfacet.h. Reflecting models may be two-sided, and Mitsuba's
+ * `mask` (cut-out opacity) goes around any of them. The boundary of a translucent shape
+ * (op_bsdf_boundary) is the reflection of a dielectric, roughdielectric, plastic, roughplastic
+ * or coating whose transmitted part is the subsurface transport (docs/subsurface-rendering.md).
  * All work in the local shading frame (z = normal); wi points away from the surface toward where
- * the light goes (the viewer), wo toward where it comes from. Values returned are f * |cos(wo)|.
+ * the light goes (the viewer), wo toward where it comes from (either side of the surface for
+ * dielectrics). Values returned are f * |cos(wo)|; light refracted into a medium of relative
+ * index eta is radiance, scaled by 1 / eta^2.
  *
  * A mask is not a scattering lobe: the integrator lets a ray pass straight through a masked
  * surface with probability 1 - op_bsdf_opacity_prob() (weight op_bsdf_pass_weight(), not a
@@ -17,6 +21,7 @@
 #include "math/vec.h"
 #include "scene/scene_desc.h"
 #include "bsdf/texture.h"
+#include "bsdf/microfacet.h"
 
 typedef enum op_bsdf_type {
     OP_BSDF_DIFFUSE,
@@ -24,12 +29,15 @@ typedef enum op_bsdf_type {
     OP_BSDF_CONDUCTOR,
     OP_BSDF_PLASTIC,
     OP_BSDF_ROUGHPLASTIC,
-    OP_BSDF_ROUGHDIELECTRIC, /* parsed; rendered only as a translucent shape's boundary */
+    OP_BSDF_ROUGHDIELECTRIC, /* frosted glass (Walter et al. 2007), or a translucent shape's
+                                boundary */
     OP_BSDF_COATING,         /* parsed; rendered only as a translucent shape's boundary */
     OP_BSDF_SHEEN,   /* a boundary's reflection lobe alone: Fresnel reflection of a smooth
                         (alpha 0) or GGX-rough dielectric interface, tinted by specular */
-    OP_BSDF_THROUGH  /* a white Lambertian behind a boundary: f = t(cos wo) / pi (the irradiance
+    OP_BSDF_THROUGH, /* a white Lambertian behind a boundary: f = t(cos wo) / pi (the irradiance
                         that crosses it, op_bsdf_through) */
+    OP_BSDF_ROUGHCONDUCTOR,
+    OP_BSDF_ROUGHDIFFUSE /* Oren-Nayar */
 } op_bsdf_type;
 
 /* What a translucent shape's boundary lets through, per direction: t[k] is the fraction of
@@ -49,11 +57,17 @@ typedef struct op_bsdf {
     op_v3 reflectance;     /* diffuse; the diffuse base of plastics */
     op_texture refl_tex;   /* when set (type != OP_TEX_NONE), reflectance varies over the
                               surface: op_bsdf_at() looks it up */
-    op_v3 specular;        /* specularReflectance (and transmittance of dielectrics) */
+    op_v3 specular;        /* specularReflectance */
+    op_texture spec_tex;   /* conductors: specularReflectance as a texture, like refl_tex */
+    op_v3 transmittance;   /* dielectrics: specularTransmittance */
     float eta;             /* interior / exterior index of refraction */
     op_v3 cond_eta, cond_k;/* conductor: complex index relative to the exterior */
     int mirror;            /* conductor "none": a perfect mirror */
-    float alpha;           /* roughplastic, roughdielectric, sheen: GGX roughness (sheen: 0 smooth) */
+    float alpha;           /* roughplastic, sheen: GGX roughness (sheen: 0 smooth); roughdielectric:
+                              the isotropic GGX roughness it has as a boundary; roughdiffuse:
+                              Oren-Nayar's roughness (sigma sqrt 2) */
+    op_microfacet mf;      /* roughconductor, roughdielectric */
+    int fast_approx;       /* roughdiffuse: Oren-Nayar's qualitative model */
     op_v3 sigma_a;         /* coating: absorption per unit thickness */
     float thickness;       /* coating: layer thickness */
     const op_bsdf_through *through; /* OP_BSDF_THROUGH: the boundary it sits behind */
@@ -88,7 +102,7 @@ void op_bsdf_sheen_standin(const op_bsdf *sheen, op_v3 albedo, op_bsdf *out);
 void op_bsdf_default(op_bsdf *b);
 /* The BSDF at surface coordinates (u, v): b itself when nothing in it is textured, else
  * *scratch, a copy of b with its textures looked up there. Every function below takes the
- * result (a textured b evaluates as its constant reflectance). */
+ * result (a textured b evaluates as its constant reflectances). */
 const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch);
 /* Whether the BSDF has a non-delta component that next-event estimation can evaluate. */
 int op_bsdf_is_smooth_only(const op_bsdf *b);

@@ -112,7 +112,8 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
 static int bsdf_sample_dims(const op_bsdf *b)
 {
     return b->type == OP_BSDF_DIFFUSE || b->type == OP_BSDF_CONDUCTOR ||
-                   b->type == OP_BSDF_THROUGH || b->type == OP_BSDF_SHEEN
+                   b->type == OP_BSDF_THROUGH || b->type == OP_BSDF_SHEEN ||
+                   b->type == OP_BSDF_ROUGHCONDUCTOR || b->type == OP_BSDF_ROUGHDIFFUSE
                ? 2
                : 3;
 }
