@@ -190,7 +190,9 @@ static op_status read_conductor(op_node *node, op_bsdf *b, op_error *err)
 {
     const char *mat;
     double ext_ior = 1.0;
-    GET_OR_FAIL(op_node_string(node, "material", "Cu", &mat, err));
+    /* Mitsuba 3's conductors default to a perfect mirror, 0.6's to copper */
+    GET_OR_FAIL(op_node_string(node, "material",
+                               node->dialect == OP_DIALECT_MITSUBA_3 ? "none" : "Cu", &mat, err));
     GET_OR_FAIL(read_ior(node, "extEta", "air", &ext_ior, err));
     double me[3] = {0, 0, 0}, mk[3] = {1, 1, 1}, e[3], k[3];
     int none = strcasecmp(mat, "none") == 0;

@@ -319,7 +319,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
     GET_OR_FAIL(add_bsdf(b, sss ? NULL : bsdf, &bi, err));
     s->shapes[index].bsdf = bi;
     op_bsdf_type bt = s->bsdfs[bi].type;
-    if (!sss && (bt == OP_BSDF_ROUGHDIELECTRIC || bt == OP_BSDF_COATING))
+    if (!sss && bt == OP_BSDF_COATING)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> is rendered only as the "
                             "surface of a shape with a <subsurface>", bsdf->file, bsdf->line,
                             bsdf->type);
