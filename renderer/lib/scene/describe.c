@@ -420,6 +420,13 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                                 c->file, c->line, c->tag, c->type ? c->type : "");
         }
     }
+    /* the pre-pass finds what the camera sees through a pinhole's rays (sss/prepass.c) */
+    if (d->subsurface_shapes && (d->camera.type == OP_CAMERA_ORTHOGRAPHIC ||
+                                 (d->camera.type == OP_CAMERA_THINLENS && d->camera.aperture > 0)))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"%s\">: translucent shapes "
+                            "(<subsurface>) are rendered through pinhole sensors only "
+                            "(perspective, radiancemeter, thinlens of apertureRadius 0)",
+                            sensor->file, sensor->line, sensor->type);
     return OP_OK;
 }
 
