@@ -104,6 +104,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         e->type = OP_EM_POINT;
         if (strcmp(t, "spot") == 0) {
             e->type = OP_EM_SPOT;
+            if (op_node_child(node, "texture", 0))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: a "
+                                    "projected texture is not supported", node->file, node->line);
             double cutoff, beam, z[3] = {0, 0, 1};
             GET_OR_FAIL(op_node_float(node, "cutoffAngle", 20.0, &cutoff, err));
             if (!(cutoff > 0.0) || cutoff > 90.0) {
@@ -146,6 +149,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
     }
     if (strcmp(t, "directional") == 0) {
         double z[3] = {0, 0, 1}, d[3];
+        if (op_node_has(node, "direction") && op_node_has(node, "toWorld"))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: give "
+                                "direction or toWorld, not both", node->file, node->line);
         op_matrix4_vector(&xf, z, z);
         GET_OR_FAIL(op_node_vec3(node, "direction", z, d, err));
         e->type = OP_EM_DIRECTIONAL;
@@ -153,6 +159,22 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: zero "
                                 "or non-finite direction", node->file, node->line);
         return read_nonneg_color(node, "irradiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "collimated") == 0) {
+        double o[3] = {0, 0, 0}, z[3] = {0, 0, 1};
+        op_matrix4_point(&xf, o, o);
+        op_matrix4_vector(&xf, z, z);
+        e->type = OP_EM_COLLIMATED;
+        e->pos = v3_from_d(o);
+        if (!v3_unit_from_d(z, &e->dir) || !isfinite(e->pos.x) || !isfinite(e->pos.y) ||
+            !isfinite(e->pos.z))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"collimated\">: toWorld "
+                                "is degenerate", node->file, node->line);
+        GET_OR_FAIL(read_nonneg_color(node, "power", 1.0, &e->value, err));
+        op_log(OP_LOG_WARN, "%s:%d: <emitter type=\"collimated\">: a beam along one ray lights "
+               "nothing that path tracing sees (in Mitsuba too: only particle tracing shows it)",
+               node->file, node->line);
+        return OP_OK;
     }
     if (strcmp(t, "constant") == 0) {
         e->type = OP_EM_CONSTANT;
@@ -222,8 +244,8 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         return OP_OK;
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
-                        "(point, spot, area, directional, constant, envmap)", node->file,
-                        node->line, t);
+                        "(point, spot, area, directional, constant, envmap, collimated)",
+                        node->file, node->line, t);
 }
 
 void op_emitter_free(op_emitter *e)
@@ -320,6 +342,7 @@ int op_emitter_sample_dims(const op_emitter *e)
     case OP_EM_POINT:
     case OP_EM_SPOT:
     case OP_EM_DIRECTIONAL:
+    case OP_EM_COLLIMATED:
         return 0;
     case OP_EM_CONSTANT:
     case OP_EM_ENVMAP:
@@ -372,6 +395,8 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
         s->value = v3_scale(e->value, 1.0f / s->pdf);
         return 1;
     }
+    case OP_EM_COLLIMATED: /* a delta in position and direction: no point receives it */
+        return 0;
     case OP_EM_DIRECTIONAL:
         s->wi = v3_neg(e->dir);
         s->dist = INFINITY;
