@@ -226,9 +226,11 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
             st = op_shape_cube(&m, err);
         else if (strcmp(t, "disk") == 0)
             st = op_shape_disk(&m, OP_DISK_SEGMENTS, err);
+        else if (strcmp(t, "cylinder") == 0)
+            st = op_shape_cylinder(&m, OP_CYLINDER_SEGMENTS, err);
         else
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
-                                "(obj, ply, sphere, rectangle, cube, disk)", node->file,
+                                "(obj, ply, sphere, rectangle, cube, disk, cylinder)", node->file,
                                 node->line, t);
         long long n = m.ntris;
         op_trimesh_free(&m);
