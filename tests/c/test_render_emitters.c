@@ -7,6 +7,10 @@
  *   beam's centre shows I / h^2;
  * - collimated: power along one ray lights nothing a path tracer sees (as in Mitsuba), so a
  *   scene's image is the same with or without it;
+ * - sky: the irradiance its tabulated map gives a plane facing up is the model's own, integrated
+ *   numerically over the hemisphere; the sun's position (PSA algorithm) puts it overhead at the
+ *   equator at an equinox's noon and at the tropic at a solstice's, in the east in the morning;
+ *   a sun below the horizon is refused;
  * - refusals: a directional light with both direction and toWorld, a spot with a projected
  *   texture. */
 #include <math.h>
@@ -14,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "light/sky.h"
 #include "opaline_render.h"
 #include "test_support.h"
 
@@ -112,6 +117,65 @@ static void test_collimated(void **state)
         fail_msg("a collimated beam changed the image (rmse %g, mean %g)", diff, mean);
 }
 
+static void test_sun_position(void **state)
+{
+    (void)state;
+    double theta, phi;
+    /* the March 2010 equinox was on the 20th at 17:32 UT: at noon UT over (0, 0) the sun is
+     * within a degree of the declination 0 and of the meridian (equation of time -7 min) */
+    op_sun_position(2010, 3, 20, 12.0, 7.5, 0.0, 0.0, 0.0, 0.0, &theta, &phi);
+    print_message("equinox noon at (0, 0): zenith angle %.3f degrees\n", theta * 180.0 / M_PI);
+    assert_true(theta * 180.0 / M_PI < 1.0);
+    /* the June solstice (21 June 2010, 11:28 UT) at the tropic of Cancer, local noon at
+     * longitude 0 in UTC: overhead; at the equator: 23.44 degrees to the north (azimuth 0) */
+    op_sun_position(2010, 6, 21, 12.0, 1.5, 0.0, 23.44, 0.0, 0.0, &theta, &phi);
+    assert_true(theta * 180.0 / M_PI < 1.0);
+    op_sun_position(2010, 6, 21, 12.0, 1.5, 0.0, 0.0, 0.0, 0.0, &theta, &phi);
+    assert_true(fabs(theta * 180.0 / M_PI - 23.44) < 0.5);
+    assert_true(phi < 0.05 || phi > 2.0 * M_PI - 0.05);
+    /* 8 am at the equinox: 60 degrees from the zenith, in the east (azimuth 90: +x) */
+    op_sun_position(2010, 3, 20, 8.0, 7.5, 0.0, 0.0, 0.0, 0.0, &theta, &phi);
+    assert_true(fabs(theta * 180.0 / M_PI - 60.0) < 1.0 && fabs(phi - 0.5 * M_PI) < 0.02);
+}
+
+static void test_sky(void **state)
+{
+    (void)state;
+    const char *sky = "<emitter type=\"sky\"><float name=\"turbidity\" value=\"4.5\"/>"
+                      "<float name=\"hour\" value=\"10\"/><float name=\"scale\" value=\"2\"/>"
+                      "<transform name=\"toWorld\"><rotate x=\"1\" angle=\"90\"/></transform>"
+                      "</emitter>"; /* the sky's +y up turned to the plane's +z */
+    op_image img = op_test_render_image(plane_scene(sky), 16, 2, 0);
+    double got[3] = {0, 0, 0};
+    for (size_t i = 0; i < (size_t)RES * RES; i++)
+        for (int c = 0; c < 3; c++)
+            got[c] += img.pixels[4 * i + c] * M_PI / ALBEDO / ((double)RES * RES);
+    op_image_free(&img);
+    /* the model itself: Mitsuba's defaults but for turbidity, hour and scale (Tokyo, 10 July
+     * 2010, 10 am), the upper hemisphere's cosine-weighted integral by the midpoint rule */
+    double theta, phi, albedo[3] = {0.2, 0.2, 0.2}, expect[3] = {0, 0, 0};
+    op_sun_position(2010, 7, 10, 10.0, 0.0, 0.0, 35.6894, 139.6917, 9.0, &theta, &phi);
+    op_sky_model m;
+    op_sky_model_init(&m, 4.5, albedo, theta, phi);
+    m.scale = 2.0;
+    const int nt = 600, np = 1200;
+    for (int i = 0; i < nt; i++) {
+        double t = 0.5 * M_PI * (i + 0.5) / nt;
+        for (int j = 0; j < np; j++) {
+            double rgb[3];
+            op_sky_radiance(&m, t, 2.0 * M_PI * (j + 0.5) / np, rgb);
+            for (int c = 0; c < 3; c++)
+                expect[c] += rgb[c] * cos(t) * sin(t) * (0.5 * M_PI / nt) * (2.0 * M_PI / np);
+        }
+    }
+    for (int c = 0; c < 3; c++) {
+        print_message("sky irradiance, channel %d: %.5f (model %.5f)\n", c, got[c], expect[c]);
+        if (!(expect[c] > 0.0) || fabs(got[c] - expect[c]) > 0.005 * expect[c])
+            fail_msg("sky irradiance channel %d: %.5f, the model integrates to %.5f", c, got[c],
+                     expect[c]);
+    }
+}
+
 static void expect_refused(const char *lights, const char *words)
 {
     op_scene *scene = NULL;
@@ -133,6 +197,11 @@ static void test_refusals(void **state)
     expect_refused("<emitter type=\"spot\"><texture type=\"checkerboard\" name=\"texture\"/>"
                    "</emitter>",
                    "projected texture");
+    expect_refused("<emitter type=\"sky\"><float name=\"hour\" value=\"2\"/></emitter>",
+                   "below the horizon");
+    expect_refused("<emitter type=\"sky\"><vector name=\"sunDirection\" value=\"0,1,0\"/>"
+                   "<float name=\"latitude\" value=\"10\"/></emitter>",
+                   "sunDirection or the time and place");
 }
 
 int main(void)
@@ -140,6 +209,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_spot),
         cmocka_unit_test(test_collimated),
+        cmocka_unit_test(test_sun_position),
+        cmocka_unit_test(test_sky),
         cmocka_unit_test(test_refusals),
     };
     return op_test_exit_status(cmocka_run_group_tests(tests, NULL, NULL));

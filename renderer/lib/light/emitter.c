@@ -1,6 +1,8 @@
 /* emitter.c - light sources (see emitter.h). */
 #include "light/emitter.h"
 
+#include "light/sky.h"
+
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -85,6 +87,52 @@ static int cdf_find(const float *cdf, int n, float u, float *frac)
     float d = cdf[lo + 1] - cdf[lo];
     *frac = d > 0.0f ? fminf((u - cdf[lo]) / d, 0x1.fffffep-1f) : 0.5f;
     return lo;
+}
+
+/* Places envmap e (its image read) by toWorld xf with radiance scale `scale`, and builds its
+ * sampling distribution; frees the image on failure. */
+static op_status env_place(const op_node *node, const op_matrix4 *xf, double scale,
+                           op_emitter *e, op_error *err)
+{
+    e->value = v3s((float)scale);
+    /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
+    op_matrix4 inv;
+    if (!op_matrix4_inverse(xf, &inv) || !op_matrix4_is_finite(&inv)) {
+        op_image_free(&e->env);
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: toWorld is "
+                            "singular", node->file, node->line, node->type);
+    }
+    double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
+    op_matrix4_vector(&inv, ex, ex);
+    op_matrix4_vector(&inv, ey, ey);
+    op_matrix4_vector(&inv, ez, ez);
+    /* store columns so that local = (dot(d, s), dot(d, t), dot(d, n)) */
+    e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
+    e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
+    e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
+    double fx[3] = {1, 0, 0}, fy[3] = {0, 1, 0}, fz[3] = {0, 0, 1};
+    op_matrix4_vector(xf, fx, fx);
+    op_matrix4_vector(xf, fy, fy);
+    op_matrix4_vector(xf, fz, fz);
+    e->env_to_world.s = v3_from_d(fx);
+    e->env_to_world.t = v3_from_d(fy);
+    e->env_to_world.n = v3_from_d(fz);
+    const op_v3 *axes[6] = {&e->frame.s, &e->frame.t, &e->frame.n, &e->env_to_world.s,
+                            &e->env_to_world.t, &e->env_to_world.n};
+    for (int k = 0; k < 6; k++) {
+        float len = v3_len(*axes[k]);
+        if (!(len > 0.0f) || !isfinite(len)) {
+            op_image_free(&e->env);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: "
+                                "toWorld's rotation is degenerate in single precision",
+                                node->file, node->line, node->type);
+        }
+    }
+    if (env_build_distribution(e) != 0) {
+        op_emitter_free(e);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    return OP_OK;
 }
 
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, const char *base_dir,
@@ -176,6 +224,12 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
                node->file, node->line);
         return OP_OK;
     }
+    if (strcmp(t, "sky") == 0) {
+        e->type = OP_EM_ENVMAP;
+        op_sky_model sky;
+        GET_OR_FAIL(op_sky_build(node, &xf, max_pixels, &sky, &e->env, err));
+        return env_place(node, &xf, 1.0, e, err);
+    }
     if (strcmp(t, "constant") == 0) {
         e->type = OP_EM_CONSTANT;
         return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
@@ -203,48 +257,10 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: envmap %s: needs an RGB image",
                                 node->file, node->line, path);
         }
-        e->value = v3s((float)scale);
-        /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
-        op_matrix4 inv;
-        if (!op_matrix4_inverse(&xf, &inv) || !op_matrix4_is_finite(&inv)) {
-            op_image_free(&e->env);
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: toWorld is "
-                                "singular", node->file, node->line);
-        }
-        double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
-        op_matrix4_vector(&inv, ex, ex);
-        op_matrix4_vector(&inv, ey, ey);
-        op_matrix4_vector(&inv, ez, ez);
-        /* store columns so that local = (dot(d, s), dot(d, t), dot(d, n)) */
-        e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
-        e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
-        e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
-        double fx[3] = {1, 0, 0}, fy[3] = {0, 1, 0}, fz[3] = {0, 0, 1};
-        op_matrix4_vector(&xf, fx, fx);
-        op_matrix4_vector(&xf, fy, fy);
-        op_matrix4_vector(&xf, fz, fz);
-        e->env_to_world.s = v3_from_d(fx);
-        e->env_to_world.t = v3_from_d(fy);
-        e->env_to_world.n = v3_from_d(fz);
-        const op_v3 *axes[6] = {&e->frame.s, &e->frame.t, &e->frame.n, &e->env_to_world.s,
-                                &e->env_to_world.t, &e->env_to_world.n};
-        for (int k = 0; k < 6; k++) {
-            float len = v3_len(*axes[k]);
-            if (!(len > 0.0f) || !isfinite(len)) {
-                op_image_free(&e->env);
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: "
-                                    "toWorld's rotation is degenerate in single precision",
-                                    node->file, node->line);
-            }
-        }
-        if (env_build_distribution(e) != 0) {
-            op_emitter_free(e);
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        }
-        return OP_OK;
+        return env_place(node, &xf, scale, e, err);
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
-                        "(point, spot, area, directional, constant, envmap, collimated)",
+                        "(point, spot, area, directional, constant, envmap, sky, collimated)",
                         node->file, node->line, t);
 }
 

@@ -1,6 +1,7 @@
 /* emitter.h - light sources: point, spot (Mitsuba's linear falloff in angle from beamWidth to
  * cutoffAngle), area (on a shape, emitting from its front side), directional, constant,
- * envmap (a lat-long OpenEXR/PNG image in Mitsuba's orientation: +y up) and collimated
+ * envmap (a lat-long OpenEXR/PNG image in Mitsuba's orientation: +y up), sky (Mitsuba's
+ * Hosek-Wilkie sky, light/sky.h, tabulated into an envmap when built) and collimated
  * (Mitsuba's beam: power along one ray, a delta in position and direction, so that no surface
  * point can sample it nor any path hit it: it lights nothing a path tracer sees, as in
  * Mitsuba, where only particle tracing shows it). */
