@@ -11,8 +11,11 @@
  *   numerically over the hemisphere; the sun's position (PSA algorithm) puts it overhead at the
  *   equator at an equinox's noon and at the tropic at a solstice's, in the east in the morning;
  *   a sun below the horizon is refused;
+ * - projector (Mitsuba 3's, constant irradiance): a plane facing it at distance z receives
+ *   pi scale irradiance / z^2 over the frustum's square footprint 2 z tan(fov / 2) wide, nothing
+ *   outside;
  * - refusals: a directional light with both direction and toWorld, a spot with a projected
- *   texture. */
+ *   texture, a projector with a textured irradiance. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -176,6 +179,32 @@ static void test_sky(void **state)
     }
 }
 
+static void test_projector(void **state)
+{
+    (void)state;
+    const double z = 1.5, half = z * tan(20.0 * M_PI / 180.0), irr = 0.8, scale = 1.25;
+    char light[1024];
+    snprintf(light, sizeof light,
+             "<emitter type=\"projector\"><float name=\"fov\" value=\"40\"/>"
+             "<rgb name=\"irradiance\" value=\"%g\"/><float name=\"scale\" value=\"%g\"/>"
+             "<transform name=\"toWorld\"><lookat origin=\"0.2,0,%g\" target=\"0.2,0,0\" "
+             "up=\"0,1,0\"/></transform></emitter>",
+             irr, scale, z);
+    op_image img = op_test_render_image(plane_scene(light), 16, 2, 0);
+    double lit = ALBEDO * scale * irr / (z * z); /* rho / pi * pi scale E / z^2 */
+    double mean = image_mean(&img), expect = lit * (2.0 * half) * (2.0 * half) / 4.0;
+    /* the footprint's centre (0.2, 0) is column 38, row 32 (x to the right, y up) */
+    double centre = img.pixels[4 * ((size_t)32 * RES + 38)];
+    double corner = img.pixels[4 * ((size_t)2 * RES + 2)];
+    op_image_free(&img);
+    print_message("projector: mean %.5f (expected %.5f), centre %.6f (expected %.6f)\n", mean,
+                  expect, centre, lit);
+    if (fabs(centre - lit) > 1e-5 * lit || corner != 0.0)
+        fail_msg("projector: %g inside (expected %g), %g outside", centre, lit, corner);
+    if (fabs(mean - expect) > 0.01 * expect)
+        fail_msg("projector: image mean %.5f, expected %.5f from the footprint", mean, expect);
+}
+
 static void expect_refused(const char *lights, const char *words)
 {
     op_scene *scene = NULL;
@@ -197,6 +226,9 @@ static void test_refusals(void **state)
     expect_refused("<emitter type=\"spot\"><texture type=\"checkerboard\" name=\"texture\"/>"
                    "</emitter>",
                    "projected texture");
+    expect_refused("<emitter type=\"projector\"><texture type=\"bitmap\" "
+                   "name=\"irradiance\"/></emitter>",
+                   "textured irradiance");
     expect_refused("<emitter type=\"sky\"><float name=\"hour\" value=\"2\"/></emitter>",
                    "below the horizon");
     expect_refused("<emitter type=\"sky\"><vector name=\"sunDirection\" value=\"0,1,0\"/>"
@@ -211,6 +243,7 @@ int main(void)
         cmocka_unit_test(test_collimated),
         cmocka_unit_test(test_sun_position),
         cmocka_unit_test(test_sky),
+        cmocka_unit_test(test_projector),
         cmocka_unit_test(test_refusals),
     };
     return op_test_exit_status(cmocka_run_group_tests(tests, NULL, NULL));

@@ -13,7 +13,7 @@ double op_camera_fov_from_focal_length(double mm, int width, int height)
 }
 
 /* Mitsuba's focalLength: "<x>mm" or "<x>", x > 0 millimetres. */
-static op_status parse_focal_length(const op_node *sensor, const char *s, double *mm,
+static op_status parse_focal_length(const op_node *node, const char *s, double *mm,
                                     op_error *err)
 {
     char buf[64];
@@ -28,15 +28,16 @@ static op_status parse_focal_length(const op_node *sensor, const char *s, double
         v = strtod(buf, &end);
     }
     if (!end || *end != '\0' || !(v > 0.0) || !isfinite(v))
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: focalLength \"%s\" is not a "
-                            "positive length of the form <x>mm", sensor->file, sensor->line, s);
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s>: focalLength \"%s\" is not a "
+                            "positive length of the form <x>mm", node->file, node->line,
+                            node->tag, s);
     *mm = v;
     return OP_OK;
 }
 
 /* The half extents (*tx, *ty) at distance 1 of a perspective image plane of w x h pixels whose
  * field of view is fov degrees along axis (x, y, diagonal, smaller or larger). */
-static op_status fov_extents(const op_node *sensor, double fov, const char *axis, double w,
+static op_status fov_extents(const op_node *node, double fov, const char *axis, double w,
                              double h, double *tx, double *ty, op_error *err)
 {
     double t = tan(fov * 0.5 * M_PI / 180.0);
@@ -53,41 +54,39 @@ static op_status fov_extents(const op_node *sensor, double fov, const char *axis
         *tx = t * w / d;
         *ty = t * h / d;
     } else {
-        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: fovAxis \"%s\" is not x, y, "
-                            "diagonal, smaller or larger", sensor->file, sensor->line, axis);
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s>: fovAxis \"%s\" is not x, y, "
+                            "diagonal, smaller or larger", node->file, node->line, node->tag,
+                            axis);
     }
     return OP_OK;
 }
 
-/* fov/fovAxis or focalLength of a perspective or thin-lens sensor into cam->tan_x, tan_y. */
-static op_status read_fov(op_node *sensor, op_camera *cam, op_error *err)
+op_status op_camera_read_fov(op_node *node, int width, int height, double *tan_x, double *tan_y,
+                             op_error *err)
 {
-    double fov = 45.0, tx = 0.0, ty = 0.0;
+    double fov = 45.0;
     const char *axis = "x", *focal = NULL;
-    if (sensor) {
-        GET_OR_FAIL(op_node_string(sensor, "focalLength", NULL, &focal, err));
-        if (focal && op_node_has(sensor, "fov"))
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: give either fov or "
-                                "focalLength, not both", sensor->file, sensor->line);
+    if (node) {
+        GET_OR_FAIL(op_node_string(node, "focalLength", NULL, &focal, err));
+        if (focal && op_node_has(node, "fov"))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s>: give either fov or "
+                                "focalLength, not both", node->file, node->line, node->tag);
         if (focal) {
             double mm;
-            GET_OR_FAIL(parse_focal_length(sensor, focal, &mm, err));
-            fov = op_camera_fov_from_focal_length(mm, cam->full_width, cam->full_height);
+            GET_OR_FAIL(parse_focal_length(node, focal, &mm, err));
+            fov = op_camera_fov_from_focal_length(mm, width, height);
         } else {
-            GET_OR_FAIL(op_node_float(sensor, "fov", 45.0, &fov, err));
+            GET_OR_FAIL(op_node_float(node, "fov", 45.0, &fov, err));
         }
         const char *given_axis; /* read (so not reported unused) but only a fov's axis */
-        GET_OR_FAIL(op_node_string(sensor, "fovAxis", "x", &given_axis, err));
+        GET_OR_FAIL(op_node_string(node, "fovAxis", "x", &given_axis, err));
         if (!focal)
             axis = given_axis;
         if (!(fov > 0.0 && fov < 180.0))
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: fov %g is not in (0, 180) "
-                                "degrees", sensor->file, sensor->line, fov);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s>: fov %g is not in (0, 180) "
+                                "degrees", node->file, node->line, node->tag, fov);
     }
-    GET_OR_FAIL(fov_extents(sensor, fov, axis, cam->full_width, cam->full_height, &tx, &ty, err));
-    cam->tan_x = (float)tx;
-    cam->tan_y = (float)ty;
-    return OP_OK;
+    return fov_extents(node, fov, axis, width, height, tan_x, tan_y, err);
 }
 
 static op_status read_clip(op_node *sensor, op_camera *cam, op_error *err)
@@ -152,8 +151,12 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
                             sensor->file, sensor->line, t);
     if (sensor)
         sensor->used = 1;
-    if (cam->type == OP_CAMERA_PERSPECTIVE || cam->type == OP_CAMERA_THINLENS)
-        GET_OR_FAIL(read_fov(sensor, cam, err));
+    if (cam->type == OP_CAMERA_PERSPECTIVE || cam->type == OP_CAMERA_THINLENS) {
+        double tx, ty;
+        GET_OR_FAIL(op_camera_read_fov(sensor, full_width, full_height, &tx, &ty, err));
+        cam->tan_x = (float)tx;
+        cam->tan_y = (float)ty;
+    }
     if (cam->type != OP_CAMERA_RADIANCEMETER) {
         GET_OR_FAIL(read_clip(sensor, cam, err));
     } else {

@@ -38,6 +38,12 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
  * field of view spans the image's diagonal (Mitsuba's focalLength). */
 double op_camera_fov_from_focal_length(double mm, int width, int height);
 
+/* The half extents at distance 1 (*tan_x, *tan_y) of an image plane of width x height pixels
+ * that node's fov (along fovAxis) or focalLength gives; node NULL: the default, fov 45 along x.
+ * The perspective and thin-lens sensors' and the projector emitter's. */
+op_status op_camera_read_fov(op_node *node, int width, int height, double *tan_x, double *tan_y,
+                             op_error *err);
+
 /* How many numbers op_camera_ray_lens reads from (lens_u, lens_v): 2 for a thin lens, else 0. */
 int op_camera_lens_dims(const op_camera *cam);
 

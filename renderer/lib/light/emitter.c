@@ -1,6 +1,7 @@
 /* emitter.c - light sources (see emitter.h). */
 #include "light/emitter.h"
 
+#include "camera/camera.h"
 #include "light/sky.h"
 
 #include <limits.h>
@@ -224,6 +225,37 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
                node->file, node->line);
         return OP_OK;
     }
+    if (strcmp(t, "projector") == 0) {
+        if (op_node_child(node, "texture", 0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: a "
+                                "textured irradiance is not supported (a constant one is)",
+                                node->file, node->line);
+        double o[3] = {0, 0, 0}, ax[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, tx, ty, scale;
+        op_v3 axis[3];
+        op_matrix4_point(&xf, o, o);
+        for (int k = 0; k < 3; k++) {
+            op_matrix4_vector(&xf, ax[k], ax[k]);
+            if (!v3_unit_from_d(ax[k], &axis[k]))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: "
+                                    "toWorld is degenerate", node->file, node->line);
+        }
+        /* a constant irradiance is a 1 x 1 image: a square frustum */
+        GET_OR_FAIL(op_camera_read_fov(node, 1, 1, &tx, &ty, err));
+        GET_OR_FAIL(op_node_float(node, "scale", 1.0, &scale, err));
+        if (!(scale >= 0.0) || !isfinite(scale))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: scale "
+                                "must be finite and >= 0", node->file, node->line);
+        GET_OR_FAIL(read_nonneg_color(node, "irradiance", 1.0, &e->value, err));
+        e->type = OP_EM_PROJECTOR;
+        e->pos = v3_from_d(o);
+        e->frame.s = axis[0];
+        e->frame.t = axis[1];
+        e->frame.n = axis[2];
+        e->tan_x = (float)tx;
+        e->tan_y = (float)ty;
+        e->value = v3_scale(e->value, (float)(M_PI * scale));
+        return OP_OK;
+    }
     if (strcmp(t, "sky") == 0) {
         e->type = OP_EM_ENVMAP;
         op_sky_model sky;
@@ -260,7 +292,8 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape, con
         return env_place(node, &xf, scale, e, err);
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
-                        "(point, spot, area, directional, constant, envmap, sky, collimated)",
+                        "(point, spot, area, directional, constant, envmap, sky, collimated, "
+                        "projector)",
                         node->file, node->line, t);
 }
 
@@ -359,6 +392,7 @@ int op_emitter_sample_dims(const op_emitter *e)
     case OP_EM_SPOT:
     case OP_EM_DIRECTIONAL:
     case OP_EM_COLLIMATED:
+    case OP_EM_PROJECTOR:
         return 0;
     case OP_EM_CONSTANT:
     case OP_EM_ENVMAP:
@@ -413,6 +447,19 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
     }
     case OP_EM_COLLIMATED: /* a delta in position and direction: no point receives it */
         return 0;
+    case OP_EM_PROJECTOR: {
+        op_v3 d = v3_sub(p, e->pos), local = op_frame_to_local(&e->frame, d);
+        if (!(local.z > 0.0f) || fabsf(local.x) > e->tan_x * local.z ||
+            fabsf(local.y) > e->tan_y * local.z)
+            return 0;
+        float dist = v3_len(d);
+        s->dist = dist;
+        s->wi = v3_scale(d, -1.0f / dist);
+        s->pdf = 0.0f;
+        /* pi scale irradiance / (z^2 cos): a plane facing it at z = 1 receives pi scale E */
+        s->value = v3_scale(e->value, dist / (local.z * local.z * local.z));
+        return !v3_is_black(s->value);
+    }
     case OP_EM_DIRECTIONAL:
         s->wi = v3_neg(e->dir);
         s->dist = INFINITY;

@@ -21,15 +21,19 @@ typedef enum op_emitter_type {
     OP_EM_DIRECTIONAL,
     OP_EM_CONSTANT,
     OP_EM_ENVMAP,
-    OP_EM_COLLIMATED
+    OP_EM_COLLIMATED,
+    OP_EM_PROJECTOR
 } op_emitter_type;
 
 typedef struct op_emitter {
     op_emitter_type type;
-    op_v3 pos;              /* point, spot, collimated */
+    op_v3 pos;              /* point, spot, collimated, projector */
     op_v3 value;            /* intensity (point, spot), radiance (area, constant), irradiance
-                               (directional), scale (envmap), power (collimated) */
-    op_frame frame;         /* spot: n is the beam axis; envmap: world-to-map rotation rows */
+                               (directional), scale (envmap), power (collimated), pi scale
+                               irradiance (projector) */
+    op_frame frame;         /* spot: n is the beam axis; envmap: world-to-map rotation rows;
+                               projector: its unit camera axes (s = +X, t = +Y, n = +Z) */
+    float tan_x, tan_y;     /* projector: half extents of its image plane at distance 1 */
     float cos_cutoff, cos_beam, cutoff, beam;
     const op_trimesh *mesh; /* area: the shape's mesh (owned by the scene) */
     int shape;              /* area: the shape's index */
@@ -58,7 +62,7 @@ void op_emitter_free(op_emitter *e);
 int op_emitter_is_env(const op_emitter *e);
 
 /* How many of op_emitter_sample's u1, u2, u3 the emitter reads (in that order): 0 for point,
- * spot, directional and collimated lights, 2 for constant and envmap, 3 for area. */
+ * spot, directional, collimated and projector lights, 2 for constant and envmap, 3 for area. */
 int op_emitter_sample_dims(const op_emitter *e);
 /* Samples a direction from p toward the emitter; returns 0 when it contributes nothing. */
 int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,

@@ -86,7 +86,8 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_emitter *e = &s->emitters[s->nemitters];
     op_status st = op_emitter_build(node, mesh, shape, b->dir, b->lim->image_pixels, e, err);
-    if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT))
+    if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT ||
+                        e->type == OP_EM_COLLIMATED || e->type == OP_EM_PROJECTOR))
         st = op_limit_position(b->lim, node, "the light's position", e->pos, err);
     if (st) {
         op_emitter_free(e);
