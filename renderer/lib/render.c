@@ -236,10 +236,13 @@ static void render_tile(void *user, int task, int thread)
                 float u[2], dx, dy;
                 op_path_sample(&ps, OP_DIM_PIXEL, 2, u);
                 op_film_sample_offset(film, u[0], u[1], &dx, &dy);
+                float lens[2] = {0.5f, 0.5f};
+                if (op_camera_lens_dims(&s->camera))
+                    op_path_sample(&ps, OP_DIM_LENS, 2, lens);
                 op_v3 org, dir;
                 float tmin, tmax, alpha;
-                op_camera_ray(&s->camera, (float)fx + 0.5f + dx, (float)fy + 0.5f + dy, &org, &dir,
-                              &tmin, &tmax);
+                op_camera_ray_lens(&s->camera, (float)fx + 0.5f + dx, (float)fy + 0.5f + dy,
+                                   lens[0], lens[1], &org, &dir, &tmin, &tmax);
                 op_v3 L = op_li(&job->ctx, org, dir, tmin, tmax, &ps, &alpha);
                 if (!isfinite(L.x) || !isfinite(L.y) || !isfinite(L.z))
                     continue; /* a numerically broken path: dropped (counts as black) */

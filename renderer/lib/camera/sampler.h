@@ -41,11 +41,13 @@ typedef struct op_sampler {
 op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
 
 /* Dimension keys of the integrator's layout: the pixel position (filter offset, 2 numbers),
+ * the lens position (a thin lens's aperture, 2 numbers, drawn only by cameras with an aperture),
  * then per path vertex `depth` (0 = the camera ray's hit) the light sample of emitter `sub`
  * (as many as the emitter reads: position 2, then the triangle of an area light 1), the BSDF
  * sample (direction 2, then the lobe choice 1 where there is one) and Russian roulette (1). */
 enum { OP_DIM_LIGHT = 1, OP_DIM_BSDF = 2, OP_DIM_RR = 3 };
 #define OP_DIM_PIXEL 0u
+#define OP_DIM_LENS 1u
 #define OP_DIM(depth, kind, sub) \
     (((uint32_t)(depth) + 1u) << 20 | (uint32_t)(kind) << 16 | ((uint32_t)(sub) & 0xffffu))
 

@@ -266,3 +266,58 @@ op_status op_shape_disk(op_trimesh *m, int segments, op_error *err)
     }
     return OP_OK;
 }
+
+op_status op_shape_cylinder(op_trimesh *m, int segments, op_error *err)
+{
+    op_status st = op_trimesh_alloc(m, 2 * (segments + 1), 2 * segments, 1, 1, err);
+    if (st)
+        return st;
+    for (int i = 0; i <= segments; i++) {
+        double phi = 2.0 * M_PI * i / segments;
+        float c = (float)cos(phi), s = (float)sin(phi);
+        for (int j = 0; j < 2; j++) {
+            int k = 2 * i + j;
+            m->pos[3 * k] = m->nrm[3 * k] = c;
+            m->pos[3 * k + 1] = m->nrm[3 * k + 1] = s;
+            m->pos[3 * k + 2] = (float)j;
+            m->uv[2 * k] = (float)i / segments;
+            m->uv[2 * k + 1] = (float)j;
+        }
+    }
+    for (int i = 0; i < segments; i++) {
+        uint32_t a = 2 * i, b = a + 1, c = a + 2, d = a + 3; /* a, c at z = 0; b, d at z = 1 */
+        uint32_t tri[6] = {a, c, d, a, d, b};                /* counter-clockwise from outside */
+        memcpy(m->idx + 6 * i, tri, sizeof tri);
+    }
+    return OP_OK;
+}
+
+op_status op_cylinder_placement(const double p0[3], const double p1[3], double radius,
+                                op_matrix4 *out, op_error *err)
+{
+    double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(len > 0.0) || !isfinite(len) || !(radius > 0.0) || !isfinite(radius))
+        return op_error_set(err, OP_ERR_INPUT, "a cylinder needs p0 != p1 and a radius > 0, all "
+                            "finite (length %g, radius %g)", len, radius);
+    double n[3] = {d[0] / len, d[1] / len, d[2] / len}, s[3], t[3];
+    /* Mitsuba's coordinateSystem(n): t first, then s = t x n */
+    if (fabs(n[0]) > fabs(n[1])) {
+        double inv = 1.0 / sqrt(n[0] * n[0] + n[2] * n[2]);
+        t[0] = n[2] * inv, t[1] = 0.0, t[2] = -n[0] * inv;
+    } else {
+        double inv = 1.0 / sqrt(n[1] * n[1] + n[2] * n[2]);
+        t[0] = 0.0, t[1] = n[2] * inv, t[2] = -n[1] * inv;
+    }
+    s[0] = t[1] * n[2] - t[2] * n[1];
+    s[1] = t[2] * n[0] - t[0] * n[2];
+    s[2] = t[0] * n[1] - t[1] * n[0];
+    *out = op_matrix4_identity();
+    for (int r = 0; r < 3; r++) {
+        out->m[r][0] = s[r] * radius;
+        out->m[r][1] = t[r] * radius;
+        out->m[r][2] = n[r] * len;
+        out->m[r][3] = p0[r];
+    }
+    return OP_OK;
+}

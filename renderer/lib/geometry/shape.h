@@ -77,11 +77,18 @@ int op_trimesh_pick(const op_trimesh *m, float u);
 
 /* Procedural shapes in object space (Mitsuba's conventions): a sphere of radius 1 about the
  * origin with u = phi / 2pi and v = theta / pi; the rectangle [-1,1]^2 in z = 0 with normal +z;
- * the cube [-1,1]^3; the unit disk in z = 0 with normal +z. */
+ * the cube [-1,1]^3; the unit disk in z = 0 with normal +z; the open tube of radius 1 from
+ * z = 0 to z = 1 (no caps) with outward normals, u = phi / 2pi and v = z. */
 op_status op_shape_sphere(op_trimesh *m, int segments, op_error *err);
 op_status op_shape_rectangle(op_trimesh *m, op_error *err);
 op_status op_shape_cube(op_trimesh *m, op_error *err);
 op_status op_shape_disk(op_trimesh *m, int segments, op_error *err);
+op_status op_shape_cylinder(op_trimesh *m, int segments, op_error *err);
+/* The object-to-world placement (before toWorld) of Mitsuba's cylinder from p0 to p1 of the
+ * given radius: the unit tube's z axis along p1 - p0, in the frame Mitsuba builds around it.
+ * Fails when p0 = p1 or the radius is not positive and finite. */
+op_status op_cylinder_placement(const double p0[3], const double p1[3], double radius,
+                                op_matrix4 *out, op_error *err);
 
 /* A loaded mesh file kept in object space so that several shapes can share one load. */
 typedef struct op_mesh_cache op_mesh_cache;

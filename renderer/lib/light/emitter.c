@@ -1,6 +1,9 @@
 /* emitter.c - light sources (see emitter.h). */
 #include "light/emitter.h"
 
+#include "camera/camera.h"
+#include "light/sky.h"
+
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -87,6 +90,52 @@ static int cdf_find(const float *cdf, int n, float u, float *frac)
     return lo;
 }
 
+/* Places envmap e (its image read) by toWorld xf with radiance scale `scale`, and builds its
+ * sampling distribution; frees the image on failure. */
+static op_status env_place(const op_node *node, const op_matrix4 *xf, double scale,
+                           op_emitter *e, op_error *err)
+{
+    e->value = v3s((float)scale);
+    /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
+    op_matrix4 inv;
+    if (!op_matrix4_inverse(xf, &inv) || !op_matrix4_is_finite(&inv)) {
+        op_image_free(&e->env);
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: toWorld is "
+                            "singular", node->file, node->line, node->type);
+    }
+    double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
+    op_matrix4_vector(&inv, ex, ex);
+    op_matrix4_vector(&inv, ey, ey);
+    op_matrix4_vector(&inv, ez, ez);
+    /* store columns so that local = (dot(d, s), dot(d, t), dot(d, n)) */
+    e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
+    e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
+    e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
+    double fx[3] = {1, 0, 0}, fy[3] = {0, 1, 0}, fz[3] = {0, 0, 1};
+    op_matrix4_vector(xf, fx, fx);
+    op_matrix4_vector(xf, fy, fy);
+    op_matrix4_vector(xf, fz, fz);
+    e->env_to_world.s = v3_from_d(fx);
+    e->env_to_world.t = v3_from_d(fy);
+    e->env_to_world.n = v3_from_d(fz);
+    const op_v3 *axes[6] = {&e->frame.s, &e->frame.t, &e->frame.n, &e->env_to_world.s,
+                            &e->env_to_world.t, &e->env_to_world.n};
+    for (int k = 0; k < 6; k++) {
+        float len = v3_len(*axes[k]);
+        if (!(len > 0.0f) || !isfinite(len)) {
+            op_image_free(&e->env);
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: "
+                                "toWorld's rotation is degenerate in single precision",
+                                node->file, node->line, node->type);
+        }
+    }
+    if (env_build_distribution(e) != 0) {
+        op_emitter_free(e);
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    }
+    return OP_OK;
+}
+
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
                            long long max_pixels, op_emitter *e, op_error *err)
 {
@@ -104,6 +153,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         e->type = OP_EM_POINT;
         if (strcmp(t, "spot") == 0) {
             e->type = OP_EM_SPOT;
+            if (op_node_child(node, "texture", 0))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: a "
+                                    "projected texture is not supported", node->file, node->line);
             double cutoff, beam, z[3] = {0, 0, 1};
             GET_OR_FAIL(op_node_float(node, "cutoffAngle", 20.0, &cutoff, err));
             if (!(cutoff > 0.0) || cutoff > 90.0) {
@@ -146,6 +198,9 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
     }
     if (strcmp(t, "directional") == 0) {
         double z[3] = {0, 0, 1}, d[3];
+        if (op_node_has(node, "direction") && op_node_has(node, "toWorld"))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: give "
+                                "direction or toWorld, not both", node->file, node->line);
         op_matrix4_vector(&xf, z, z);
         GET_OR_FAIL(op_node_vec3(node, "direction", z, d, err));
         e->type = OP_EM_DIRECTIONAL;
@@ -153,6 +208,59 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"directional\">: zero "
                                 "or non-finite direction", node->file, node->line);
         return read_nonneg_color(node, "irradiance", 1.0, &e->value, err);
+    }
+    if (strcmp(t, "collimated") == 0) {
+        double o[3] = {0, 0, 0}, z[3] = {0, 0, 1};
+        op_matrix4_point(&xf, o, o);
+        op_matrix4_vector(&xf, z, z);
+        e->type = OP_EM_COLLIMATED;
+        e->pos = v3_from_d(o);
+        if (!v3_unit_from_d(z, &e->dir) || !isfinite(e->pos.x) || !isfinite(e->pos.y) ||
+            !isfinite(e->pos.z))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"collimated\">: toWorld "
+                                "is degenerate", node->file, node->line);
+        GET_OR_FAIL(read_nonneg_color(node, "power", 1.0, &e->value, err));
+        op_log(OP_LOG_WARN, "%s:%d: <emitter type=\"collimated\">: a beam along one ray lights "
+               "nothing that path tracing sees (in Mitsuba too: only particle tracing shows it)",
+               node->file, node->line);
+        return OP_OK;
+    }
+    if (strcmp(t, "projector") == 0) {
+        if (op_node_child(node, "texture", 0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: a "
+                                "textured irradiance is not supported (a constant one is)",
+                                node->file, node->line);
+        double o[3] = {0, 0, 0}, ax[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, tx, ty, scale;
+        op_v3 axis[3];
+        op_matrix4_point(&xf, o, o);
+        for (int k = 0; k < 3; k++) {
+            op_matrix4_vector(&xf, ax[k], ax[k]);
+            if (!v3_unit_from_d(ax[k], &axis[k]))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: "
+                                    "toWorld is degenerate", node->file, node->line);
+        }
+        /* a constant irradiance is a 1 x 1 image: a square frustum */
+        GET_OR_FAIL(op_camera_read_fov(node, 1, 1, &tx, &ty, err));
+        GET_OR_FAIL(op_node_float(node, "scale", 1.0, &scale, err));
+        if (!(scale >= 0.0) || !isfinite(scale))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: scale "
+                                "must be finite and >= 0", node->file, node->line);
+        GET_OR_FAIL(read_nonneg_color(node, "irradiance", 1.0, &e->value, err));
+        e->type = OP_EM_PROJECTOR;
+        e->pos = v3_from_d(o);
+        e->frame.s = axis[0];
+        e->frame.t = axis[1];
+        e->frame.n = axis[2];
+        e->tan_x = (float)tx;
+        e->tan_y = (float)ty;
+        e->value = v3_scale(e->value, (float)(M_PI * scale));
+        return OP_OK;
+    }
+    if (strcmp(t, "sky") == 0) {
+        e->type = OP_EM_ENVMAP;
+        op_sky_model sky;
+        GET_OR_FAIL(op_sky_build(node, &xf, max_pixels, &sky, &e->env, err));
+        return env_place(node, &xf, 1.0, e, err);
     }
     if (strcmp(t, "constant") == 0) {
         e->type = OP_EM_CONSTANT;
@@ -179,49 +287,12 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         if (st)
             return op_error_prefix(err, "%s:%d: <emitter type=\"envmap\">: ", node->file,
                                    node->line);
-        e->value = v3s((float)scale);
-        /* rows of the world-to-map rotation: the inverse of toWorld's rotation */
-        op_matrix4 inv;
-        if (!op_matrix4_inverse(&xf, &inv) || !op_matrix4_is_finite(&inv)) {
-            op_image_free(&e->env);
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: toWorld is "
-                                "singular", node->file, node->line);
-        }
-        double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
-        op_matrix4_vector(&inv, ex, ex);
-        op_matrix4_vector(&inv, ey, ey);
-        op_matrix4_vector(&inv, ez, ez);
-        /* store columns so that local = (dot(d, s), dot(d, t), dot(d, n)) */
-        e->frame.s = v3((float)ex[0], (float)ey[0], (float)ez[0]);
-        e->frame.t = v3((float)ex[1], (float)ey[1], (float)ez[1]);
-        e->frame.n = v3((float)ex[2], (float)ey[2], (float)ez[2]);
-        double fx[3] = {1, 0, 0}, fy[3] = {0, 1, 0}, fz[3] = {0, 0, 1};
-        op_matrix4_vector(&xf, fx, fx);
-        op_matrix4_vector(&xf, fy, fy);
-        op_matrix4_vector(&xf, fz, fz);
-        e->env_to_world.s = v3_from_d(fx);
-        e->env_to_world.t = v3_from_d(fy);
-        e->env_to_world.n = v3_from_d(fz);
-        const op_v3 *axes[6] = {&e->frame.s, &e->frame.t, &e->frame.n, &e->env_to_world.s,
-                                &e->env_to_world.t, &e->env_to_world.n};
-        for (int k = 0; k < 6; k++) {
-            float len = v3_len(*axes[k]);
-            if (!(len > 0.0f) || !isfinite(len)) {
-                op_image_free(&e->env);
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\">: "
-                                    "toWorld's rotation is degenerate in single precision",
-                                    node->file, node->line);
-            }
-        }
-        if (env_build_distribution(e) != 0) {
-            op_emitter_free(e);
-            return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-        }
-        return OP_OK;
+        return env_place(node, &xf, scale, e, err);
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
-                        "(point, spot, area, directional, constant, envmap)", node->file,
-                        node->line, t);
+                        "(point, spot, area, directional, constant, envmap, sky, collimated, "
+                        "projector)",
+                        node->file, node->line, t);
 }
 
 void op_emitter_free(op_emitter *e)
@@ -318,6 +389,8 @@ int op_emitter_sample_dims(const op_emitter *e)
     case OP_EM_POINT:
     case OP_EM_SPOT:
     case OP_EM_DIRECTIONAL:
+    case OP_EM_COLLIMATED:
+    case OP_EM_PROJECTOR:
         return 0;
     case OP_EM_CONSTANT:
     case OP_EM_ENVMAP:
@@ -369,6 +442,21 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
         s->pdf = dist * dist / (cl * e->mesh->area);
         s->value = v3_scale(e->value, 1.0f / s->pdf);
         return 1;
+    }
+    case OP_EM_COLLIMATED: /* a delta in position and direction: no point receives it */
+        return 0;
+    case OP_EM_PROJECTOR: {
+        op_v3 d = v3_sub(p, e->pos), local = op_frame_to_local(&e->frame, d);
+        if (!(local.z > 0.0f) || fabsf(local.x) > e->tan_x * local.z ||
+            fabsf(local.y) > e->tan_y * local.z)
+            return 0;
+        float dist = v3_len(d);
+        s->dist = dist;
+        s->wi = v3_scale(d, -1.0f / dist);
+        s->pdf = 0.0f;
+        /* pi scale irradiance / (z^2 cos): a plane facing it at z = 1 receives pi scale E */
+        s->value = v3_scale(e->value, dist / (local.z * local.z * local.z));
+        return !v3_is_black(s->value);
     }
     case OP_EM_DIRECTIONAL:
         s->wi = v3_neg(e->dir);

@@ -1,6 +1,10 @@
 /* emitter.h - light sources: point, spot (Mitsuba's linear falloff in angle from beamWidth to
- * cutoffAngle), area (on a shape, emitting from its front side), directional, constant and
- * envmap (a lat-long OpenEXR/PNG image in Mitsuba's orientation: +y up). */
+ * cutoffAngle), area (on a shape, emitting from its front side), directional, constant,
+ * envmap (a lat-long OpenEXR/PNG image in Mitsuba's orientation: +y up), sky (Mitsuba's
+ * Hosek-Wilkie sky, light/sky.h, tabulated into an envmap when built) and collimated
+ * (Mitsuba's beam: power along one ray, a delta in position and direction, so that no surface
+ * point can sample it nor any path hit it: it lights nothing a path tracer sees, as in
+ * Mitsuba, where only particle tracing shows it). */
 #ifndef OP_EMITTER_H
 #define OP_EMITTER_H
 
@@ -16,21 +20,26 @@ typedef enum op_emitter_type {
     OP_EM_AREA,
     OP_EM_DIRECTIONAL,
     OP_EM_CONSTANT,
-    OP_EM_ENVMAP
+    OP_EM_ENVMAP,
+    OP_EM_COLLIMATED,
+    OP_EM_PROJECTOR
 } op_emitter_type;
 
 typedef struct op_emitter {
     op_emitter_type type;
-    op_v3 pos;              /* point, spot */
+    op_v3 pos;              /* point, spot, collimated, projector */
     op_v3 value;            /* intensity (point, spot), radiance (area, constant), irradiance
-                               (directional), scale (envmap) */
-    op_frame frame;         /* spot: n is the beam axis; envmap: world-to-map rotation rows */
+                               (directional), scale (envmap), power (collimated), pi scale
+                               irradiance (projector) */
+    op_frame frame;         /* spot: n is the beam axis; envmap: world-to-map rotation rows;
+                               projector: its unit camera axes (s = +X, t = +Y, n = +Z) */
+    float tan_x, tan_y;     /* projector: half extents of its image plane at distance 1 */
     float cos_cutoff, cos_beam, cutoff, beam;
     const op_trimesh *mesh; /* area: the shape's mesh (owned by the scene) */
     int shape;              /* area: the shape's index */
     int camera_hidden;      /* area: visibleToCamera=false, its emission is not seen by the
                                camera segment of a path (before any bounce) */
-    op_v3 dir;              /* directional: the direction the light travels */
+    op_v3 dir;              /* directional, collimated: the direction the light travels */
     op_image env;           /* envmap */
     op_frame env_to_world;  /* envmap: columns of the map-to-world rotation (toWorld's) */
     float *env_row_cdf;     /* envmap: height + 1 entries, the rows' cumulative weight */
@@ -53,7 +62,7 @@ void op_emitter_free(op_emitter *e);
 int op_emitter_is_env(const op_emitter *e);
 
 /* How many of op_emitter_sample's u1, u2, u3 the emitter reads (in that order): 0 for point,
- * spot and directional lights, 2 for constant and envmap, 3 for area. */
+ * spot, directional, collimated and projector lights, 2 for constant and envmap, 3 for area. */
 int op_emitter_sample_dims(const op_emitter *e);
 /* Samples a direction from p toward the emitter; returns 0 when it contributes nothing. */
 int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3,

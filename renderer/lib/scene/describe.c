@@ -231,9 +231,11 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
             st = op_shape_cube(&m, err);
         else if (strcmp(t, "disk") == 0)
             st = op_shape_disk(&m, OP_DISK_SEGMENTS, err);
+        else if (strcmp(t, "cylinder") == 0)
+            st = op_shape_cylinder(&m, OP_CYLINDER_SEGMENTS, err);
         else
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
-                                "(obj, ply, sphere, rectangle, cube, disk)", node->file,
+                                "(obj, ply, sphere, rectangle, cube, disk, cylinder)", node->file,
                                 node->line, t);
         long long n = m.ntris;
         op_trimesh_free(&m);
@@ -360,6 +362,13 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                                 c->file, c->line, c->tag, c->type ? c->type : "");
         }
     }
+    /* the pre-pass finds what the camera sees through a pinhole's rays (sss/prepass.c) */
+    if (d->subsurface_shapes && (d->camera.type == OP_CAMERA_ORTHOGRAPHIC ||
+                                 (d->camera.type == OP_CAMERA_THINLENS && d->camera.aperture > 0)))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"%s\">: translucent shapes "
+                            "(<subsurface>) are rendered through pinhole sensors only "
+                            "(perspective, radiancemeter, thinlens of apertureRadius 0)",
+                            sensor->file, sensor->line, sensor->type);
     return OP_OK;
 }
 

@@ -10,10 +10,11 @@
 #include "scene/render_scene.h"
 #include "scene/scene_desc.h"
 
-/* The longitude segments of a sphere's tessellation (half as many latitude bands) and the
- * segments of a disk. */
+/* The longitude segments of a sphere's tessellation (half as many latitude bands), the
+ * segments of a disk and those around a cylinder. */
 #define OP_SPHERE_SEGMENTS 128
 #define OP_DISK_SEGMENTS 96
+#define OP_CYLINDER_SEGMENTS 128
 
 struct op_scene_description {
     char *path;               /* the scene file */

@@ -86,7 +86,8 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_emitter *e = &s->emitters[s->nemitters];
     op_status st = op_emitter_build(node, mesh, shape, b->lim->image_pixels, e, err);
-    if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT))
+    if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT ||
+                        e->type == OP_EM_COLLIMATED || e->type == OP_EM_PROJECTOR))
         st = op_limit_position(b->lim, node, "the light's position", e->pos, err);
     if (st) {
         op_emitter_free(e);
@@ -205,6 +206,17 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
         op_matrix4 local = op_matrix4_mul(&tr, &sc);
         xf = op_matrix4_mul(&xf, &local);
     }
+    if (strcmp(t, "cylinder") == 0) {
+        double p0[3], p1[3], zero[3] = {0, 0, 0}, z[3] = {0, 0, 1}, r;
+        op_matrix4 local;
+        GET_OR_FAIL(op_node_vec3(node, "p0", zero, p0, err));
+        GET_OR_FAIL(op_node_vec3(node, "p1", z, p1, err));
+        GET_OR_FAIL(op_node_float(node, "radius", 1.0, &r, err));
+        if (op_cylinder_placement(p0, p1, r, &local, err))
+            return op_error_prefix(err, "%s:%d: <shape type=\"cylinder\">: ", node->file,
+                                   node->line);
+        xf = op_matrix4_mul(&xf, &local);
+    }
     op_status st;
     int face = 0, fliptex = 0;
     char path[4096] = "", key[4200] = "";
@@ -239,9 +251,12 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
         st = op_shape_cube(m, err);
     } else if (strcmp(t, "disk") == 0) {
         st = op_shape_disk(m, OP_DISK_SEGMENTS, err);
+    } else if (strcmp(t, "cylinder") == 0) {
+        st = op_shape_cylinder(m, OP_CYLINDER_SEGMENTS, err);
     } else {
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
-                            "(obj, ply, sphere, rectangle, cube, disk)", node->file, node->line, t);
+                            "(obj, ply, sphere, rectangle, cube, disk, cylinder)", node->file,
+                            node->line, t);
     }
     if (st == OP_OK)
         st = op_limit_add_triangles(b->lim, &b->tally, m->ntris, err);
