@@ -82,7 +82,8 @@ def read(data, index=0):
 
 
 def write_seeds(folder):
-    """Small valid files covering both versions, both precisions and every optional array."""
+    """Small valid files covering both versions, both precisions and every optional array, and
+    two uncompressed mesh streams as the fuzz target takes them (after "Z3" or "Z4")."""
     import os
     quad = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
     tris = [(0, 1, 2), (0, 2, 3)]
@@ -101,6 +102,9 @@ def write_seeds(folder):
                                            mesh_bytes(quad[:3], tris[:1], name='c')]),
         'v3_no_dictionary.serialized': tri,
     }
+    for version, double in ((4, False), (3, True)):  # fuzz_serialized.c's "Z3"/"Z4" inputs
+        m = mesh_bytes(quad, tris, up, uv, rgb, version=version, double=double)
+        seeds['stream_v%d' % version] = b'Z%d' % version + zlib.decompress(m[4:])
     os.makedirs(folder, exist_ok=True)
     for name, data in seeds.items():
         with open(os.path.join(folder, name), 'wb') as f:
