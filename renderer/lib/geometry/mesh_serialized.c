@@ -98,7 +98,8 @@ static void words_to_host(void *p, size_t n, int size)
 /* Checks the mesh header (format and version) at byte at. */
 static op_status check_header(ser_reader *r, size_t at, const char *where)
 {
-    unsigned magic = (unsigned)get_le(r->data + at, 2), version = (unsigned)get_le(r->data + at + 2, 2);
+    unsigned magic = (unsigned)get_le(r->data + at, 2);
+    unsigned version = (unsigned)get_le(r->data + at + 2, 2);
     if (magic == SER_MAGIC_SWAPPED)
         return fail(r, OP_ERR_FORMAT, "%s was written by Mitsuba before 0.3 (header 0x1C04); "
                     "export it again with a current Mitsuba", where);
@@ -211,8 +212,8 @@ static op_status read_header(ser_reader *r, size_t offset, ser_header *h)
                     "%u of each", (unsigned long long)h->nverts, (unsigned long long)h->ntris,
                     OP_MESH_MAX_COUNT);
     uint64_t fsize = (h->flags & FLAG_DOUBLE) ? 8 : 4;
-    uint64_t per_vertex = 3 + ((h->flags & FLAG_NORMALS) ? 3 : 0) + ((h->flags & FLAG_UVS) ? 2 : 0) +
-                          ((h->flags & FLAG_COLORS) ? 3 : 0);
+    uint64_t per_vertex = 3 + ((h->flags & FLAG_NORMALS) ? 3 : 0) +
+                          ((h->flags & FLAG_UVS) ? 2 : 0) + ((h->flags & FLAG_COLORS) ? 3 : 0);
     uint64_t need = h->nverts * per_vertex * fsize + h->ntris * 12;
     uint64_t left = (uint64_t)(r->in_end - r->in_pos) + r->z.avail_in;
     if (need > left * DEFLATE_MAX_RATIO)
