@@ -1,4 +1,5 @@
-/* mesh.h - triangle meshes loaded from Wavefront OBJ and Stanford PLY files.
+/* mesh.h - triangle meshes loaded from Wavefront OBJ, Stanford PLY and Mitsuba serialized
+ * files.
  *
  * A mesh is indexed: every vertex has a position and, when the file gives them, a normal and
  * a texture coordinate; triangles are triples of vertex indices. Loaders return the file's
@@ -36,7 +37,17 @@ op_status op_mesh_load_ply(const char *path, op_mesh *out, op_error *err);
  * without loading the file; the loader's errors for a bad header. */
 op_status op_mesh_ply_counts(const char *path, uint64_t *vertices, uint64_t *faces,
                              op_error *err);
-/* Chooses the loader by the file name's extension (.obj or .ply, any case). */
+/* Mitsuba's serialized format, versions 3 and 4 (single or double precision; vertex colours
+ * are skipped): the mesh shape_index of the file (the first needs no offset dictionary, the
+ * others are found through it). Errors name the file and the shape index. */
+op_status op_mesh_load_serialized(const char *path, uint32_t shape_index, op_mesh *out,
+                                  op_error *err);
+/* The vertex and triangle counts of mesh shape_index of a serialized file, read from its
+ * header without inflating its arrays; the loader's errors for a bad header. */
+op_status op_mesh_serialized_counts(const char *path, uint32_t shape_index, uint64_t *vertices,
+                                    uint64_t *triangles, op_error *err);
+/* Chooses the loader by the file name's extension (.obj, .ply or .serialized, any case; a
+ * serialized file's first mesh). */
 op_status op_mesh_load(const char *path, op_mesh *out, op_error *err);
 /* Frees the arrays and zeroes *m. Accepts NULL and zeroed meshes. */
 void op_mesh_free(op_mesh *m);

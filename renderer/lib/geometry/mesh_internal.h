@@ -1,4 +1,4 @@
-/* mesh_internal.h - what the mesh loaders share. Both read their file through op_file_map. */
+/* mesh_internal.h - what the mesh loaders share. Each reads its file through op_file_map. */
 #ifndef OP_MESH_INTERNAL_H
 #define OP_MESH_INTERNAL_H
 

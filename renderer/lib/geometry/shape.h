@@ -94,10 +94,11 @@ op_status op_cylinder_placement(const double p0[3], const double p1[3], double r
 typedef struct op_mesh_cache op_mesh_cache;
 op_mesh_cache *op_mesh_cache_new(void);
 void op_mesh_cache_free(op_mesh_cache *c);
-/* Fills m with a copy (in object space, for op_trimesh_finish to place) of the mesh file at path
- * (".obj" or ".ply", loaded at most once per cache and option set). face_normals drops vertex
- * normals; flip_tex flips v. */
-op_status op_mesh_cache_get(op_mesh_cache *c, const char *path, const char *kind, int face_normals,
-                            int flip_tex, op_trimesh *m, op_error *err);
+/* Fills m with a copy (in object space, for op_trimesh_finish to place) of the mesh file at path,
+ * read as kind ("obj", "ply" or "serialized", whose mesh shape_index is taken; loaded at most
+ * once per cache and option set). face_normals drops vertex normals; flip_tex flips v. */
+op_status op_mesh_cache_get(op_mesh_cache *c, const char *path, const char *kind,
+                            uint32_t shape_index, int face_normals, int flip_tex, op_trimesh *m,
+                            op_error *err);
 
 #endif

@@ -18,7 +18,7 @@ typedef struct cache_entry {
 struct op_mesh_cache {
     cache_entry *e;
     int n, cap;
-    op_strmap keys; /* "face flip path" -> index into e */
+    op_strmap keys; /* "face flip index path" -> index into e */
 };
 
 op_mesh_cache *op_mesh_cache_new(void)
@@ -39,14 +39,26 @@ void op_mesh_cache_free(op_mesh_cache *c)
     free(c);
 }
 
-static op_status load_entry(op_mesh_cache *c, const char *path, const char *kind, int face_normals,
-                            int flip_tex, const op_mesh **out, op_error *err)
+/* The file's mesh as read by kind's loader. */
+static op_status load_file(const char *path, const char *kind, uint32_t shape_index, op_mesh *out,
+                           op_error *err)
 {
-    size_t n = strlen(path) + 8;
+    if (strcmp(kind, "ply") == 0)
+        return op_mesh_load_ply(path, out, err);
+    if (strcmp(kind, "serialized") == 0)
+        return op_mesh_load_serialized(path, shape_index, out, err);
+    return op_mesh_load_obj(path, out, err);
+}
+
+static op_status load_entry(op_mesh_cache *c, const char *path, const char *kind,
+                            uint32_t shape_index, int face_normals, int flip_tex,
+                            const op_mesh **out, op_error *err)
+{
+    size_t n = strlen(path) + 32;
     char *key = malloc(n);
     if (!key)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    snprintf(key, n, "%d %d %s", face_normals != 0, flip_tex != 0, path);
+    snprintf(key, n, "%d %d %u %s", face_normals != 0, flip_tex != 0, shape_index, path);
     const op_strmap_entry *found = op_strmap_find(&c->keys, key, strlen(key));
     if (found) {
         free(key);
@@ -68,8 +80,7 @@ static op_status load_entry(op_mesh_cache *c, const char *path, const char *kind
     }
     cache_entry *e = &c->e[c->n];
     memset(e, 0, sizeof *e);
-    op_status st = strcmp(kind, "ply") == 0 ? op_mesh_load_ply(path, &e->mesh, err)
-                                            : op_mesh_load_obj(path, &e->mesh, err);
+    op_status st = load_file(path, kind, shape_index, &e->mesh, err);
     if (st)
         return st;
     if (flip_tex)
@@ -94,11 +105,12 @@ static op_status load_entry(op_mesh_cache *c, const char *path, const char *kind
     return OP_OK;
 }
 
-op_status op_mesh_cache_get(op_mesh_cache *c, const char *path, const char *kind, int face_normals,
-                            int flip_tex, op_trimesh *m, op_error *err)
+op_status op_mesh_cache_get(op_mesh_cache *c, const char *path, const char *kind,
+                            uint32_t shape_index, int face_normals, int flip_tex, op_trimesh *m,
+                            op_error *err)
 {
     const op_mesh *src = NULL;
-    op_status st = load_entry(c, path, kind, face_normals, flip_tex, &src, err);
+    op_status st = load_entry(c, path, kind, shape_index, face_normals, flip_tex, &src, err);
     if (st)
         return st;
     if (src->ntris == 0 || src->nverts < 3)

@@ -67,10 +67,11 @@ static op_status find_file(op_scene_description *d, const op_node *node, const c
     return OP_OK;
 }
 
-/* The mesh file an obj/ply shape node names, found as op_node_resolve finds it, and its
- * loading options; key gets "face flip path" identifying one loaded mesh. */
-static op_status file_mesh(op_node *node, char *path, size_t n, int *face,
-                           int *fliptex, char *key, size_t nk, op_error *err)
+/* The mesh file a mesh file's shape node names, found as op_node_resolve finds it, and its
+ * loading options (Mitsuba's serialized shape has a shapeIndex and no flipTexCoords); key
+ * gets "face flip index path" identifying one loaded mesh. */
+static op_status file_mesh(op_node *node, char *path, size_t n, int *face, int *fliptex,
+                           uint32_t *shape_index, char *key, size_t nk, op_error *err)
 {
     const char *t = node->type, *fn;
     GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
@@ -78,20 +79,36 @@ static op_status file_mesh(op_node *node, char *path, size_t n, int *face,
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\"> needs a filename",
                             node->file, node->line, t);
     GET_OR_FAIL(op_node_bool(node, "faceNormals", 0, face, err));
-    GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, fliptex, err));
+    *fliptex = 0;
+    *shape_index = 0;
+    if (strcmp(t, "serialized") == 0) {
+        long long index;
+        GET_OR_FAIL(op_node_int(node, "shapeIndex", 0, &index, err));
+        if (index < 0 || index > UINT32_MAX)
+            return op_prop_error(node, op_node_prop(node, "shapeIndex"), err, OP_ERR_INPUT,
+                                 "%lld is not in 0..%u", index, UINT32_MAX);
+        *shape_index = (uint32_t)index;
+    } else {
+        GET_OR_FAIL(op_node_bool(node, "flipTexCoords", strcmp(t, "obj") == 0, fliptex, err));
+    }
     char *found = op_node_resolve(node, fn);
     if (!found)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     snprintf(path, n, "%s", found);
     free(found);
-    snprintf(key, nk, "%d %d %s", *face, *fliptex, path);
+    snprintf(key, nk, "%d %d %u %s", *face, *fliptex, *shape_index, path);
     return OP_OK;
+}
+
+int op_describe_is_mesh_file(const char *type)
+{
+    return strcmp(type, "obj") == 0 || strcmp(type, "ply") == 0 ||
+           strcmp(type, "serialized") == 0;
 }
 
 int op_describe_may_instance(const op_node *node)
 {
-    if (strcmp(node->type, "obj") != 0 && strcmp(node->type, "ply") != 0 &&
-        strcmp(node->type, "sphere") != 0)
+    if (!op_describe_is_mesh_file(node->type) && strcmp(node->type, "sphere") != 0)
         return 0;
     for (int i = 0; i < node->nchildren; i++)
         if (strcmp(node->children[i]->tag, "emitter") == 0 ||
@@ -101,11 +118,13 @@ int op_describe_may_instance(const op_node *node)
 }
 
 op_status op_describe_mesh(const op_scene_description *d, op_node *node, char *path, size_t n,
-                           int *face, int *fliptex, char *key, size_t nk, op_error *err)
+                           int *face, int *fliptex, uint32_t *shape_index, char *key, size_t nk,
+                           op_error *err)
 {
     if (strcmp(node->type, "sphere") != 0)
-        return file_mesh(node, path, n, face, fliptex, key, nk, err);
+        return file_mesh(node, path, n, face, fliptex, shape_index, key, nk, err);
     *face = *fliptex = 0;
+    *shape_index = 0;
     snprintf(path, n, "%s", "");
     snprintf(key, nk, "%s", "sphere");
     return OP_OK;
@@ -121,8 +140,10 @@ static op_status count_mesh_uses(op_scene_description *d, op_node *root, op_erro
             continue;
         char path[4096], key[4200];
         int face, fliptex;
+        uint32_t index;
         op_error scratch;
-        if (op_describe_mesh(d, c, path, sizeof path, &face, &fliptex, key, sizeof key, &scratch))
+        if (op_describe_mesh(d, c, path, sizeof path, &face, &fliptex, &index, key, sizeof key,
+                             &scratch))
             continue;
         op_strmap_entry *e = op_strmap_find(&d->mesh_keys, key, strlen(key));
         if (!e) {
@@ -189,13 +210,18 @@ static op_status find_textures(op_scene_description *d, op_node *node, op_error 
     return OP_OK;
 }
 
-/* The triangles of a mesh file as far as its header tells: a PLY's faces (at least twice its
- * vertices, as a closed mesh of quads has); an OBJ's, or a PLY's whose header is refused (the
- * build says why), from its size. */
-static long long file_triangles(const char *kind, const char *path, uint64_t size)
+/* The triangles of a mesh file as far as its header tells: a serialized mesh's count (*exact
+ * then set); a PLY's faces (at least twice its vertices, as a closed mesh of quads has); an
+ * OBJ's, or a file's whose header is refused (the build says why), from its size. */
+static long long file_triangles(const char *kind, const char *path, uint32_t shape_index,
+                                uint64_t size, int *exact)
 {
     uint64_t verts, faces;
     op_error ignored;
+    *exact = strcmp(kind, "serialized") == 0 &&
+             op_mesh_serialized_counts(path, shape_index, &verts, &faces, &ignored) == OP_OK;
+    if (*exact)
+        return (long long)faces;
     if (strcmp(kind, "ply") == 0 && op_mesh_ply_counts(path, &verts, &faces, &ignored) == OP_OK)
         return (long long)(faces > 2 * verts ? faces : 2 * verts);
     return (long long)(size / OBJ_BYTES_PER_TRIANGLE);
@@ -209,16 +235,23 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
 {
     const char *t = node->type;
     d->shapes++;
-    if (strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0) {
+    if (op_describe_is_mesh_file(t)) {
         char path[4096], key[4200];
         uint64_t size = 0;
-        int face, fliptex, added = 0;
-        GET_OR_FAIL(op_describe_mesh(d, node, path, sizeof path, &face, &fliptex, key,
+        int face, fliptex, added = 0, exact;
+        uint32_t index;
+        GET_OR_FAIL(op_describe_mesh(d, node, path, sizeof path, &face, &fliptex, &index, key,
                                      sizeof key, err));
         GET_OR_FAIL(find_file(d, node, path, &size, &added, err));
         d->triangles = -1;
-        d->load_bytes += (long long)size + file_triangles(t, path, size) *
-                                               OP_LOAD_BYTES_PER_TRIANGLE;
+        long long n = file_triangles(t, path, index, size, &exact);
+        d->load_bytes += (long long)size + n * OP_LOAD_BYTES_PER_TRIANGLE;
+        /* a serialized mesh may hold a thousand times its file's size: its own count is
+         * checked against the limits here, before the build allocates for it */
+        op_limit_tally alone = {0, 0};
+        if (exact && op_limit_add_triangles(&d->limits, &alone, n, err))
+            return op_error_prefix(err, "%s:%d: <shape type=\"%s\">: ", node->file, node->line,
+                                   t);
     } else {
         op_trimesh m;
         memset(&m, 0, sizeof m);
@@ -235,8 +268,8 @@ static op_status describe_shape(op_scene_description *d, op_node *node, op_limit
             st = op_shape_cylinder(&m, OP_CYLINDER_SEGMENTS, err);
         else
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
-                                "(obj, ply, sphere, rectangle, cube, disk, cylinder)", node->file,
-                                node->line, t);
+                                "(obj, ply, serialized, sphere, rectangle, cube, disk, cylinder)",
+                                node->file, node->line, t);
         long long n = m.ntris;
         op_trimesh_free(&m);
         GET_OR_FAIL(st);

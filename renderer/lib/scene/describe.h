@@ -47,14 +47,18 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                       op_scene_description *d, op_error *err);
 /* Frees everything d owns (not d itself). */
 void op_describe_release(op_scene_description *d);
+/* Whether shapes of this type read a mesh file (obj, ply, serialized). */
+int op_describe_is_mesh_file(const char *type);
 /* Whether a shape node may become an instance: a mesh file or a sphere without an emitter or
  * subsurface (those need world-space triangles: area sampling, irradiance points). */
 int op_describe_may_instance(const op_node *node);
-/* The mesh a shape node places, for an obj or ply shape or one that may become an instance:
+/* The mesh a shape node places, for a mesh file's shape or one that may become an instance:
  * its file resolved against the scene's folder (path "" for the unit sphere), its loading
- * options, and key ("face flip path", or "sphere") naming one loaded mesh. */
+ * options (the shape index: a serialized file's mesh, else 0), and key ("face flip index
+ * path", or "sphere") naming one loaded mesh. */
 op_status op_describe_mesh(const op_scene_description *d, op_node *node, char *path, size_t n,
-                           int *face, int *fliptex, char *key, size_t nk, op_error *err);
+                           int *face, int *fliptex, uint32_t *shape_index, char *key, size_t nk,
+                           op_error *err);
 /* The index k in d->mesh_uses of the mesh key names, or -1. */
 int op_describe_mesh_index(const op_scene_description *d, const char *key);
 /* What d says about the scene (op_scene_info's fields known before building). */

@@ -147,8 +147,9 @@ static op_status add_subsurface(builder *b, op_node *node, int *index, op_error 
 
 /* The object-space prototype of entry k (loaded, or for a sphere tessellated, on first use)
  * in *index. */
-static op_status file_prototype(builder *b, int k, const char *path, const char *kind, int face,
-                                int fliptex, int *index, op_error *err)
+static op_status file_prototype(builder *b, int k, const char *path, const char *kind,
+                                uint32_t shape_index, int face, int fliptex, int *index,
+                                op_error *err)
 {
     op_scene *s = b->s;
     if (b->file_proto[k] >= 0) {
@@ -163,7 +164,7 @@ static op_status file_prototype(builder *b, int k, const char *path, const char 
     if (strcmp(kind, "sphere") == 0)
         GET_OR_FAIL(op_shape_sphere(m, OP_SPHERE_SEGMENTS, err));
     else
-        GET_OR_FAIL(op_mesh_cache_get(b->meshes, path, kind, face, fliptex, m, err));
+        GET_OR_FAIL(op_mesh_cache_get(b->meshes, path, kind, shape_index, face, fliptex, m, err));
     op_matrix4 id = op_matrix4_identity();
     op_status st = op_limit_add_triangles(b->lim, &b->tally, m->ntris, err);
     if (st == OP_OK)
@@ -187,7 +188,7 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     int flip;
     GET_OR_FAIL(op_node_transform(node, "toWorld", &xf, err));
     GET_OR_FAIL(op_node_bool(node, "flipNormals", 0, &flip, err));
-    int file = strcmp(t, "obj") == 0 || strcmp(t, "ply") == 0;
+    int file = op_describe_is_mesh_file(t);
     if (file && op_node_has(node, "maxSmoothAngle")) {
         double a;
         GET_OR_FAIL(op_node_float(node, "maxSmoothAngle", 0.0, &a, err));
@@ -219,14 +220,15 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
     }
     op_status st;
     int face = 0, fliptex = 0;
+    uint32_t shape_index = 0;
     char path[4096] = "", key[4200] = "";
     if (file || op_describe_may_instance(node))
-        GET_OR_FAIL(op_describe_mesh(b->d, node, path, sizeof path, &face, &fliptex, key,
-                                     sizeof key, err));
+        GET_OR_FAIL(op_describe_mesh(b->d, node, path, sizeof path, &face, &fliptex, &shape_index,
+                                     key, sizeof key, err));
     int k = op_describe_mesh_index(b->d, key);
     if (op_describe_may_instance(node) && k >= 0 && b->d->mesh_uses[k] >= 2) {
         int p = 0;
-        st = file_prototype(b, k, path, t, face, fliptex, &p, err);
+        st = file_prototype(b, k, path, t, shape_index, face, fliptex, &p, err);
         if (st == OP_OK)
             st = op_placement_make(&xf, flip, &sh->place, err);
         if (st)
@@ -242,7 +244,7 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
         return st;
     }
     if (file) {
-        st = op_mesh_cache_get(b->meshes, path, t, face, fliptex, m, err);
+        st = op_mesh_cache_get(b->meshes, path, t, shape_index, face, fliptex, m, err);
     } else if (strcmp(t, "sphere") == 0) {
         st = op_shape_sphere(m, OP_SPHERE_SEGMENTS, err);
     } else if (strcmp(t, "rectangle") == 0) {
@@ -255,8 +257,8 @@ static op_status build_mesh(builder *b, op_node *node, op_shape_rec *sh, op_erro
         st = op_shape_cylinder(m, OP_CYLINDER_SEGMENTS, err);
     } else {
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape type=\"%s\">: unknown shape type "
-                            "(obj, ply, sphere, rectangle, cube, disk, cylinder)", node->file,
-                            node->line, t);
+                            "(obj, ply, serialized, sphere, rectangle, cube, disk, cylinder)",
+                            node->file, node->line, t);
     }
     if (st == OP_OK)
         st = op_limit_add_triangles(b->lim, &b->tally, m->ntris, err);
