@@ -525,6 +525,39 @@ static void test_chi2_rejects_wrong_density(void **state)
 
 /* Conductor names: every name of Mitsuba 0.6's documentation is known, and copper agrees with
  * the RGB copper opaline used before the table (0.200 0.924 1.102 / 3.912 2.452 2.142). */
+/* A rough plastic's interface tables (as Mitsuba tabulates them): nearly smooth, they are the
+ * smooth interface's Fresnel terms (T = 1 - F, the internal diffuse reflectance the Egan and
+ * Hilgeman fit); very rough, reflection plus transmission loses energy (Smith shadowing) and
+ * light from inside escapes far more often than through a smooth one. */
+static void test_roughplastic_tables(void **state)
+{
+    (void)state;
+    model smooth = {"<bsdf type=\"roughplastic\"><float name=\"alpha\" value=\"0.001\"/>"
+                    "<float name=\"intIOR\" value=\"1.5\"/></bsdf>", EXPECT_BOUND, 0, 0};
+    op_bsdf b;
+    build(&smooth, &b);
+    assert_true(b.rough_tables);
+    for (int k = 1; k < OP_THROUGH_N; k += 7) {
+        float mu = (float)k / (float)(OP_THROUGH_N - 1);
+        /* Fresnel of a smooth interface, independently */
+        float e = 1.5f, st2 = (1.0f - mu * mu) / (e * e), ct = sqrtf(1.0f - st2);
+        float rs = (mu - e * ct) / (mu + e * ct), rp = (e * mu - ct) / (e * mu + ct);
+        float f = 0.5f * (rs * rs + rp * rp);
+        if (fabsf(b.rough_t[k] - (1.0f - f)) > 0.01f)
+            fail_msg("mu %.3f: T %.4f, smooth 1 - F %.4f", (double)mu, (double)b.rough_t[k],
+                     (double)(1.0f - f));
+    }
+    double fdr = -1.4399 / 2.25 + 0.7099 / 1.5 + 0.6681 + 0.0636 * 1.5;
+    if (fabs(b.rough_fdr - fdr) > 0.01)
+        fail_msg("internal diffuse reflectance %.4f, Egan-Hilgeman %.4f", (double)b.rough_fdr, fdr);
+    model rough = {"<bsdf type=\"roughplastic\"><float name=\"alpha\" value=\"1\"/>"
+                   "<float name=\"intIOR\" value=\"1.5\"/></bsdf>", EXPECT_BOUND, 0, 0};
+    op_bsdf r;
+    build(&rough, &r);
+    assert_true(r.rough_fdr < b.rough_fdr - 0.1f);
+    assert_true(r.rough_t[OP_THROUGH_N / 2] < b.rough_t[OP_THROUGH_N / 2]);
+}
+
 static void test_conductor_names(void **state)
 {
     (void)state;
@@ -562,6 +595,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_conductor_names),
+        cmocka_unit_test(test_roughplastic_tables),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_reciprocity),
         cmocka_unit_test(test_chi2),

@@ -223,6 +223,8 @@ void op_bsdf_default(op_bsdf *b)
     b->reflectance = v3s(0.5f);
 }
 
+static void roughplastic_tables(op_bsdf *b);
+
 op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err)
 {
     op_bsdf_default(b);
@@ -302,8 +304,10 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         GET_OR_FAIL(read_reflectance(node, "specularReflectance", NULL, 1.0, &b->specular, err));
         GET_OR_FAIL(op_node_bool(node, "nonlinear", 0, &b->nonlinear, err));
         b->eta = (float)(int_ior / ext_ior);
-        if (rough)
+        if (rough) {
             GET_OR_FAIL(read_alpha(node, &b->alpha, err));
+            roughplastic_tables(b);
+        }
         return OP_OK;
     }
     if (strcmp(node->type, "coating") == 0) {
@@ -530,11 +534,30 @@ static float plastic_spec_prob(const op_bsdf *b, float fi)
     return ps + pd > 0.0f ? ps / (ps + pd) : 0.0f;
 }
 
-/* The diffuse part of plastic (Mitsuba's model, internal scattering approximated by 1 - Fdr). */
+static float rough_t_at(const op_bsdf *b, float cos)
+{
+    float x = fminf(fmaxf(cos, 0.0f), 1.0f) * (float)(OP_THROUGH_N - 1);
+    int k = (int)x;
+    if (k >= OP_THROUGH_N - 1)
+        return b->rough_t[OP_THROUGH_N - 1];
+    float f = x - (float)k;
+    return b->rough_t[k] * (1.0f - f) + b->rough_t[k + 1] * f;
+}
+
+/* The diffuse part of plastic (Mitsuba's model, internal scattering approximated by 1 - Fdr):
+ * a smooth interface's Fresnel terms, or a rough one's tables (rough_tables). */
 static op_v3 plastic_diffuse(const op_bsdf *b, op_v3 wi, op_v3 wo)
 {
-    float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct), fo = fresnel_dielectric(wo.z, b->eta, &ct);
-    float fdr = -1.440f / (b->eta * b->eta) + 0.710f / b->eta + 0.668f + 0.0636f * b->eta;
+    float ct, fi, fo, fdr;
+    if (b->rough_tables) {
+        fi = 1.0f - rough_t_at(b, wi.z);
+        fo = 1.0f - rough_t_at(b, wo.z);
+        fdr = b->rough_fdr;
+    } else {
+        fi = fresnel_dielectric(wi.z, b->eta, &ct);
+        fo = fresnel_dielectric(wo.z, b->eta, &ct);
+        fdr = -1.440f / (b->eta * b->eta) + 0.710f / b->eta + 0.668f + 0.0636f * b->eta;
+    }
     op_v3 d = b->reflectance;
     if (b->nonlinear)
         d = v3(d.x / (1.0f - d.x * fdr), d.y / (1.0f - d.y * fdr), d.z / (1.0f - d.z * fdr));
@@ -783,6 +806,72 @@ static op_v3 coating_absorption(const op_bsdf *b, float cos)
 
 enum { THROUGH_GRID = 48 }; /* lobe samples per axis when tabulating a rough sheen's albedo */
 
+/* The directional albedo (at most 1) of a sheen lobe (white tint) at cos mu > 0, by its own
+ * sampling over a THROUGH_GRID^2 stratified grid. */
+static double lobe_albedo(const op_bsdf *lobe, float mu)
+{
+    op_v3 wi = v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
+    double r = 0.0;
+    for (int i = 0; i < THROUGH_GRID * THROUGH_GRID; i++) {
+        op_bsdf_sample s;
+        float u1 = ((float)(i % THROUGH_GRID) + 0.5f) / THROUGH_GRID;
+        float u2 = ((float)(i / THROUGH_GRID) + 0.5f) / THROUGH_GRID;
+        if (op_bsdf_sample_dir(lobe, wi, u1, u2, 0.0f, &s))
+            r += s.weight.x;
+    }
+    r /= THROUGH_GRID * THROUGH_GRID;
+    return r > 1.0 ? 1.0 : r;
+}
+
+/* The energy a smooth-microfacet GGX dielectric interface of relative index eta and roughness
+ * alpha reflects (*r) and transmits (*t) for light arriving at cos mu > 0: the means over its
+ * visible normals m of F(wi.m) G1(wr, m) and (1 - F) G1(wt, m) (wr, wt the reflected and
+ * refracted directions), on a THROUGH_GRID^2 stratified grid. */
+static void rough_interface(float eta, float alpha, float mu, double *r, double *t)
+{
+    op_microfacet mf = op_mf_make(OP_MF_GGX, alpha, alpha, 1);
+    op_v3 wi = v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
+    double sr = 0.0, st = 0.0;
+    for (int i = 0; i < THROUGH_GRID * THROUGH_GRID; i++) {
+        float u1 = ((float)(i % THROUGH_GRID) + 0.5f) / THROUGH_GRID;
+        float u2 = ((float)(i / THROUGH_GRID) + 0.5f) / THROUGH_GRID;
+        op_v3 m = op_mf_sample(&mf, wi, u1, u2);
+        float c = v3_dot(wi, m), ct;
+        if (c <= 0.0f)
+            continue;
+        float f = fresnel_dielectric(c, eta, &ct);
+        op_v3 wr = v3_sub(v3_scale(m, 2.0f * c), wi);
+        if (wr.z > 0.0f)
+            sr += f * op_mf_g1(&mf, wr, m);
+        if (ct > 0.0f) {
+            op_v3 wt = v3_add(v3_scale(wi, -1.0f / eta), v3_scale(m, c / eta - ct));
+            if (wt.z < 0.0f)
+                st += (1.0f - f) * op_mf_g1(&mf, wt, m);
+        }
+    }
+    *r = sr / (THROUGH_GRID * THROUGH_GRID);
+    *t = st / (THROUGH_GRID * THROUGH_GRID);
+}
+
+/* Fills a roughplastic's rough_t and rough_fdr (bsdf.h) as Mitsuba tabulates its rough
+ * plastic: the energy its interface transmits from outside, T(mu), and the cosine-weighted
+ * mean of the energy it reflects back inside, 2 int R(mu; 1 / eta) mu dmu. */
+static void roughplastic_tables(op_bsdf *b)
+{
+    double fdr = 0.0;
+    for (int k = 0; k < OP_THROUGH_N; k++) {
+        float mu = fmaxf((float)k / (float)(OP_THROUGH_N - 1), 1e-4f);
+        double re, te, ri, ti;
+        rough_interface(b->eta, b->alpha, mu, &re, &te);
+        rough_interface(1.0f / b->eta, b->alpha, mu, &ri, &ti);
+        b->rough_t[k] = (float)te;
+        double w = (k == 0 || k == OP_THROUGH_N - 1) ? 0.5 : 1.0; /* trapezoid rule */
+        fdr += 2.0 * w * ri * mu / (OP_THROUGH_N - 1);
+    }
+    b->rough_fdr = (float)fmin(fdr, 0.999);
+    b->rough_tables = 1;
+}
+
 op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr, op_error *err)
 {
     static const char *names[] = {"diffuse", "dielectric", "conductor", "plastic", "roughplastic",
@@ -818,18 +907,8 @@ op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr
             float ct;
             r = fresnel_dielectric(mu, b->eta, &ct);
         } else {
-            op_v3 wi = v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
-            for (int i = 0; i < THROUGH_GRID * THROUGH_GRID; i++) {
-                op_bsdf_sample s;
-                float u1 = ((float)(i % THROUGH_GRID) + 0.5f) / THROUGH_GRID;
-                float u2 = ((float)(i / THROUGH_GRID) + 0.5f) / THROUGH_GRID;
-                if (op_bsdf_sample_dir(&lobe, wi, u1, u2, 0.0f, &s))
-                    r += s.weight.x;
-            }
-            r /= THROUGH_GRID * THROUGH_GRID;
+            r = lobe_albedo(&lobe, mu);
         }
-        if (r > 1.0)
-            r = 1.0;
         tr->t[k] = v3_scale(coating_absorption(b, mu), (float)(1.0 - r));
         /* trapezoid rule for 2 int (1 - R) mu dmu */
         double w = (k == 0 || k == OP_THROUGH_N - 1) ? 0.5 : 1.0;

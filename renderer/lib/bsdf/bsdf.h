@@ -72,6 +72,13 @@ typedef struct op_bsdf {
     float thickness;       /* coating: layer thickness */
     const op_bsdf_through *through; /* OP_BSDF_THROUGH: the boundary it sits behind */
     int nonlinear;
+    /* roughplastic (as Mitsuba 0.6 and 3 define it): its rough interface's transmittance
+     * 1 - R(mu) at mu = k / (OP_THROUGH_N - 1) and its internal diffuse reflectance, both by
+     * integrating the specular lobe; rough_tables 0 (a translucent shape's stand-in): the
+     * smooth interface's Fresnel terms instead */
+    int rough_tables;
+    float rough_t[OP_THROUGH_N];
+    float rough_fdr;
     int masked;            /* wrapped in a mask: opacity below applies */
     op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
 } op_bsdf;

@@ -209,6 +209,23 @@ op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"%s\">: uoffset, voffset, "
                             "uscale and vscale must be finite", node->file, node->line,
                             node->type);
+    if (op_node_has(node, "toUV")) { /* Mitsuba 3's form of the same placement */
+        op_matrix4 m;
+        GET_OR_FAIL(op_node_transform(node, "toUV", &m, err));
+        if (op_node_has(node, "uoffset") || op_node_has(node, "voffset") ||
+            op_node_has(node, "uscale") || op_node_has(node, "vscale"))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"%s\">: give to_uv or "
+                                "uoffset/voffset/uscale/vscale, not both", node->file, node->line,
+                                node->type);
+        if (m.m[0][1] != 0.0 || m.m[1][0] != 0.0)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"%s\">: to_uv may "
+                                "scale and translate u and v, not rotate or shear them (not yet "
+                                "supported)", node->file, node->line, node->type);
+        us = m.m[0][0];
+        vs = m.m[1][1];
+        uo = m.m[0][3];
+        vo = m.m[1][3];
+    }
     t->uoffset = (float)uo;
     t->voffset = (float)vo;
     t->uscale = (float)us;
