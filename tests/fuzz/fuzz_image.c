@@ -1,6 +1,7 @@
-/* fuzz_image.c - the image reader (OpenEXR, PNG or PFM, chosen by content) on arbitrary bytes;
- * an image it accepts has positive dimensions and 1 to 4 channels, and the header-only reader
- * (op_image_read_size) gives the same size and channels for it. */
+/* fuzz_image.c - the image reader on arbitrary bytes: every format it tells by content (PFM
+ * here; OpenEXR, PNG, JPEG, TIFF, HDR, BMP, PNM through OpenImageIO) and, the file being named
+ * .tga, TGA for the rest. An image it accepts has positive dimensions and 1 to 4 channels, and
+ * the header-only reader (op_image_read_size) gives the same size and channels for it. */
 #include "fuzz_support.h"
 
 #include "opaline.h"
@@ -8,7 +9,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    const char *path = op_fuzz_file(data, size, ".img");
+    const char *path = op_fuzz_file(data, size, ".tga");
     int w, h, c;
     op_error err;
     op_status sized = op_image_read_size(path, &w, &h, &c, &err);
