@@ -6,9 +6,14 @@
 #include <stdint.h>
 
 #ifdef __cplusplus
-/* opaline.h's one C11 atomic type, which C++ before C++23 spells std::atomic_int. */
+/* opaline.h's one C11 atomic type, which C++ before C++23 spells std::atomic_int; the C
+ * header <stdatomic.h> that opaline.h includes is kept out (clang's defines C macros that
+ * break libstdc++), by the include guards of clang's, GCC's and libstdc++'s. */
 #include <atomic>
 using std::atomic_int;
+#define __CLANG_STDATOMIC_H
+#define _STDATOMIC_H
+#define _GLIBCXX_STDATOMIC_H
 #endif
 #include "opaline.h"
 #include "opaline_image.h"

@@ -14,11 +14,12 @@
 #include <memory>
 #include <new>
 #include <string>
-#include <type_traits>
 #include <strings.h>
+#include <type_traits>
 #include <vector>
 
-namespace {
+namespace
+{
 
 /* Error messages OpenImageIO holds for in (NULL: none) and for the thread, taken (so that none
  * is left pending, which some versions print at exit), joined, "unknown error" when empty. */
@@ -39,8 +40,8 @@ std::string take_errors(const OIIO::ImageInput *in)
 /* Which channels of spec make the image: idx[k] for the op_image channel k of *c (1, 3 or 4;
  * grey with alpha becomes RGBA with the grey repeated). OpenEXR channels are found by name,
  * in the layer named ("" is the default layer); the other formats' by position and alpha. */
-bool pick_channels(const OIIO::ImageSpec &spec, bool by_name, const std::string &layer,
-                   int idx[4], int *c)
+bool pick_channels(const OIIO::ImageSpec &spec, bool by_name, const std::string &layer, int idx[4],
+                   int *c)
 {
     int found[5] = {-1, -1, -1, -1, -1}; /* R G B A Y */
     if (by_name) {
@@ -99,8 +100,7 @@ struct reader {
 
     op_status fail(op_status st, const char *what, const OIIO::ImageInput *in)
     {
-        return host->error_set(err, st, "%s: %s %s: %s", path, what, kind,
-                               take_errors(in).c_str());
+        return host->error_set(err, st, "%s: %s %s: %s", path, what, kind, take_errors(in).c_str());
     }
 
     op_status read(const char *format, const std::string &layer, int decode, uint64_t max_pixels,
@@ -133,25 +133,26 @@ op_status reader::read(const char *format, const std::string &layer, int decode,
     if (c == 0) {
         take_errors(in.get());
         if (!layer.empty())
-            return host->error_set(err, OP_ERR_INPUT, "%s: %s image has no layer \"%s\" with R, G, "
-                                "B or Y channels", path, kind, layer.c_str());
-        return host->error_set(err, OP_ERR_FORMAT, "%s: %s image has no R, G, B or Y channels", path,
-                            kind);
+            return host->error_set(err, OP_ERR_INPUT,
+                                   "%s: %s image has no layer \"%s\" with R, G, B or Y channels",
+                                   path, kind, layer.c_str());
+        return host->error_set(err, OP_ERR_FORMAT, "%s: %s image has no R, G, B or Y channels",
+                               path, kind);
     }
     OIIO::ImageSpec spec = in->spec();
     if (spec.deep || spec.depth > 1) {
         take_errors(in.get());
         return host->error_set(err, OP_ERR_FORMAT, "%s: %s %s images are not supported", path,
-                            spec.deep ? "deep" : "volume", kind);
+                               spec.deep ? "deep" : "volume", kind);
     }
     if (spec.width <= 0 || spec.height <= 0 || spec.width > OP_IMAGE_MAX_SIDE ||
         spec.height > OP_IMAGE_MAX_SIDE) {
         take_errors(in.get());
         return host->error_set(err, OP_ERR_FORMAT, "%s: %s size %dx%d is not supported", path, kind,
-                            spec.width, spec.height);
+                               spec.width, spec.height);
     }
-    op_status st = host->check_pixels(path, kind, (uint64_t)spec.width,
-                                         (uint64_t)spec.height, max_pixels, err);
+    op_status st = host->check_pixels(path, kind, (uint64_t)spec.width, (uint64_t)spec.height,
+                                      max_pixels, err);
     if (st != OP_OK) {
         take_errors(in.get());
         return st;
@@ -170,18 +171,6 @@ op_status reader::read(const char *format, const std::string &layer, int decode,
         return st;
     }
 
-    /* One read of the channel range covering the wanted ones (as bytes when all are 8-bit, to
-     * decode through a table), or one read per channel when that range is wide. */
-    bool bytes = integer;
-    for (int k = 0; k < c; k++)
-        bytes = bytes && spec.channelformat(idx[k]).basetype == OIIO::TypeDesc::UINT8;
-    int lo = idx[0], hi = idx[0];
-    for (int k = 1; k < c; k++)
-        lo = std::min(lo, idx[k]), hi = std::max(hi, idx[k]);
-    int span = hi - lo + 1 <= 4 ? hi - lo + 1 : 1;
-    OIIO::TypeDesc type = bytes ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT;
-    size_t n = (size_t)spec.width * (size_t)spec.height, elem = bytes ? 1 : sizeof(float);
-    std::vector<unsigned char> buf(n * (size_t)span * elem);
     /* Integer colour is decoded to linear light, or (decode unset) re-encoded as sRGB when
      * the file declares another curve; alpha and float pixels stay as stored. */
     float gamma = transfer_gamma(spec);
@@ -191,36 +180,81 @@ op_status reader::read(const char *format, const std::string &layer, int decode,
         float lin = gamma == 0.0f ? host->srgb_decode(v) : gamma == 1.0f ? v : std::pow(v, gamma);
         return decode ? lin : host->srgb_encode(lin);
     };
-    float table[2][256]; /* bytes: [0] colour, [1] alpha */
-    for (int i = 0; i < 256; i++)
-        table[0][i] = colour((float)i / 255.0f), table[1][i] = (float)i / 255.0f;
-    for (int pass = 0; pass < (span == 1 ? c : 1); pass++) {
-        int first_ch = span == 1 ? idx[pass] : lo;
-        if (span == 1 && pass > 0 && idx[pass] == idx[pass - 1]) {
-            for (size_t i = 0; i < n; i++)
-                img->pixels[i * (size_t)c + (size_t)pass] =
-                    img->pixels[i * (size_t)c + (size_t)pass - 1];
-            continue;
+    /* 8- and 16-bit pixels are read as such into scratch (a quarter or half of the image's
+     * floats), over the channel range covering the wanted ones, or channel by channel when that
+     * range is wide; others straight into the image as floats, channel by channel unless the
+     * wanted ones are in order. */
+    int bits = 32;
+    if (integer) {
+        bits = 8;
+        for (int k = 0; k < c; k++)
+            bits = std::max(bits, (int)spec.channelformat(idx[k]).size() * 8);
+    }
+    size_t n = (size_t)spec.width * (size_t)spec.height;
+    if (bits > 16) {
+        bool in_order = true;
+        for (int k = 1; k < c; k++)
+            in_order = in_order && idx[k] == idx[0] + k;
+        OIIO::stride_t xs = (OIIO::stride_t)(c * sizeof(float)), ys = xs * spec.width;
+        for (int k = 0; k < (in_order ? 1 : c); k++) {
+            bool ok = k > 0 && idx[k] == idx[k - 1];
+            if (ok) /* grey repeated */
+                for (size_t i = 0; i < n; i++)
+                    img->pixels[i * (size_t)c + (size_t)k] =
+                        img->pixels[i * (size_t)c + (size_t)k - 1];
+            else
+                ok = in->read_image(sub, 0, idx[k], in_order ? idx[k] + c : idx[k] + 1,
+                                    OIIO::TypeDesc::FLOAT, img->pixels + k, xs, ys);
+            if (!ok) {
+                host->free(img);
+                return fail(OP_ERR_FORMAT, "corrupt", in.get());
+            }
         }
-        if (!in->read_image(sub, 0, first_ch, first_ch + span, type, buf.data())) {
-            host->free(img);
-            return fail(OP_ERR_FORMAT, "corrupt", in.get());
-        }
-        for (int k = 0; k < c; k++) {
-            if (span == 1 && k != pass)
+        if (integer)
+            for (size_t i = 0; i < n * (size_t)c; i++)
+                if (!(c == 4 && i % 4 == 3))
+                    img->pixels[i] = colour(img->pixels[i]);
+    } else {
+        int lo = idx[0], hi = idx[0];
+        for (int k = 1; k < c; k++)
+            lo = std::min(lo, idx[k]), hi = std::max(hi, idx[k]);
+        int span = hi - lo + 1 <= 4 ? hi - lo + 1 : 1;
+        bool bytes = bits == 8;
+        OIIO::TypeDesc type = bytes ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
+        std::vector<unsigned char> buf8(bytes ? n * (size_t)span : 0);
+        std::vector<uint16_t> buf16(bytes ? 0 : n * (size_t)span);
+        void *buf = bytes ? (void *)buf8.data() : (void *)buf16.data();
+        float table[2][256]; /* bytes: [0] colour, [1] alpha */
+        for (int i = 0; i < 256; i++)
+            table[0][i] = colour((float)i / 255.0f), table[1][i] = (float)i / 255.0f;
+        for (int pass = 0; pass < (span == 1 ? c : 1); pass++) {
+            int first_ch = span == 1 ? idx[pass] : lo;
+            if (span == 1 && pass > 0 && idx[pass] == idx[pass - 1]) {
+                for (size_t i = 0; i < n; i++)
+                    img->pixels[i * (size_t)c + (size_t)pass] =
+                        img->pixels[i * (size_t)c + (size_t)pass - 1];
                 continue;
-            size_t off = (size_t)(idx[k] - first_ch);
-            const float *tab = table[k == 3];
-            for (size_t i = 0; i < n; i++) {
-                size_t at = i * (size_t)span + off;
-                float v;
-                if (bytes) {
-                    v = tab[buf[at]];
-                } else {
-                    std::memcpy(&v, &buf[at * sizeof(float)], sizeof v);
-                    v = k == 3 ? v : colour(v);
+            }
+            if (!in->read_image(sub, 0, first_ch, first_ch + span, type, buf)) {
+                host->free(img);
+                return fail(OP_ERR_FORMAT, "corrupt", in.get());
+            }
+            for (int k = 0; k < c; k++) {
+                if (span == 1 && k != pass)
+                    continue;
+                size_t off = (size_t)(idx[k] - first_ch);
+                bool alpha = k == 3;
+                for (size_t i = 0; i < n; i++) {
+                    size_t at = i * (size_t)span + off;
+                    float v;
+                    if (bytes) {
+                        v = table[alpha][buf8[at]];
+                    } else {
+                        v = (float)buf16[at] / 65535.0f;
+                        v = alpha ? v : colour(v);
+                    }
+                    img->pixels[i * (size_t)c + (size_t)k] = v;
                 }
-                img->pixels[i * (size_t)c + (size_t)k] = v;
             }
         }
     }
@@ -242,8 +276,8 @@ op_image_oiio_read(const op_image_host *host, const char *path, const char *form
                    int header_only, op_image *img, int *encoded, op_error *err);
 
 op_status op_image_oiio_read(const op_image_host *host, const char *path, const char *format,
-                   const char *kind, const char *layer, int decode, uint64_t max_pixels,
-                   int header_only, op_image *img, int *encoded, op_error *err)
+                             const char *kind, const char *layer, int decode, uint64_t max_pixels,
+                             int header_only, op_image *img, int *encoded, op_error *err)
 {
     static_assert(std::is_same<decltype(&op_image_oiio_read), op_image_oiio_read_fn>::value,
                   "the entry point is what image.c calls");
