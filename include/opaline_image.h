@@ -51,8 +51,8 @@ op_status op_image_write_pfm(const char *path, const op_image *img, op_error *er
 op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err);
 /* Reads an image file into linear floats: OpenEXR, PNG (8 or 16 bits), JPEG, TIFF, Radiance
  * HDR, BMP, PNM or PFM, chosen by content, or TGA (which has no signature) by the name's
- * extension .tga. PNG (libpng) and PFM are read here, the others through OpenImageIO, loaded
- * on first use. Integer pixels are sRGB-encoded unless the file declares another curve (a PNG's
+ * extension .tga. PNG (libpng), OpenEXR (its C API) and PFM are read here, the others through
+ * OpenImageIO, loaded on first use. Integer pixels are sRGB-encoded unless the file declares another curve (a PNG's
  * gAMA) and are decoded to linear light; alpha and float pixels are returned as stored. Of OpenEXR files, the channels R, G, B
  * (and A), or Y (else R) alone, of the first part that has them; other layers are skipped.
  * A file with several images (TIFF pages) gives its first. Grey with alpha becomes RGBA. */
@@ -71,8 +71,8 @@ op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixel
                                 int *encoded, op_error *err);
 /* op_image_read_limited of the OpenEXR layer named: the channels layer.R, layer.G, layer.B
  * (and layer.A, or layer.Y alone) of the first part that has them, or R, G, B ... of the part
- * named layer; NULL or "" is the default layer. A file without that layer is OP_ERR_INPUT
- * naming it. Other formats have only the default layer. */
+ * named layer; NULL or "" is the default layer. A file without that layer, or a layer named
+ * for another format, is OP_ERR_INPUT naming it. */
 op_status op_image_read_layer(const char *path, const char *layer, int decode,
                               uint64_t max_pixels, op_image *img, int *encoded, op_error *err);
 /* The width, height and channels (as op_image_read would give them) of any file it reads,

@@ -1,9 +1,8 @@
 /* image.c - linear float images and their files. Written: PNG (libpng, 8-bit sRGB), OpenEXR
  * (the OpenEXRCore C API), portable float maps and Radiance RGBE, each through op_output, so a
- * failed write leaves nothing behind. Read: the format chosen by content; PNG through libpng
- * (OpenImageIO's PNG reader prints libpng's errors and leaks on a corrupt file) and portable
- * float maps here, every other format through OpenImageIO, in a module loaded on first use
- * (image_oiio.cpp). */
+ * failed write leaves nothing behind. Read: the format chosen by content; PNG (libpng), OpenEXR
+ * (its C API) and portable float maps here, every other format through OpenImageIO, in a
+ * module loaded on first use (image_oiio.cpp). */
 #include "opaline.h"
 #include "opaline_image.h"
 #include "image_internal.h"
@@ -478,6 +477,207 @@ op_status op_image_write_exr_attr(const char *path, const op_image *img, int hal
     return op_output_commit(io.out, err);
 }
 
+/* Reads a flat (not deep) scanline or tiled OpenEXR file, any pixel type converted to float:
+ * the channels R, G, B and A (or Y, else R, and A) of the layer named (layer.R ..., or R ... of
+ * the part named layer; NULL or "" the default layer), from the first part that has them. Its
+ * own reader, on OpenEXR's C API: OpenImageIO 2.4's (OpenEXR's C++ library) takes 2 GB and 5 s
+ * to refuse a 200-byte header declaring a huge data window. */
+static op_status read_exr(const char *path, const char *layer, int fd, int64_t size,
+                          uint64_t max_pixels, int header_only, op_image *img, op_error *err)
+{
+    exr_io io;
+    exr_context_t ctx = NULL;
+    op_status st = OP_OK;
+    exr_result_t rv = exr_open_read(path, fd, size, &io, &ctx);
+    if (rv != EXR_ERR_SUCCESS) {
+        if (ctx)
+            exr_finish(&ctx);
+        return op_error_set(err, OP_ERR_FORMAT, "%s: not a readable OpenEXR file: %s", path,
+                            exr_msg(&io, rv));
+    }
+    /* The part and the channel names: the first part with the layer's R, G, B or Y. */
+    static const char *slot_names[5] = {"R", "G", "B", "A", "Y"};
+    char names[5][300];
+    int part = -1, nparts = 0, has[5] = {0};
+    const exr_attr_chlist_t *chl = NULL;
+    if ((rv = exr_get_count(ctx, &nparts)) != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path, exr_msg(&io, rv));
+        goto done;
+    }
+    for (int p = 0; p < nparts && part < 0; p++) {
+        const char *part_name = NULL;
+        int whole = layer && *layer && exr_get_name(ctx, p, &part_name) == EXR_ERR_SUCCESS &&
+                    part_name && strcmp(part_name, layer) == 0;
+        const char *prefix = layer && *layer && !whole ? layer : "";
+        for (int s = 0; s < 5; s++)
+            snprintf(names[s], sizeof names[s], "%s%s%s", prefix, *prefix ? "." : "",
+                     slot_names[s]);
+        if ((rv = exr_get_channels(ctx, p, &chl)) != EXR_ERR_SUCCESS) {
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path,
+                              exr_msg(&io, rv));
+            goto done;
+        }
+        memset(has, 0, sizeof has);
+        for (int i = 0; i < chl->num_channels; i++)
+            for (int s = 0; s < 5; s++)
+                if (strcmp(chl->entries[i].name.str, names[s]) == 0) {
+                    if (chl->entries[i].x_sampling != 1 || chl->entries[i].y_sampling != 1) {
+                        st = op_error_set(err, OP_ERR_FORMAT,
+                                          "%s: subsampled OpenEXR channel %s is not supported",
+                                          path, names[s]);
+                        goto done;
+                    }
+                    has[s] = 1;
+                }
+        if ((has[0] && has[1] && has[2]) || has[4] || has[0])
+            part = p;
+    }
+    if (part < 0) {
+        if (layer && *layer)
+            st = op_error_set(err, OP_ERR_INPUT, "%s: OpenEXR image has no layer \"%s\" with R, "
+                              "G, B or Y channels", path, layer);
+        else
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR file has no R, G, B or Y channels",
+                              path);
+        goto done;
+    }
+    exr_storage_t storage;
+    exr_attr_box2i_t dw;
+    if ((rv = exr_get_storage(ctx, part, &storage)) != EXR_ERR_SUCCESS ||
+        (rv = exr_get_data_window(ctx, part, &dw)) != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path, exr_msg(&io, rv));
+        goto done;
+    }
+    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: deep OpenEXR images are not supported", path);
+        goto done;
+    }
+    int64_t w = (int64_t)dw.max.x - dw.min.x + 1, h = (int64_t)dw.max.y - dw.min.y + 1;
+    if (w <= 0 || h <= 0 || w > OP_IMAGE_MAX_SIDE || h > OP_IMAGE_MAX_SIDE) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR data window %lldx%lld is not supported",
+                          path, (long long)w, (long long)h);
+        goto done;
+    }
+    if ((st = check_pixels(path, "OpenEXR", (uint64_t)w, (uint64_t)h, max_pixels, err)) != OP_OK)
+        goto done;
+    /* Slots: R G B A, or Y (else R) for grey; grey with alpha is read as RGBA. */
+    int c, slot_of[5] = {-1, -1, -1, -1, -1};
+    if (has[0] && has[1] && has[2]) {
+        c = has[3] ? 4 : 3;
+        for (int s = 0; s < c; s++)
+            slot_of[s] = s;
+    } else {
+        c = has[3] ? 4 : 1;
+        slot_of[has[4] ? 4 : 0] = 0;
+        if (c == 4)
+            slot_of[3] = 3;
+    }
+    int grey_alpha = c == 4 && !(has[0] && has[1] && has[2]);
+    if (header_only) {
+        *img = (op_image){(int)w, (int)h, c, NULL};
+        goto done;
+    }
+    if ((st = op_image_alloc(img, (int)w, (int)h, c, err)) != OP_OK)
+        goto done;
+
+    /* The chunks: scanline blocks, or the level-0 tiles. */
+    int32_t lines = 1, nchunks = 0, tiles_x = 1;
+    uint32_t tw = 0, th = 0;
+    if (storage == EXR_STORAGE_SCANLINE) {
+        rv = exr_get_scanlines_per_chunk(ctx, part, &lines);
+        nchunks = (int32_t)((h + lines - 1) / (lines > 0 ? lines : 1));
+    } else {
+        exr_tile_level_mode_t lm;
+        exr_tile_round_mode_t rm;
+        rv = exr_get_tile_descriptor(ctx, part, &tw, &th, &lm, &rm);
+        if (rv == EXR_ERR_SUCCESS && (tw == 0 || th == 0))
+            rv = EXR_ERR_INVALID_ATTR;
+        if (rv == EXR_ERR_SUCCESS) {
+            tiles_x = (int32_t)((w + tw - 1) / tw);
+            nchunks = tiles_x * (int32_t)((h + th - 1) / th);
+        }
+    }
+    if (rv != EXR_ERR_SUCCESS || lines <= 0) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR layout: %s", path, exr_msg(&io, rv));
+        op_image_free(img);
+        goto done;
+    }
+    /* Each chunk is decoded into planar scratch, then interleaved here: the library's fast
+     * interleaved half-to-float paths have mixed up RGBA channel order in some releases. */
+    size_t chunk_px = storage == EXR_STORAGE_SCANLINE ? (size_t)lines * (size_t)w
+                                                      : (size_t)tw * (size_t)th;
+    float *scratch = malloc(chunk_px * (size_t)(c + 1) * sizeof(float));
+    if (!scratch) {
+        op_image_free(img);
+        st = op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+        goto done;
+    }
+    exr_decode_pipeline_t dec;
+    int dec_started = 0;
+    size_t row_floats = (size_t)w * (size_t)c;
+    for (int32_t i = 0; i < nchunks && rv == EXR_ERR_SUCCESS; i++) {
+        exr_chunk_info_t ci;
+        if (storage == EXR_STORAGE_SCANLINE)
+            rv = exr_read_scanline_chunk_info(ctx, part, dw.min.y + i * lines, &ci);
+        else
+            rv = exr_read_tile_chunk_info(ctx, part, i % tiles_x, i / tiles_x, 0, 0, &ci);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        int64_t x0 = storage == EXR_STORAGE_SCANLINE ? 0 : (int64_t)(i % tiles_x) * tw;
+        int64_t y0 = storage == EXR_STORAGE_SCANLINE ? (int64_t)ci.start_y - dw.min.y
+                                                     : (int64_t)(i / tiles_x) * th;
+        if (y0 < 0 || x0 < 0 || ci.width <= 0 || ci.height <= 0 || y0 + ci.height > h ||
+            x0 + ci.width > w || (size_t)ci.width * (size_t)ci.height > chunk_px) {
+            rv = EXR_ERR_CORRUPT_CHUNK;
+            break;
+        }
+        if (!dec_started) {
+            rv = exr_decoding_initialize(ctx, part, &ci, &dec);
+            dec_started = rv == EXR_ERR_SUCCESS;
+        } else {
+            rv = exr_decoding_update(ctx, part, &ci, &dec);
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        size_t plane = (size_t)ci.width * (size_t)ci.height;
+        /* Every channel gets a destination: channels not read go to the plane after the
+         * last slot (OpenEXR 3.1's specialized unpackers write through null pointers). */
+        for (int ch = 0; ch < dec.channel_count; ch++) {
+            exr_coding_channel_info_t *cc = &dec.channels[ch];
+            int slot = c;
+            for (int s = 0; s < 5; s++)
+                if (slot_of[s] >= 0 && strcmp(cc->channel_name, names[s]) == 0)
+                    slot = slot_of[s];
+            cc->user_bytes_per_element = 4;
+            cc->user_data_type = EXR_PIXEL_FLOAT;
+            cc->user_pixel_stride = (int32_t)sizeof(float);
+            cc->user_line_stride = (int32_t)((size_t)ci.width * sizeof(float));
+            cc->decode_to_ptr = (uint8_t *)(scratch + (size_t)slot * plane);
+        }
+        rv = exr_decoding_choose_default_routines(ctx, part, &dec);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_decoding_run(ctx, part, &dec);
+        for (int32_t yy = 0; rv == EXR_ERR_SUCCESS && yy < ci.height; yy++)
+            for (int32_t xx = 0; xx < ci.width; xx++)
+                for (int k = 0; k < c; k++)
+                    img->pixels[(size_t)(y0 + yy) * row_floats + (size_t)(x0 + xx) * (size_t)c +
+                                (size_t)k] =
+                        scratch[(size_t)(grey_alpha && (k == 1 || k == 2) ? 0 : k) * plane +
+                                (size_t)yy * (size_t)ci.width + (size_t)xx];
+    }
+    free(scratch);
+    if (dec_started)
+        exr_decoding_destroy(ctx, &dec);
+    if (rv != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: corrupt OpenEXR pixel data: %s", path,
+                          exr_msg(&io, rv));
+        op_image_free(img);
+    }
+done:
+    exr_finish(&ctx);
+    return st;
+}
+
 /* ---------------------------------------------------------------- Radiance RGBE */
 
 /* One linear RGB value in Greg Ward's shared-exponent encoding (negative and non-finite
@@ -689,7 +889,7 @@ op_status op_image_exr_attr(const char *path, const char *name, char *out, size_
 
 /* The format of an image file from its first bytes (n of them), or from its name's extension
  * for TGA, which has no signature: the OpenImageIO reader's name and the format's name for
- * messages; NULL for PNG and PFM (read here) or an unknown file. */
+ * messages; NULL for PNG, OpenEXR and PFM (read here) or an unknown file. */
 static const char *oiio_format(const char *path, const unsigned char *m, size_t n,
                                const char **kind)
 {
@@ -698,7 +898,6 @@ static const char *oiio_format(const char *path, const unsigned char *m, size_t 
         size_t len;
         const char *format, *kind;
     } signatures[] = {
-        {"\x76\x2f\x31\x01", 4, "openexr", "OpenEXR"},
         {"\xff\xd8\xff", 3, "jpeg", "JPEG"},
         {"II*\0", 4, "tiff", "TIFF"},
         {"MM\0*", 4, "tiff", "TIFF"},
@@ -757,9 +956,9 @@ static void oiio_load(void)
 }
 
 /* Reads path through the OpenImageIO module: op_image_oiio_read_fn (image_internal.h). */
-static op_status read_oiio(const char *path, const char *format, const char *kind,
-                           const char *layer, int decode, uint64_t max_pixels, int header_only,
-                           op_image *img, int *encoded, op_error *err)
+static op_status read_oiio(const char *path, const char *format, const char *kind, int decode,
+                           uint64_t max_pixels, int header_only, op_image *img, int *encoded,
+                           op_error *err)
 {
     static const op_image_host host = {op_error_set, op_image_alloc, op_image_free, srgb_decode,
                                        srgb_encode,  check_pixels};
@@ -767,8 +966,8 @@ static op_status read_oiio(const char *path, const char *format, const char *kin
     if (!oiio_read)
         return op_error_set(err, OP_ERR_IO, "%s: cannot read %s images: opaline's image module "
                             "is missing (%s)", path, kind, oiio_failure);
-    return oiio_read(&host, path, format, kind, layer, decode, max_pixels, header_only, img,
-                     encoded, err);
+    return oiio_read(&host, path, format, kind, decode, max_pixels, header_only, img, encoded,
+                     err);
 }
 
 /* Reads any supported file (the layer named, for OpenEXR); integer ones are sRGB-decoded when
@@ -792,11 +991,21 @@ static op_status read_any(const char *path, const char *layer, int decode, uint6
         return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
     }
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
+        st = read_exr(path, layer, fd, (int64_t)size, max_pixels, header_only, img, err);
+        close(fd);
+        return st;
+    }
+    if (layer && *layer) {
+        close(fd);
+        return op_error_set(err, OP_ERR_INPUT, "%s: only OpenEXR images have layers (\"%s\")",
+                            path, layer);
+    }
     const char *kind = NULL, *format = oiio_format(path, magic, (size_t)got, &kind);
     if (format) {
         close(fd); /* OpenImageIO opens the file itself */
-        return read_oiio(path, format, kind, layer, decode, max_pixels, header_only, img,
-                         encoded, err);
+        return read_oiio(path, format, kind, decode, max_pixels, header_only, img, encoded, err);
     }
     if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
         FILE *f = fdopen(fd, "rb"); /* at offset 0: pread does not move it */

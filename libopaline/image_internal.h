@@ -34,24 +34,22 @@ typedef struct op_image_host {
 } op_image_host;
 
 /* The OpenImageIO module: opaline-oiio.so (image_oiio.cpp), loaded by image.c when it first
- * reads a format other than PFM, since OpenImageIO and the libraries it loads take Debian's
+ * reads a format other than PNG, OpenEXR and PFM, since OpenImageIO and the libraries it loads take Debian's
  * programs 0.7 s and 130 MB to start; its one entry point is OP_IMAGE_OIIO_ENTRY. */
 #define OP_IMAGE_OIIO_MODULE "opaline-oiio.so"
 #define OP_IMAGE_OIIO_ENTRY "op_image_oiio_read"
-/* Reads path through OpenImageIO's reader of format ("png", "jpeg", "openexr", "tiff", "hdr",
- * "bmp", "pnm", "targa"; kind names it in messages): the RGB(A) or grey(+alpha) channels of the
- * first subimage that has them, or of the layer named (an OpenEXR layer "diffuse" has the
- * channels diffuse.R, diffuse.G ... or is a part of that name; NULL or "" for the default).
- * Integer pixels (8, 16 or 32 bits) are sRGB-encoded unless the file declares another transfer
- * curve: decoded to linear light when decode is set, else returned as sRGB-encoded values in
- * [0, 1] with *encoded = 1. Float pixels are linear, returned as stored, *encoded = 0. The size
- * is checked against the sides' limits and max_pixels from the header, before anything is
- * decoded; with header_only, only the size and channels are set (pixels NULL). */
+/* Reads path through OpenImageIO's reader of format ("jpeg", "tiff", "hdr", "bmp", "pnm",
+ * "targa"; kind names it in messages): the RGB(A) or grey(+alpha) channels of the first
+ * subimage (TIFF page). Integer pixels (8, 16 or 32 bits) are sRGB-encoded unless the file
+ * declares another transfer curve: decoded to linear light when decode is set, else returned
+ * as sRGB-encoded values in [0, 1] with *encoded = 1. Float pixels are linear, returned as
+ * stored, *encoded = 0. The size is checked against the sides' limits and max_pixels from the
+ * header, before anything is decoded; with header_only, only the size and channels are set
+ * (pixels NULL). */
 typedef op_status (*op_image_oiio_read_fn)(const op_image_host *host, const char *path,
-                                           const char *format, const char *kind,
-                                           const char *layer, int decode, uint64_t max_pixels,
-                                           int header_only, op_image *img, int *encoded,
-                                           op_error *err);
+                                           const char *format, const char *kind, int decode,
+                                           uint64_t max_pixels, int header_only, op_image *img,
+                                           int *encoded, op_error *err);
 
 #ifdef __cplusplus
 }

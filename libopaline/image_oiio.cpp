@@ -1,5 +1,5 @@
 /* image_oiio.cpp - the module opaline-oiio.so: the image formats read through OpenImageIO
- * (PNG, JPEG, OpenEXR, TIFF, Radiance HDR, BMP, PNM, TGA), the channels a renderer uses, as
+ * (JPEG, TIFF, Radiance HDR, BMP, PNM, TGA), the channels a renderer uses, as
  * op_image floats (op_image_oiio_read_fn in image_internal.h). It calls libopaline only
  * through the op_image_host it is given. Only API that OpenImageIO 2.4 to 3.x share is used.
  * No exception leaves this file. */
@@ -38,37 +38,17 @@ std::string take_errors(const OIIO::ImageInput *in)
 }
 
 /* Which channels of spec make the image: idx[k] for the op_image channel k of *c (1, 3 or 4;
- * grey with alpha becomes RGBA with the grey repeated). OpenEXR channels are found by name,
- * in the layer named ("" is the default layer); the other formats' by position and alpha. */
-bool pick_channels(const OIIO::ImageSpec &spec, bool by_name, const std::string &layer, int idx[4],
-                   int *c)
+ * grey with alpha becomes RGBA with the grey repeated), by position and the alpha channel. */
+bool pick_channels(const OIIO::ImageSpec &spec, int idx[4], int *c)
 {
-    int found[5] = {-1, -1, -1, -1, -1}; /* R G B A Y */
-    if (by_name) {
-        static const char *names[5] = {"R", "G", "B", "A", "Y"};
-        std::string prefix = layer.empty() ? "" : layer + ".";
-        for (int i = 0; i < spec.nchannels && i < (int)spec.channelnames.size(); i++)
-            for (int s = 0; s < 5; s++)
-                if (spec.channelnames[i] == prefix + names[s] && found[s] < 0)
-                    found[s] = i;
-    } else {
-        int n = spec.nchannels, a = spec.alpha_channel;
-        if (n == 1 || n == 2) {
-            found[4] = 0;
-            found[3] = n == 2 ? 1 : -1;
-        } else if (n >= 3) {
-            found[0] = 0, found[1] = 1, found[2] = 2;
-            bool named_a = n >= 4 && spec.channelnames.size() > 3 && spec.channelnames[3] == "A";
-            found[3] = a >= 3 ? a : (named_a ? 3 : -1);
-        }
-    }
-    int grey = found[4] >= 0 ? found[4] : found[0];
-    if (found[0] >= 0 && found[1] >= 0 && found[2] >= 0) {
-        idx[0] = found[0], idx[1] = found[1], idx[2] = found[2], idx[3] = found[3];
-        *c = found[3] >= 0 ? 4 : 3;
-    } else if (grey >= 0) {
-        idx[0] = idx[1] = idx[2] = grey, idx[3] = found[3];
-        *c = found[3] >= 0 ? 4 : 1;
+    int n = spec.nchannels, a = spec.alpha_channel;
+    bool named_a = n >= 4 && spec.channelnames.size() > 3 && spec.channelnames[3] == "A";
+    if (n == 1 || n == 2) {
+        idx[0] = idx[1] = idx[2] = 0, idx[3] = n == 2 ? 1 : -1;
+        *c = n == 2 ? 4 : 1;
+    } else if (n >= 3) {
+        idx[0] = 0, idx[1] = 1, idx[2] = 2, idx[3] = a >= 3 ? a : (named_a ? 3 : -1);
+        *c = idx[3] >= 0 ? 4 : 3;
     } else {
         return false;
     }
@@ -103,12 +83,12 @@ struct reader {
         return host->error_set(err, st, "%s: %s %s: %s", path, what, kind, take_errors(in).c_str());
     }
 
-    op_status read(const char *format, const std::string &layer, int decode, uint64_t max_pixels,
-                   int header_only, op_image *img, int *encoded);
+    op_status read(const char *format, int decode, uint64_t max_pixels, int header_only,
+                   op_image *img, int *encoded);
 };
 
-op_status reader::read(const char *format, const std::string &layer, int decode,
-                       uint64_t max_pixels, int header_only, op_image *img, int *encoded)
+op_status reader::read(const char *format, int decode, uint64_t max_pixels, int header_only,
+                       op_image *img, int *encoded)
 {
     auto in = OIIO::ImageInput::create(format);
     if (!in)
@@ -118,26 +98,11 @@ op_status reader::read(const char *format, const std::string &layer, int decode,
     config.attribute("oiio:UnassociatedAlpha", 1); /* alpha as stored, never premultiplied */
     if (!in->open(path, first, config))
         return fail(OP_ERR_FORMAT, "not a readable", in.get());
-
-    /* The first subimage (OpenEXR part, TIFF page) with the channels wanted. */
-    bool exr = std::strcmp(format, "openexr") == 0;
-    int idx[4] = {-1, -1, -1, -1}, c = 0, sub = 0;
-    for (; sub < 64 && in->seek_subimage(sub, 0); sub++) {
-        const OIIO::ImageSpec &s = in->spec();
-        if (pick_channels(s, exr || !layer.empty(), layer, idx, &c))
-            break;
-        std::string part(s.get_string_attribute("oiio:subimagename"));
-        if (!layer.empty() && part == layer && pick_channels(s, true, "", idx, &c))
-            break;
-    }
-    if (c == 0) {
+    const int sub = 0; /* the first image (TIFF page) */
+    int idx[4] = {-1, -1, -1, -1}, c = 0;
+    if (!pick_channels(in->spec(), idx, &c)) {
         take_errors(in.get());
-        if (!layer.empty())
-            return host->error_set(err, OP_ERR_INPUT,
-                                   "%s: %s image has no layer \"%s\" with R, G, B or Y channels",
-                                   path, kind, layer.c_str());
-        return host->error_set(err, OP_ERR_FORMAT, "%s: %s image has no R, G, B or Y channels",
-                               path, kind);
+        return host->error_set(err, OP_ERR_FORMAT, "%s: %s image has no channels", path, kind);
     }
     OIIO::ImageSpec spec = in->spec();
     if (spec.deep || spec.depth > 1) {
@@ -157,7 +122,7 @@ op_status reader::read(const char *format, const std::string &layer, int decode,
         take_errors(in.get());
         return st;
     }
-    bool integer = !exr;
+    bool integer = true;
     for (int k = 0; k < c; k++)
         integer = integer && is_integer(spec.channelformat(idx[k]));
     *encoded = integer;
@@ -272,12 +237,12 @@ op_status reader::read(const char *format, const std::string &layer, int decode,
 /* The module's one exported symbol, OP_IMAGE_OIIO_ENTRY. */
 extern "C" __attribute__((visibility("default"))) op_status
 op_image_oiio_read(const op_image_host *host, const char *path, const char *format,
-                   const char *kind, const char *layer, int decode, uint64_t max_pixels,
-                   int header_only, op_image *img, int *encoded, op_error *err);
+                   const char *kind, int decode, uint64_t max_pixels, int header_only,
+                   op_image *img, int *encoded, op_error *err);
 
 op_status op_image_oiio_read(const op_image_host *host, const char *path, const char *format,
-                             const char *kind, const char *layer, int decode, uint64_t max_pixels,
-                             int header_only, op_image *img, int *encoded, op_error *err)
+                             const char *kind, int decode, uint64_t max_pixels, int header_only,
+                             op_image *img, int *encoded, op_error *err)
 {
     static_assert(std::is_same<decltype(&op_image_oiio_read), op_image_oiio_read_fn>::value,
                   "the entry point is what image.c calls");
@@ -285,7 +250,7 @@ op_status op_image_oiio_read(const op_image_host *host, const char *path, const 
     *encoded = 0;
     reader r{host, path, kind, err};
     try {
-        return r.read(format, layer ? layer : "", decode, max_pixels, header_only, img, encoded);
+        return r.read(format, decode, max_pixels, header_only, img, encoded);
     } catch (const std::bad_alloc &) {
         host->free(img);
         return host->error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
