@@ -3,6 +3,7 @@
 # `cmake --install BUILD --prefix P` writes
 #   P/bin/opaline-render, P/bin/opaline-factor                       (renderer/cli/, factorize/cli/)
 #   P/bin/opaline-cluster                                            (cluster/, SLURM front end)
+#   P/lib/opaline/opaline-oiio.so       the image module (libopaline/), found at <bin>/../lib/opaline
 #   P/share/opaline/presets/NAME.opm, NAME.png, NAME.json, NAME.recipe (presets/)
 #   P/share/opaline/blender_addon/opaline/                            the add-on's source folder
 #   P/share/opaline/blender_addon/opaline-blender-addon.zip           Blender 3.4 to 4.1

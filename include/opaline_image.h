@@ -1,6 +1,7 @@
 /*
- * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR or PFM and
- * read from any of them. Errors and conventions: opaline.h.
+ * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM or
+ * Radiance HDR, and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
+ * opaline.h.
  */
 #ifndef OPALINE_IMAGE_H
 #define OPALINE_IMAGE_H
@@ -48,11 +49,18 @@ op_status op_image_write_pfm(const char *path, const op_image *img, op_error *er
 /* Radiance RGBE (.hdr): shared-exponent RGB, 4 bytes a pixel (a grey image repeats its
  * channel, alpha is dropped). */
 op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err);
-/* Reads an OpenEXR, PNG or PFM file (chosen by content) into linear floats. */
+/* Reads an image file into linear floats: OpenEXR, PNG (8 or 16 bits), JPEG, TIFF, Radiance
+ * HDR, BMP, PNM or PFM, chosen by content, or TGA (which has no signature) by the name's
+ * extension .tga. PNG (libpng), OpenEXR (its C API) and PFM are read here, the others through
+ * OpenImageIO, loaded on first use. Integer pixels are sRGB-encoded unless the file declares another curve (a PNG's
+ * gAMA) and are decoded to linear light; alpha and float pixels are returned as stored. Of OpenEXR files, the channels R, G, B
+ * (and A), or Y (else R) alone, of the first part that has them; other layers are skipped.
+ * A file with several images (TIFF pages) gives its first. Grey with alpha becomes RGBA. */
 op_status op_image_read(const char *path, op_image *img, op_error *err);
-/* The same, but 8-bit files (PNG) keep their stored values (byte / 255) instead of being
- * sRGB-decoded, so that a caller can apply another transfer curve; *encoded is set to 1 for
- * those and to 0 for float files (OpenEXR, PFM), whose values both functions return as stored. */
+/* The same, but integer files keep their sRGB-encoded values (code / largest code; a file with
+ * another declared curve is re-encoded as sRGB) instead of being decoded, so that a caller can
+ * apply another transfer curve; *encoded is set to 1 for those and to 0 for float files
+ * (OpenEXR, HDR, PFM, float TIFF), whose values both functions return as stored. */
 op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err);
 /* The most pixels (width x height) the two readers above accept: 2^27 (16384 x 8192). */
 #define OP_IMAGE_DEFAULT_MAX_PIXELS ((uint64_t)1 << 27)
@@ -61,8 +69,14 @@ op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op
  * (OP_ERR_INPUT naming the limit "image-pixels") before anything is decoded or allocated. */
 op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
                                 int *encoded, op_error *err);
-/* The width, height and channels (as op_image_read would give them) of an OpenEXR, PNG or PFM
- * file, read from its header: no pixel is decoded and no pixel limit applies. The readers'
+/* op_image_read_limited of the OpenEXR layer named: the channels layer.R, layer.G, layer.B
+ * (and layer.A, or layer.Y alone) of the first part that has them, or R, G, B ... of the part
+ * named layer; NULL or "" is the default layer. A file without that layer, or a layer named
+ * for another format, is OP_ERR_INPUT naming it. */
+op_status op_image_read_layer(const char *path, const char *layer, int decode,
+                              uint64_t max_pixels, op_image *img, int *encoded, op_error *err);
+/* The width, height and channels (as op_image_read would give them) of any file it reads,
+ * from its header: no pixel is decoded and no pixel limit applies. The readers'
  * errors for a file they refuse before decoding; 0, 0, 0 then. */
 op_status op_image_read_size(const char *path, int *width, int *height, int *channels,
                              op_error *err);

@@ -1,14 +1,21 @@
-/* image.c - linear float images and their files: PNG (libpng, 8-bit sRGB), OpenEXR (the
- * OpenEXRCore C API), portable float maps, and Radiance RGBE (.hdr, written only). Every file
- * is written through op_output, so a failed write leaves nothing behind. */
+/* image.c - linear float images and their files. Written: PNG (libpng, 8-bit sRGB), OpenEXR
+ * (the OpenEXRCore C API), portable float maps and Radiance RGBE, each through op_output, so a
+ * failed write leaves nothing behind. Read: the format chosen by content; PNG (libpng), OpenEXR
+ * (its C API) and portable float maps here, every other format through OpenImageIO, in a
+ * module loaded on first use (image_oiio.cpp). */
 #include "opaline.h"
 #include "opaline_image.h"
+#include "image_internal.h"
 
+#include <dlfcn.h>
 #include <errno.h>
 #include <math.h>
 #include <png.h>
+#include <setjmp.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include <openexr.h>
@@ -135,9 +142,102 @@ static op_status check_pixels(const char *path, const char *kind, uint64_t w, ui
                         (unsigned long long)max_pixels);
 }
 
+static int host_little_endian(void)
+{
+    const uint16_t one = 1;
+    unsigned char b;
+    memcpy(&b, &one, 1);
+    return b == 1;
+}
+
+/* libpng's row API reports errors here: kept, and the read abandoned (a longjmp). */
+typedef struct png_failure {
+    jmp_buf jump;
+    char message[160];
+} png_failure;
+
+static void png_fail(png_structp png, png_const_charp msg)
+{
+    png_failure *f = png_get_error_ptr(png);
+    snprintf(f->message, sizeof f->message, "%s", msg);
+    longjmp(f->jump, 1);
+}
+
+static void png_warning_ignored(png_structp png, png_const_charp msg) {}
+
+/* The transfer curve of a PNG's colour: 0 sRGB (an sRGB chunk, or no gAMA, or one within 0.05
+ * of 2.2, as libpng counts sRGB), 1 linear, else the gamma exponent. */
+static double png_transfer(png_structp png, png_infop info)
+{
+    int intent;
+    double file_gamma;
+    if (png_get_sRGB(png, info, &intent) || !png_get_gAMA(png, info, &file_gamma) ||
+        !(file_gamma > 0.0))
+        return 0.0;
+    double g = 1.0 / file_gamma;
+    return fabs(g - 1.0) <= 0.01 ? 1.0 : fabs(g - 2.2) <= 0.05 ? 0.0 : g;
+}
+
+/* A 16-bit PNG from f (at its start) into img (allocated with its size and channels), through
+ * libpng's row API: the simplified API gives 16 bits only as premultiplied linear light through
+ * a 2.2 power law. Colour is sRGB-encoded (or as gAMA says): decoded when decode is set, else
+ * returned sRGB-encoded (code / 65535 for sRGB files); alpha as stored. */
+static op_status read_png16(const char *path, FILE *f, int decode, op_image *img,
+                            op_error *err)
+{
+    size_t w = (size_t)img->width, h = (size_t)img->height, c = (size_t)img->channels;
+    png_failure fail = {.message = ""};
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &fail, png_fail,
+                                             png_warning_ignored);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    uint16_t *buf = malloc(w * h * c * sizeof *buf);
+    png_bytep *rows = malloc(h * sizeof *rows);
+    if (!info || !buf || !rows) {
+        png_destroy_read_struct(&png, &info, NULL);
+        free(buf);
+        free(rows);
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    for (size_t y = 0; y < h; y++)
+        rows[y] = (png_bytep)(buf + y * w * c);
+    if (setjmp(fail.jump)) {
+        png_destroy_read_struct(&png, &info, NULL);
+        free(buf);
+        free(rows);
+        return op_error_set(err, OP_ERR_FORMAT, "%s: corrupt PNG: %s", path, fail.message);
+    }
+    png_init_io(png, f);
+    png_read_info(png, info);
+    png_set_expand(png); /* palette, tRNS to alpha */
+    if (c >= 3)
+        png_set_gray_to_rgb(png);
+    if (host_little_endian())
+        png_set_swap(png);
+    png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    if (png_get_image_width(png, info) != w || png_get_image_height(png, info) != h ||
+        png_get_bit_depth(png, info) != 16 || png_get_channels(png, info) != c)
+        png_error(png, "layout differs from the header read first");
+    double gamma = png_transfer(png, info);
+    png_read_image(png, rows);
+    png_read_end(png, NULL);
+    png_destroy_read_struct(&png, &info, NULL);
+    for (size_t i = 0; i < w * h * c; i++) {
+        float v = (float)buf[i] / 65535.0f;
+        if (!(c == 4 && i % 4 == 3)) {
+            float lin = gamma == 0.0 ? srgb_decode(v) : gamma == 1.0 ? v : powf(v, (float)gamma);
+            v = decode ? lin : gamma == 0.0 ? v : srgb_encode(lin);
+        }
+        img->pixels[i] = v;
+    }
+    free(buf);
+    free(rows);
+    return OP_OK;
+}
+
 /* Reads a PNG from f (path names it in messages) through libpng's simplified API (which never
  * prints), as 8-bit sRGB, decoded to linear light when decode is set (else byte / 255); alpha
- * stays as stored. Grey+alpha becomes RGBA. */
+ * stays as stored. Grey+alpha becomes RGBA. 16-bit files are read by read_png16. */
 static op_status read_png(const char *path, FILE *f, int decode, uint64_t max_pixels,
                           int header_only, op_image *img, op_error *err)
 {
@@ -152,6 +252,7 @@ static op_status read_png(const char *path, FILE *f, int decode, uint64_t max_pi
     int has_alpha = (pi.format & PNG_FORMAT_FLAG_ALPHA) != 0;
     int colour = (pi.format & PNG_FORMAT_FLAG_COLOR) != 0;
     int c = has_alpha ? 4 : colour ? 3 : 1;
+    int sixteen = (pi.format & PNG_FORMAT_FLAG_LINEAR) != 0; /* what 16-bit files report */
     pi.format = c == 1 ? PNG_FORMAT_GRAY : c == 3 ? PNG_FORMAT_RGB : PNG_FORMAT_RGBA;
     if (pi.width == 0 || pi.height == 0 || pi.width > OP_IMAGE_MAX_SIDE ||
         pi.height > OP_IMAGE_MAX_SIDE) {
@@ -167,6 +268,13 @@ static op_status read_png(const char *path, FILE *f, int decode, uint64_t max_pi
         st = op_image_alloc(img, (int)pi.width, (int)pi.height, c, err);
     if (st != OP_OK || header_only) {
         png_image_free(&pi);
+        return st;
+    }
+    if (sixteen) {
+        png_image_free(&pi);
+        rewind(f);
+        if ((st = read_png16(path, f, decode, img, err)) != OP_OK)
+            op_image_free(img);
         return st;
     }
     size_t n = (size_t)pi.width * pi.height * (size_t)c;
@@ -369,10 +477,13 @@ op_status op_image_write_exr_attr(const char *path, const op_image *img, int hal
     return op_output_commit(io.out, err);
 }
 
-/* Reads the first part of a flat (not deep) scanline or tiled OpenEXR file; channels R, G, B
- * and A (or Y) by name, any pixel type, converted to float. */
-static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_pixels,
-                          int header_only, op_image *img, op_error *err)
+/* Reads a flat (not deep) scanline or tiled OpenEXR file, any pixel type converted to float:
+ * the channels R, G, B and A (or Y, else R, and A) of the layer named (layer.R ..., or R ... of
+ * the part named layer; NULL or "" the default layer), from the first part that has them. Its
+ * own reader, on OpenEXR's C API: OpenImageIO 2.4's (OpenEXR's C++ library) takes 2 GB and 5 s
+ * to refuse a 200-byte header declaring a huge data window. */
+static op_status read_exr(const char *path, const char *layer, int fd, int64_t size,
+                          uint64_t max_pixels, int header_only, op_image *img, op_error *err)
 {
     exr_io io;
     exr_context_t ctx = NULL;
@@ -384,12 +495,56 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
         return op_error_set(err, OP_ERR_FORMAT, "%s: not a readable OpenEXR file: %s", path,
                             exr_msg(&io, rv));
     }
+    /* The part and the channel names: the first part with the layer's R, G, B or Y. */
+    static const char *slot_names[5] = {"R", "G", "B", "A", "Y"};
+    char names[5][300];
+    int part = -1, nparts = 0, has[5] = {0};
+    const exr_attr_chlist_t *chl = NULL;
+    if ((rv = exr_get_count(ctx, &nparts)) != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path, exr_msg(&io, rv));
+        goto done;
+    }
+    for (int p = 0; p < nparts && part < 0; p++) {
+        const char *part_name = NULL;
+        int whole = layer && *layer && exr_get_name(ctx, p, &part_name) == EXR_ERR_SUCCESS &&
+                    part_name && strcmp(part_name, layer) == 0;
+        const char *prefix = layer && *layer && !whole ? layer : "";
+        for (int s = 0; s < 5; s++)
+            snprintf(names[s], sizeof names[s], "%s%s%s", prefix, *prefix ? "." : "",
+                     slot_names[s]);
+        if ((rv = exr_get_channels(ctx, p, &chl)) != EXR_ERR_SUCCESS) {
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path,
+                              exr_msg(&io, rv));
+            goto done;
+        }
+        memset(has, 0, sizeof has);
+        for (int i = 0; i < chl->num_channels; i++)
+            for (int s = 0; s < 5; s++)
+                if (strcmp(chl->entries[i].name.str, names[s]) == 0) {
+                    if (chl->entries[i].x_sampling != 1 || chl->entries[i].y_sampling != 1) {
+                        st = op_error_set(err, OP_ERR_FORMAT,
+                                          "%s: subsampled OpenEXR channel %s is not supported",
+                                          path, names[s]);
+                        goto done;
+                    }
+                    has[s] = 1;
+                }
+        if ((has[0] && has[1] && has[2]) || has[4] || has[0])
+            part = p;
+    }
+    if (part < 0) {
+        if (layer && *layer)
+            st = op_error_set(err, OP_ERR_INPUT, "%s: OpenEXR image has no layer \"%s\" with R, "
+                              "G, B or Y channels", path, layer);
+        else
+            st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR file has no R, G, B or Y channels",
+                              path);
+        goto done;
+    }
     exr_storage_t storage;
     exr_attr_box2i_t dw;
-    const exr_attr_chlist_t *chl = NULL;
-    if ((rv = exr_get_storage(ctx, 0, &storage)) != EXR_ERR_SUCCESS ||
-        (rv = exr_get_data_window(ctx, 0, &dw)) != EXR_ERR_SUCCESS ||
-        (rv = exr_get_channels(ctx, 0, &chl)) != EXR_ERR_SUCCESS) {
+    if ((rv = exr_get_storage(ctx, part, &storage)) != EXR_ERR_SUCCESS ||
+        (rv = exr_get_data_window(ctx, part, &dw)) != EXR_ERR_SUCCESS) {
         st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path, exr_msg(&io, rv));
         goto done;
     }
@@ -405,34 +560,19 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
     }
     if ((st = check_pixels(path, "OpenEXR", (uint64_t)w, (uint64_t)h, max_pixels, err)) != OP_OK)
         goto done;
-    /* Map channel names to slots: R G B A, or Y (else R alone) for grey. */
-    int has[5] = {0};
-    static const char *slot_names[5] = {"R", "G", "B", "A", "Y"};
-    for (int i = 0; i < chl->num_channels; i++)
-        for (int s = 0; s < 5; s++)
-            if (strcmp(chl->entries[i].name.str, slot_names[s]) == 0) {
-                if (chl->entries[i].x_sampling != 1 || chl->entries[i].y_sampling != 1) {
-                    st = op_error_set(err, OP_ERR_FORMAT,
-                                      "%s: subsampled OpenEXR channel %s is not supported", path,
-                                      slot_names[s]);
-                    goto done;
-                }
-                has[s] = 1;
-            }
+    /* Slots: R G B A, or Y (else R) for grey; grey with alpha is read as RGBA. */
     int c, slot_of[5] = {-1, -1, -1, -1, -1};
     if (has[0] && has[1] && has[2]) {
         c = has[3] ? 4 : 3;
         for (int s = 0; s < c; s++)
             slot_of[s] = s;
-    } else if (has[4] || has[0]) {
+    } else {
         c = has[3] ? 4 : 1;
         slot_of[has[4] ? 4 : 0] = 0;
         if (c == 4)
             slot_of[3] = 3;
-    } else {
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: OpenEXR file has no R, G, B or Y channels", path);
-        goto done;
     }
+    int grey_alpha = c == 4 && !(has[0] && has[1] && has[2]);
     if (header_only) {
         *img = (op_image){(int)w, (int)h, c, NULL};
         goto done;
@@ -444,12 +584,12 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
     int32_t lines = 1, nchunks = 0, tiles_x = 1;
     uint32_t tw = 0, th = 0;
     if (storage == EXR_STORAGE_SCANLINE) {
-        rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
+        rv = exr_get_scanlines_per_chunk(ctx, part, &lines);
         nchunks = (int32_t)((h + lines - 1) / (lines > 0 ? lines : 1));
     } else {
         exr_tile_level_mode_t lm;
         exr_tile_round_mode_t rm;
-        rv = exr_get_tile_descriptor(ctx, 0, &tw, &th, &lm, &rm);
+        rv = exr_get_tile_descriptor(ctx, part, &tw, &th, &lm, &rm);
         if (rv == EXR_ERR_SUCCESS && (tw == 0 || th == 0))
             rv = EXR_ERR_INVALID_ATTR;
         if (rv == EXR_ERR_SUCCESS) {
@@ -478,9 +618,9 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
     for (int32_t i = 0; i < nchunks && rv == EXR_ERR_SUCCESS; i++) {
         exr_chunk_info_t ci;
         if (storage == EXR_STORAGE_SCANLINE)
-            rv = exr_read_scanline_chunk_info(ctx, 0, dw.min.y + i * lines, &ci);
+            rv = exr_read_scanline_chunk_info(ctx, part, dw.min.y + i * lines, &ci);
         else
-            rv = exr_read_tile_chunk_info(ctx, 0, i % tiles_x, i / tiles_x, 0, 0, &ci);
+            rv = exr_read_tile_chunk_info(ctx, part, i % tiles_x, i / tiles_x, 0, 0, &ci);
         if (rv != EXR_ERR_SUCCESS)
             break;
         int64_t x0 = storage == EXR_STORAGE_SCANLINE ? 0 : (int64_t)(i % tiles_x) * tw;
@@ -492,10 +632,10 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
             break;
         }
         if (!dec_started) {
-            rv = exr_decoding_initialize(ctx, 0, &ci, &dec);
+            rv = exr_decoding_initialize(ctx, part, &ci, &dec);
             dec_started = rv == EXR_ERR_SUCCESS;
         } else {
-            rv = exr_decoding_update(ctx, 0, &ci, &dec);
+            rv = exr_decoding_update(ctx, part, &ci, &dec);
         }
         if (rv != EXR_ERR_SUCCESS)
             break;
@@ -506,7 +646,7 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
             exr_coding_channel_info_t *cc = &dec.channels[ch];
             int slot = c;
             for (int s = 0; s < 5; s++)
-                if (slot_of[s] >= 0 && strcmp(cc->channel_name, slot_names[s]) == 0)
+                if (slot_of[s] >= 0 && strcmp(cc->channel_name, names[s]) == 0)
                     slot = slot_of[s];
             cc->user_bytes_per_element = 4;
             cc->user_data_type = EXR_PIXEL_FLOAT;
@@ -514,15 +654,16 @@ static op_status read_exr(const char *path, int fd, int64_t size, uint64_t max_p
             cc->user_line_stride = (int32_t)((size_t)ci.width * sizeof(float));
             cc->decode_to_ptr = (uint8_t *)(scratch + (size_t)slot * plane);
         }
-        rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
+        rv = exr_decoding_choose_default_routines(ctx, part, &dec);
         if (rv == EXR_ERR_SUCCESS)
-            rv = exr_decoding_run(ctx, 0, &dec);
+            rv = exr_decoding_run(ctx, part, &dec);
         for (int32_t yy = 0; rv == EXR_ERR_SUCCESS && yy < ci.height; yy++)
             for (int32_t xx = 0; xx < ci.width; xx++)
                 for (int k = 0; k < c; k++)
                     img->pixels[(size_t)(y0 + yy) * row_floats + (size_t)(x0 + xx) * (size_t)c +
                                 (size_t)k] =
-                        scratch[(size_t)k * plane + (size_t)yy * (size_t)ci.width + (size_t)xx];
+                        scratch[(size_t)(grey_alpha && (k == 1 || k == 2) ? 0 : k) * plane +
+                                (size_t)yy * (size_t)ci.width + (size_t)xx];
     }
     free(scratch);
     if (dec_started)
@@ -598,14 +739,6 @@ op_status op_image_write_hdr(const char *path, const op_image *img, op_error *er
 }
 
 /* ---------------------------------------------------------------- PFM */
-
-static int host_little_endian(void)
-{
-    const uint16_t one = 1;
-    unsigned char b;
-    memcpy(&b, &one, 1);
-    return b == 1;
-}
 
 static void swap4(void *p)
 {
@@ -754,10 +887,94 @@ op_status op_image_exr_attr(const char *path, const char *name, char *out, size_
     return st;
 }
 
-/* Reads any supported file; 8-bit ones are sRGB-decoded when decode is set. With header_only,
- * only img's size and channels are set (pixels NULL), from the header, nothing decoded. */
-static op_status read_any(const char *path, int decode, uint64_t max_pixels, int header_only,
-                          op_image *img, int *encoded, op_error *err)
+/* The format of an image file from its first bytes (n of them), or from its name's extension
+ * for TGA, which has no signature: the OpenImageIO reader's name and the format's name for
+ * messages; NULL for PNG, OpenEXR and PFM (read here) or an unknown file. */
+static const char *oiio_format(const char *path, const unsigned char *m, size_t n,
+                               const char **kind)
+{
+    static const struct {
+        const char *magic;
+        size_t len;
+        const char *format, *kind;
+    } signatures[] = {
+        {"\xff\xd8\xff", 3, "jpeg", "JPEG"},
+        {"II*\0", 4, "tiff", "TIFF"},
+        {"MM\0*", 4, "tiff", "TIFF"},
+        {"II+\0", 4, "tiff", "TIFF"}, /* BigTIFF */
+        {"MM\0+", 4, "tiff", "TIFF"},
+        {"#?", 2, "hdr", "Radiance HDR"},
+        {"BM", 2, "bmp", "BMP"},
+    };
+    for (size_t i = 0; i < sizeof signatures / sizeof signatures[0]; i++)
+        if (n >= signatures[i].len && memcmp(m, signatures[i].magic, signatures[i].len) == 0) {
+            *kind = signatures[i].kind;
+            return signatures[i].format;
+        }
+    if (n >= 3 && m[0] == 'P' && m[1] >= '1' && m[1] <= '6' &&
+        (m[2] == '\n' || m[2] == ' ' || m[2] == '\r' || m[2] == '\t')) {
+        *kind = "PNM";
+        return "pnm";
+    }
+    const char *dot = strrchr(path, '.');
+    if (dot && (strcasecmp(dot, ".tga") == 0 || strcasecmp(dot, ".targa") == 0)) {
+        *kind = "TGA";
+        return "targa";
+    }
+    return NULL;
+}
+
+/* The OpenImageIO module's entry point, loaded once: from <program's folder>/../lib/opaline/
+ * (the installed layout, and the build tree's bin/), else from where this build put it. */
+static pthread_once_t oiio_once = PTHREAD_ONCE_INIT;
+static op_image_oiio_read_fn oiio_read;
+static char oiio_failure[1100];
+
+static void oiio_load(void)
+{
+    char exe[4096], tried[2][4200];
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    exe[len > 0 ? len : 0] = '\0';
+    char *slash = strrchr(exe, '/');
+    if (slash)
+        *slash = '\0';
+    snprintf(tried[0], sizeof tried[0], "%s/../lib/opaline/%s", exe, OP_IMAGE_OIIO_MODULE);
+    snprintf(tried[1], sizeof tried[1], "%s", OPALINE_OIIO_MODULE_BUILT);
+    for (int i = 0; i < 2 && !oiio_read; i++) {
+        if (access(tried[i], F_OK) != 0)
+            continue;
+        void *module = dlopen(tried[i], RTLD_NOW | RTLD_LOCAL);
+        void *entry = module ? dlsym(module, OP_IMAGE_OIIO_ENTRY) : NULL;
+        if (entry)
+            memcpy(&oiio_read, &entry, sizeof entry); /* POSIX: a function's address */
+        else
+            snprintf(oiio_failure, sizeof oiio_failure, "%.1000s", dlerror());
+    }
+    if (!oiio_read && !oiio_failure[0])
+        snprintf(oiio_failure, sizeof oiio_failure, "neither %.500s nor %.500s exists", tried[0],
+                 tried[1]);
+}
+
+/* Reads path through the OpenImageIO module: op_image_oiio_read_fn (image_internal.h). */
+static op_status read_oiio(const char *path, const char *format, const char *kind, int decode,
+                           uint64_t max_pixels, int header_only, op_image *img, int *encoded,
+                           op_error *err)
+{
+    static const op_image_host host = {op_error_set, op_image_alloc, op_image_free, srgb_decode,
+                                       srgb_encode,  check_pixels};
+    pthread_once(&oiio_once, oiio_load);
+    if (!oiio_read)
+        return op_error_set(err, OP_ERR_IO, "%s: cannot read %s images: opaline's image module "
+                            "is missing (%s)", path, kind, oiio_failure);
+    return oiio_read(&host, path, format, kind, decode, max_pixels, header_only, img, encoded,
+                     err);
+}
+
+/* Reads any supported file (the layer named, for OpenEXR); integer ones are sRGB-decoded when
+ * decode is set. With header_only, only img's size and channels are set (pixels NULL), from
+ * the header, nothing decoded. */
+static op_status read_any(const char *path, const char *layer, int decode, uint64_t max_pixels,
+                          int header_only, op_image *img, int *encoded, op_error *err)
 {
     memset(img, 0, sizeof *img);
     *encoded = 0;
@@ -773,11 +990,24 @@ static op_status read_any(const char *path, int decode, uint64_t max_pixels, int
         close(fd);
         return op_error_set(err, OP_ERR_IO, "%s: cannot read: %s", path, strerror(e));
     }
-    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
-        st = read_exr(path, fd, (int64_t)size, max_pixels, header_only, img, err);
-    } else if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
+        st = read_exr(path, layer, fd, (int64_t)size, max_pixels, header_only, img, err);
+        close(fd);
+        return st;
+    }
+    if (layer && *layer) {
+        close(fd);
+        return op_error_set(err, OP_ERR_INPUT, "%s: only OpenEXR images have layers (\"%s\")",
+                            path, layer);
+    }
+    const char *kind = NULL, *format = oiio_format(path, magic, (size_t)got, &kind);
+    if (format) {
+        close(fd); /* OpenImageIO opens the file itself */
+        return read_oiio(path, format, kind, decode, max_pixels, header_only, img, encoded, err);
+    }
+    if (got >= 8 && memcmp(magic, png_magic, 8) == 0) {
         FILE *f = fdopen(fd, "rb"); /* at offset 0: pread does not move it */
         if (!f) {
             close(fd);
@@ -787,12 +1017,13 @@ static op_status read_any(const char *path, int decode, uint64_t max_pixels, int
         *encoded = 1;
         fclose(f);
         return st;
-    } else if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
-               (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r')) {
-        st = read_pfm(path, fd, (int64_t)size, max_pixels, header_only, img, err);
-    } else {
-        st = op_error_set(err, OP_ERR_FORMAT, "%s: not an OpenEXR, PNG or PFM image", path);
     }
+    if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
+        (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r'))
+        st = read_pfm(path, fd, (int64_t)size, max_pixels, header_only, img, err);
+    else
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: not an OpenEXR, PNG or PFM image, nor JPEG, "
+                          "TIFF, Radiance HDR, BMP, PNM or TGA (named .tga)", path);
     close(fd);
     return st;
 }
@@ -800,19 +1031,25 @@ static op_status read_any(const char *path, int decode, uint64_t max_pixels, int
 op_status op_image_read(const char *path, op_image *img, op_error *err)
 {
     int encoded;
-    return read_any(path, 1, OP_IMAGE_DEFAULT_MAX_PIXELS, 0, img, &encoded, err);
+    return read_any(path, NULL, 1, OP_IMAGE_DEFAULT_MAX_PIXELS, 0, img, &encoded, err);
 }
 
 op_status op_image_read_stored(const char *path, op_image *img, int *encoded, op_error *err)
 {
-    return read_any(path, 0, OP_IMAGE_DEFAULT_MAX_PIXELS, 0, img, encoded, err);
+    return read_any(path, NULL, 0, OP_IMAGE_DEFAULT_MAX_PIXELS, 0, img, encoded, err);
 }
 
 op_status op_image_read_limited(const char *path, int decode, uint64_t max_pixels, op_image *img,
                                 int *encoded, op_error *err)
 {
+    return op_image_read_layer(path, NULL, decode, max_pixels, img, encoded, err);
+}
+
+op_status op_image_read_layer(const char *path, const char *layer, int decode,
+                              uint64_t max_pixels, op_image *img, int *encoded, op_error *err)
+{
     int ignored;
-    return read_any(path, decode, max_pixels, 0, img, encoded ? encoded : &ignored, err);
+    return read_any(path, layer, decode, max_pixels, 0, img, encoded ? encoded : &ignored, err);
 }
 
 op_status op_image_read_size(const char *path, int *width, int *height, int *channels,
@@ -820,7 +1057,7 @@ op_status op_image_read_size(const char *path, int *width, int *height, int *cha
 {
     op_image img;
     int encoded;
-    op_status st = read_any(path, 1, UINT64_MAX, 1, &img, &encoded, err);
+    op_status st = read_any(path, NULL, 1, UINT64_MAX, 1, &img, &encoded, err);
     *width = st ? 0 : img.width;
     *height = st ? 0 : img.height;
     *channels = st ? 0 : img.channels;

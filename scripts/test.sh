@@ -27,7 +27,7 @@ fi
 seconds=${OPALINE_FUZZ_SECONDS:-30}
 if [ "$seconds" != 0 ] && [ $# -eq 0 ]; then
   fuzz="$root/build-fuzz"
-  CC=clang cmake -S "$root" -B "$fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_SANITIZE=ON \
+  CC=clang CXX=clang++ cmake -S "$root" -B "$fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOPALINE_SANITIZE=ON \
     -DOPALINE_WERROR=ON -DOPALINE_FUZZ=ON -DOPALINE_BUILD_PRESETS=OFF \
     -DOPALINE_FUZZ_SECONDS="$seconds" >/dev/null
   cmake --build "$fuzz" --parallel "$(nproc)" --target opaline_fuzz_targets

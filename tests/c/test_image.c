@@ -1,5 +1,8 @@
 /* test_image.c - image files: PNG, OpenEXR (half and float) and PFM round trips, exposure and
- * clamping, failed writes that leave nothing, and unreadable files. */
+ * clamping, failed writes that leave nothing, unreadable files; the formats read through
+ * OpenImageIO (JPEG, TGA, TIFF, HDR, BMP, PNM, 16-bit PNG, OpenEXR layers) against the values
+ * written, their limits and their errors. */
+#include "image_samples.h"
 #include "test_support.h"
 
 #include <math.h>
@@ -280,6 +283,272 @@ static void unreadable_files(void **state)
     op_image_free(&src);
 }
 
+static double srgb_to_linear(double v)
+{
+    return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
+}
+
+/* A smooth pattern of values in [0, 1] (alpha in [0.25, 1]) for the formats below: smooth, so
+ * that JPEG keeps it within a few codes. */
+static void fill_unit(float *p, int w, int h, int c)
+{
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int k = 0; k < c; k++)
+                p[((size_t)y * w + x) * c + k] =
+                    (c == 4 && k == 3) || (c == 2 && k == 1)
+                        ? 0.25f + 0.75f * (float)(x + y) / (float)(w + h - 2)
+                        : (float)(x * (k + 1) + 2 * y) / (float)((w - 1) * (k + 1) + 2 * (h - 1));
+}
+
+typedef struct {
+    const char *name, *type;
+    int channels, out_channels; /* as written; as op_image gives them */
+    int encoded;
+    double tol; /* of stored values, against those written (0: exact, or one integer code) */
+} format_case;
+
+/* Each format written by OpenImageIO and read back: size, channels, stored values (integer
+ * formats: the codes / largest code; float ones: the values), decoding (sRGB for integer
+ * colour, none for alpha and floats) and the header-only size. */
+static void formats_read_back(void **state)
+{
+    static const format_case cases[] = {
+        {"rgb.jpg", "uint8", 3, 3, 1, 0.08},    {"grey.jpg", "uint8", 1, 1, 1, 0.08},
+        {"rgb.tga", "uint8", 3, 3, 1, 0},       {"rgba.tga", "uint8", 4, 4, 1, 0},
+        {"rgb8.tif", "uint8", 3, 3, 1, 0},      {"rgba16.tif", "uint16", 4, 4, 1, 0},
+        {"ga16.tif", "uint16", 2, 4, 1, 0},     {"rgbf.tif", "float", 3, 3, 0, 0},
+        {"grey16.png", "uint16", 1, 1, 1, 0},   {"rgba16.png", "uint16", 4, 4, 1, 0},
+        {"ga8.png", "uint8", 2, 4, 1, 0},       {"rgb.bmp", "uint8", 3, 3, 1, 0},
+        {"rgb.ppm", "uint8", 3, 3, 1, 0},       {"grey.pgm", "uint8", 1, 1, 1, 0},
+        {"rgb.hdr", "float", 3, 3, 0, 0.008},   {"rgbh.exr", "half", 3, 3, 0, 1e-3},
+    };
+    const int w = 13, h = 7;
+    for (size_t f = 0; f < sizeof cases / sizeof cases[0]; f++) {
+        const format_case *fc = &cases[f];
+        float src[13 * 7 * 4];
+        fill_unit(src, w, h, fc->channels);
+        const char *path = op_test_tmp_path(fc->name);
+        assert_int_equal(op_test_write_image(path, w, h, fc->channels, fc->type, src, NULL), 0);
+        op_error err = {0};
+        op_image dec, raw;
+        int encoded = -1, sw, sh, sc;
+        OP_ASSERT_OK(op_image_read(path, &dec, &err), err);
+        OP_ASSERT_OK(op_image_read_stored(path, &raw, &encoded, &err), err);
+        OP_ASSERT_OK(op_image_read_size(path, &sw, &sh, &sc, &err), err);
+        if (dec.width != w || dec.height != h || dec.channels != fc->out_channels ||
+            encoded != fc->encoded || sw != w || sh != h || sc != fc->out_channels)
+            fail_msg("%s: %dx%dx%d encoded %d, size %dx%dx%d", fc->name, dec.width, dec.height,
+                     dec.channels, encoded, sw, sh, sc);
+        double largest = strcmp(fc->type, "uint8") == 0 ? 255 : 65535;
+        int oc = fc->out_channels;
+        for (int i = 0; i < w * h; i++)
+            for (int k = 0; k < oc; k++) {
+                /* grey + alpha comes back as RGBA with the grey repeated */
+                int sk = fc->channels == 2 ? (k == 3 ? 1 : 0) : k;
+                double v = src[i * fc->channels + sk];
+                double want = fc->encoded ? round(v * largest) / largest : v;
+                double got = raw.pixels[i * oc + k], lin = dec.pixels[i * oc + k];
+                int alpha = oc == 4 && k == 3;
+                /* integer codes: within one (OpenImageIO rounds halves its own way) */
+                double tol = fc->tol > 0 ? fc->tol * fmax(1, v) : fc->encoded ? 1 / largest : 0;
+                if (!(fabs(got - want) <= tol + 1e-6))
+                    fail_msg("%s pixel %d channel %d: wrote %g, stored %g", fc->name, i, k, v, got);
+                double want_lin = fc->encoded && !alpha ? srgb_to_linear(got) : got;
+                if (!(fabs(lin - want_lin) <= 1e-5))
+                    fail_msg("%s pixel %d channel %d: decoded %g, want %g", fc->name, i, k, lin,
+                             want_lin);
+            }
+        op_image_free(&dec);
+        op_image_free(&raw);
+        unlink(path);
+    }
+}
+
+/* 16-bit PNGs (and PNMs) keep their precision: 256 consecutive codes stay 256 values,
+ * code / 65535. */
+static void png16_precision(void **state)
+{
+    float src[256];
+    for (int i = 0; i < 256; i++)
+        src[i] = (float)((30000 + i) / 65535.0);
+    const char *path = op_test_tmp_path("ramp16.png");
+    assert_int_equal(op_test_write_image(path, 256, 1, 1, "uint16", src, NULL), 0);
+    op_error err = {0};
+    op_image raw;
+    int encoded;
+    OP_ASSERT_OK(op_image_read_stored(path, &raw, &encoded, &err), err);
+    assert_int_equal(encoded, 1);
+    for (int i = 0; i < 256; i++) {
+        assert_float_equal(raw.pixels[i], (30000 + i) / 65535.0, 1e-7);
+        if (i > 0)
+            assert_true(raw.pixels[i] > raw.pixels[i - 1]);
+    }
+    op_image_free(&raw);
+    unlink(path);
+    /* A 16-bit PGM (big-endian codes), written here: 0, 1, 30000, 65535 of 65535. */
+    const unsigned char pgm[] = "P5\n4 1\n65535\n\x00\x00\x00\x01\x75\x30\xff\xff";
+    path = op_test_tmp_path("ramp16.pgm");
+    write_bytes(path, pgm, sizeof pgm - 1);
+    OP_ASSERT_OK(op_image_read_stored(path, &raw, &encoded, &err), err);
+    assert_int_equal(raw.channels, 1);
+    static const double codes[4] = {0, 1, 30000, 65535};
+    for (int i = 0; i < 4; i++)
+        assert_float_equal(raw.pixels[i], codes[i] / 65535, 1.5 / 65535); /* OIIO 2.4 may round */
+    op_image_free(&raw);
+    unlink(path);
+}
+
+/* An OpenEXR file with a default layer and the layers diffuse and specular: the default RGB,
+ * a layer by name (op_image_read_layer), and a layer that is not there. */
+static void exr_layers(void **state)
+{
+    static const char *const names[] = {"R",          "G",          "B",         "diffuse.R",
+                                        "diffuse.G",  "diffuse.B",  "diffuse.A", "specular.Y"};
+    const int w = 5, h = 3, c = 8;
+    float src[5 * 3 * 8];
+    for (int i = 0; i < w * h; i++)
+        for (int k = 0; k < c; k++)
+            src[i * c + k] = (float)(k * 100 + i) + 0.5f;
+    const char *path = op_test_tmp_path("layers.exr");
+    assert_int_equal(op_test_write_image(path, w, h, c, "float", src, names), 0);
+    op_error err = {0};
+    op_image img;
+    int encoded;
+    OP_ASSERT_OK(op_image_read(path, &img, &err), err);
+    assert_int_equal(img.channels, 3);
+    for (int i = 0; i < w * h; i++)
+        for (int k = 0; k < 3; k++)
+            assert_true(img.pixels[i * 3 + k] == src[i * c + k]);
+    op_image_free(&img);
+    OP_ASSERT_OK(op_image_read_layer(path, "diffuse", 1, OP_IMAGE_DEFAULT_MAX_PIXELS, &img,
+                                     &encoded, &err), err);
+    assert_int_equal(img.channels, 4);
+    assert_int_equal(encoded, 0);
+    for (int i = 0; i < w * h; i++)
+        for (int k = 0; k < 4; k++)
+            assert_true(img.pixels[i * 4 + k] == src[i * c + 3 + k]);
+    op_image_free(&img);
+    OP_ASSERT_OK(op_image_read_layer(path, "specular", 1, OP_IMAGE_DEFAULT_MAX_PIXELS, &img,
+                                     NULL, &err), err);
+    assert_int_equal(img.channels, 1);
+    for (int i = 0; i < w * h; i++)
+        assert_true(img.pixels[i] == src[i * c + 7]);
+    op_image_free(&img);
+    assert_int_equal(op_image_read_layer(path, "albedo", 1, OP_IMAGE_DEFAULT_MAX_PIXELS, &img,
+                                         NULL, &err), OP_ERR_INPUT);
+    assert_non_null(strstr(err.message, path));
+    assert_non_null(strstr(err.message, "\"albedo\""));
+    assert_null(img.pixels);
+    unlink(path);
+}
+
+/* Alpha is read as stored (never premultiplied into the colour). */
+static void alpha_unassociated(void **state)
+{
+    static const char *files[] = {"a.png", "a.tga", "a.tif"};
+    float px[4] = {0.8f, 0.4f, 0.2f, 0.5f};
+    for (int f = 0; f < 3; f++) {
+        const char *path = op_test_tmp_path(files[f]);
+        assert_int_equal(op_test_write_image(path, 1, 1, 4, "uint8", px, NULL), 0);
+        op_error err = {0};
+        op_image raw;
+        int encoded;
+        OP_ASSERT_OK(op_image_read_stored(path, &raw, &encoded, &err), err);
+        for (int k = 0; k < 4; k++)
+            if (fabs(raw.pixels[k] - round(px[k] * 255) / 255) > 1e-6)
+                fail_msg("%s channel %d: %g", files[f], k, raw.pixels[k]);
+        op_image_free(&raw);
+        unlink(path);
+    }
+}
+
+/* Cut short: a JPEG is refused (not grey-filled) with a message naming the file; the other
+ * formats are refused or read, never a crash. */
+static void truncated_new_formats(void **state)
+{
+    static const char *files[] = {"cut.jpg", "cut.tga", "cut.tif", "cut.bmp", "cut.hdr",
+                                  "cut16.png", "cut.ppm"};
+    float src[64 * 48 * 3];
+    fill_unit(src, 64, 48, 3);
+    for (int f = 0; f < 7; f++) {
+        const char *path = op_test_tmp_path(files[f]);
+        assert_int_equal(op_test_write_image(path, 64, 48, 3, f == 5 ? "uint16" : "uint8", src,
+                                             NULL), 0);
+        unsigned char *bytes;
+        size_t n = read_bytes(path, &bytes);
+        size_t cuts[3] = {n / 2, n - 16, 24};
+        for (int k = 0; k < 3; k++) {
+            write_bytes(path, bytes, cuts[k]);
+            op_error err = {0};
+            op_image img;
+            op_status st = op_image_read(path, &img, &err);
+            if (f == 0 || k == 2) {
+                if (st != OP_ERR_FORMAT || !strstr(err.message, path))
+                    fail_msg("%s cut at %zu of %zu: %s (%s)", files[f], cuts[k], n,
+                             op_status_name(st), err.message);
+                assert_null(img.pixels);
+            } else if (st == OP_OK) {
+                op_image_free(&img);
+            }
+        }
+        free(bytes);
+        unlink(path);
+    }
+}
+
+/* Tiny files whose headers declare a huge image: refused by image-pixels (OP_ERR_INPUT) before
+ * anything is allocated or decoded, and their size still reported by op_image_read_size. */
+static void huge_headers_refused_before_decoding(void **state)
+{
+    unsigned char tga[18] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x60, 0xea, 0x60, 0xea, 24, 0x20};
+    unsigned char bmp[54] = {'B', 'M', 54, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0, 40, 0, 0, 0,
+                             0x60, 0xea, 0, 0, 0x60, 0xea, 0, 0, 1, 0, 24, 0};
+    const char *hdr = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 60000 +X 60000\n";
+    struct {
+        const char *name;
+        const void *data;
+        size_t n;
+    } files[] = {{"huge.tga", tga, sizeof tga}, {"huge.bmp", bmp, sizeof bmp},
+                 {"huge.hdr", hdr, strlen(hdr)}};
+    for (int f = 0; f < 3; f++) {
+        const char *path = op_test_tmp_path(files[f].name);
+        write_bytes(path, files[f].data, files[f].n);
+        op_error err = {0};
+        op_image img;
+        op_status st = op_image_read(path, &img, &err);
+        if (st != OP_ERR_INPUT || !strstr(err.message, "image-pixels") ||
+            !strstr(err.message, path))
+            fail_msg("%s: %s (%s)", files[f].name, op_status_name(st), err.message);
+        assert_null(img.pixels);
+        int w, h, c;
+        OP_ASSERT_OK(op_image_read_size(path, &w, &h, &c, &err), err);
+        assert_int_equal(w, 60000);
+        assert_int_equal(h, 60000);
+        unlink(path);
+    }
+}
+
+/* Files that are no image, under image names: OP_ERR_FORMAT naming the file. */
+static void not_images(void **state)
+{
+    static const char *names[] = {"text.jpg", "text.tga", "text.hdr", "text.tif", "text.exr"};
+    static const char *texts[] = {"hello, not an image\n", "hello, not an image\n",
+                                  "#?RADIANCE\nno header end", "II*\0garbage", "\x76\x2f\x31\x01"};
+    static const size_t lens[] = {20, 20, 25, 11, 4};
+    for (int f = 0; f < 5; f++) {
+        const char *path = op_test_tmp_path(names[f]);
+        write_bytes(path, texts[f], lens[f]);
+        op_error err = {0};
+        op_image img;
+        op_status st = op_image_read(path, &img, &err);
+        if (st != OP_ERR_FORMAT || !strstr(err.message, path))
+            fail_msg("%s: %s (%s)", names[f], op_status_name(st), err.message);
+        assert_null(img.pixels);
+        unlink(path);
+    }
+}
+
 static void alloc_rejects_bad_sizes(void **state)
 {
     op_error err = {0};
@@ -303,6 +572,13 @@ int main(void)
         cmocka_unit_test(bad_path_leaves_nothing),
         cmocka_unit_test(unreadable_files),
         cmocka_unit_test(alloc_rejects_bad_sizes),
+        cmocka_unit_test(formats_read_back),
+        cmocka_unit_test(png16_precision),
+        cmocka_unit_test(exr_layers),
+        cmocka_unit_test(alpha_unassociated),
+        cmocka_unit_test(truncated_new_formats),
+        cmocka_unit_test(huge_headers_refused_before_decoding),
+        cmocka_unit_test(not_images),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

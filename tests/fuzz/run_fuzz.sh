@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # run_fuzz.sh TARGET EXE [SECONDS] - one fuzz target on a fresh corpus: the committed seeds of
-# tests/fuzz/seeds/TARGET, inputs made by the built commands (materials of every method,
-# images of every format) and the saved regressions of tests/fuzz/regressions/TARGET.
+# tests/fuzz/seeds/TARGET, inputs made by the built commands (materials of every method;
+# images of every format, opaline-render's outputs and image_seeds') and the saved regressions
+# of tests/fuzz/regressions/TARGET.
 # SECONDS 0 (default) replays that corpus once (any compiler); otherwise EXE is a libFuzzer
 # binary fuzzed for SECONDS from it. A crash prints the input (base64) and keeps it under
 # $OPALINE_TEST_TMP/fuzz-artifacts; add it to tests/fuzz/regressions/TARGET with the fix.
@@ -34,9 +35,10 @@ case $target in
   <emitter type="constant"><rgb name="radiance" value="0.25, 0.5, 2"/></emitter>
 </scene>
 XML
-    for ext in png exr pfm; do
+    for ext in png exr pfm hdr; do
       "$BIN/opaline-render" -q -o "$corpus/image.$ext" "$work/scene.xml"
     done
+    "$BIN/image_seeds" "$corpus" # JPEG, TGA, TIFF, HDR, BMP, PNM, 16-bit PNG, OpenEXR layers
     ;;
   sss_cache)
     cat > "$work/scene.xml" <<'XML'
