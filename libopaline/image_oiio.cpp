@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <mutex>
 #include <memory>
 #include <new>
 #include <string>
@@ -248,6 +249,10 @@ op_status op_image_oiio_read(const op_image_host *host, const char *path, const 
                   "the entry point is what image.c calls");
     std::memset(img, 0, sizeof *img);
     *encoded = 0;
+    /* no thread pool of OpenImageIO's own: the renderer's threads are its own, and a pool's
+     * idle threads outlive the read (LeakSanitizer's exit-time scan crashed on them) */
+    static std::once_flag once;
+    std::call_once(once, [] { OIIO::attribute("threads", 1); });
     reader r{host, path, kind, err};
     try {
         return r.read(format, decode, max_pixels, header_only, img, encoded);
