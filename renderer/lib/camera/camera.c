@@ -73,7 +73,7 @@ op_status op_camera_read_fov(op_node *node, int width, int height, double *tan_x
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s>: give either fov or "
                                 "focalLength, not both", node->file, node->line, node->tag);
         if (focal) {
-            double mm;
+            double mm = 0.0;
             GET_OR_FAIL(parse_focal_length(node, focal, &mm, err));
             fov = op_camera_fov_from_focal_length(mm, width, height);
         } else {
