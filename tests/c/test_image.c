@@ -301,6 +301,17 @@ static void fill_unit(float *p, int w, int h, int c)
                         : (float)(x * (k + 1) + 2 * y) / (float)((w - 1) * (k + 1) + 2 * (h - 1));
 }
 
+/* An 8-bit binary PNM (P6 for 3 channels, P5 for 1) of src's values in [0, 1], by hand. */
+static void write_pnm8(const char *path, int w, int h, int channels, const float *src)
+{
+    unsigned char buf[64 + 13 * 7 * 3];
+    int n = snprintf((char *)buf, 64, "P%d\n%d %d\n255\n", channels == 3 ? 6 : 5, w, h);
+    assert_true(n > 0 && w * h * channels <= 13 * 7 * 3);
+    for (int i = 0; i < w * h * channels; i++)
+        buf[n + i] = (unsigned char)lrintf(src[i] * 255.0f);
+    write_bytes(path, buf, (size_t)(n + w * h * channels));
+}
+
 typedef struct {
     const char *name, *type;
     int channels, out_channels; /* as written; as op_image gives them */
@@ -329,7 +340,11 @@ static void formats_read_back(void **state)
         float src[13 * 7 * 4];
         fill_unit(src, w, h, fc->channels);
         const char *path = op_test_tmp_path(fc->name);
-        assert_int_equal(op_test_write_image(path, w, h, fc->channels, fc->type, src, NULL), 0);
+        const char *ext = strrchr(fc->name, '.');
+        if (strcmp(ext, ".ppm") == 0 || strcmp(ext, ".pgm") == 0)
+            write_pnm8(path, w, h, fc->channels, src); /* OpenImageIO 2.5 writes these wrong */
+        else
+            assert_int_equal(op_test_write_image(path, w, h, fc->channels, fc->type, src, NULL), 0);
         op_error err = {0};
         op_image dec, raw;
         int encoded = -1, sw, sh, sc;
