@@ -512,8 +512,10 @@ static void truncated_new_formats(void **state)
     }
 }
 
-/* Tiny files whose headers declare a huge image: refused by image-pixels (OP_ERR_INPUT) before
- * anything is allocated or decoded, and their size still reported by op_image_read_size. */
+/* Tiny files whose headers declare a huge image: refused before anything is allocated or
+ * decoded, naming the file: by image-pixels (OP_ERR_INPUT), their size still reported by
+ * op_image_read_size; or, where the library itself finds the header implausible for the bytes
+ * that follow (OpenImageIO 2.5.19's TGA reader, Debian sid's), as a bad file (OP_ERR_FORMAT). */
 static void huge_headers_refused_before_decoding(void **state)
 {
     unsigned char tga[18] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x60, 0xea, 0x60, 0xea, 24, 0x20};
@@ -532,14 +534,16 @@ static void huge_headers_refused_before_decoding(void **state)
         op_error err = {0};
         op_image img;
         op_status st = op_image_read(path, &img, &err);
-        if (st != OP_ERR_INPUT || !strstr(err.message, "image-pixels") ||
-            !strstr(err.message, path))
+        int by_limit = st == OP_ERR_INPUT && strstr(err.message, "image-pixels");
+        if (!(by_limit || st == OP_ERR_FORMAT) || !strstr(err.message, path))
             fail_msg("%s: %s (%s)", files[f].name, op_status_name(st), err.message);
         assert_null(img.pixels);
-        int w, h, c;
-        OP_ASSERT_OK(op_image_read_size(path, &w, &h, &c, &err), err);
-        assert_int_equal(w, 60000);
-        assert_int_equal(h, 60000);
+        if (by_limit) {
+            int w, h, c;
+            OP_ASSERT_OK(op_image_read_size(path, &w, &h, &c, &err), err);
+            assert_int_equal(w, 60000);
+            assert_int_equal(h, 60000);
+        }
         unlink(path);
     }
 }
