@@ -33,11 +33,13 @@ static void rtc_occluded(RTCScene s, struct RTCRay *r)
 #else
 #error "OPALINE_EMBREE_MAJOR must be 3 or 4 (set by cmake/OpalineDependencies.cmake)"
 #endif
+#include <limits.h>
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 struct op_accel {
     RTCDevice device;
@@ -46,8 +48,11 @@ struct op_accel {
     int nprotos;
     const op_placement **place; /* per shape: its placement, or NULL */
     atomic_llong bytes;         /* Embree's allocations minus its frees */
+    long long budget;           /* the most bytes Embree may hold (see address_space_budget) */
     char error[512]; /* the device's last error, written by the error callback during builds */
     enum RTCError code; /* and its code */
+    int building;       /* in op_accel_build, which returns the error instead of logging it */
+    atomic_int refused; /* the memory monitor refused an allocation over the budget */
 };
 
 /* Embree reports its errors here; during a build only the building thread calls it. */
@@ -56,16 +61,49 @@ static void device_error(void *user, enum RTCError code, const char *str)
     op_accel *a = user;
     snprintf(a->error, sizeof a->error, "Embree error %d: %s", (int)code, str ? str : "");
     a->code = code;
-    op_log(OP_LOG_ERROR, "%s", a->error);
+    if (!a->building)
+        op_log(OP_LOG_ERROR, "%s", a->error);
 }
 
-/* Embree's memory monitor: counts its bytes (called from its build threads). */
+/* Embree's memory monitor: counts its bytes (called from its build threads) and refuses an
+ * allocation that would take them over the budget, which Embree reports as out of memory. */
 static bool memory_monitor(void *user, ssize_t bytes, bool post)
 {
-    (void)post;
     op_accel *a = user;
-    atomic_fetch_add(&a->bytes, (long long)bytes);
+    long long now = atomic_fetch_add(&a->bytes, (long long)bytes) + (long long)bytes;
+    if (!post && bytes > 0 && now > a->budget) {
+        atomic_fetch_sub(&a->bytes, (long long)bytes);
+        atomic_store(&a->refused, 1);
+        return false;
+    }
     return true;
+}
+
+/* The address space kept back from Embree's own structures under a limit (ulimit -v), for the
+ * small allocations of Embree's task system (TBB) that the memory monitor does not see: with
+ * Debian 12's Embree 3, building one sphere needs 6 MiB beyond the device. */
+#define ACCEL_RESERVE (16LL << 20)
+
+/* The bytes Embree may take under an address-space limit: what is left of it, less the reserve;
+ * negative when not even the reserve is left; LLONG_MAX without a limit. Embree's task system
+ * does not survive an allocation that fails inside it (TBB ends the process when it cannot
+ * allocate while cancelling a failed build, as when releasing a scene after one), so Embree is
+ * refused by its memory monitor while the reserve still holds TBB's own allocations. */
+static long long address_space_budget(void)
+{
+    struct rlimit as;
+    if (getrlimit(RLIMIT_AS, &as) != 0 || as.rlim_cur == RLIM_INFINITY)
+        return LLONG_MAX;
+    long long used = 0;
+    FILE *f = fopen("/proc/self/statm", "r");
+    if (f) {
+        if (fscanf(f, "%lld", &used) != 1)
+            used = 0;
+        fclose(f);
+    }
+    long page = sysconf(_SC_PAGESIZE);
+    long long left = (long long)as.rlim_cur - used * (page > 0 ? page : 4096);
+    return left - ACCEL_RESERVE;
 }
 
 /* A triangle geometry over mesh m (shared buffers). */
@@ -108,6 +146,17 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         return op_error_set(err, OP_ERR_INTERNAL, "Embree: cannot create a device (error %d)",
                             (int)code);
     }
+    a->budget = address_space_budget();
+    if (a->budget < 0) {
+        long long left_mib = (a->budget + ACCEL_RESERVE) >> 20;
+        op_accel_free(a);
+        return op_error_set(err, OP_ERR_NOMEM,
+                            "out of memory (%lld MiB of address space left under its limit once "
+                            "Embree's device is made; building needs at least %lld)",
+                            left_mib, ACCEL_RESERVE >> 20);
+    }
+    a->building = 1;
+    atomic_init(&a->refused, 0);
     rtcSetDeviceErrorFunction(a->device, device_error, a);
     rtcSetDeviceMemoryMonitorFunction(a->device, memory_monitor, a);
     a->scene = rtcNewScene(a->device);
@@ -147,10 +196,18 @@ op_status op_accel_build(const op_accel_shape *shapes, int n, op_accel **out, op
         rtcReleaseGeometry(g);
     }
     rtcCommitScene(a->scene);
+    a->building = 0;
     if (a->error[0]) {
-        op_status st = a->code == RTC_ERROR_OUT_OF_MEMORY
-                           ? op_error_set(err, OP_ERR_NOMEM, "out of memory (%s)", a->error)
-                           : op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
+        op_status st;
+        if (atomic_load(&a->refused))
+            st = op_error_set(err, OP_ERR_NOMEM,
+                              "out of memory (Embree's structures need more than the %lld MiB "
+                              "of address space left to them under its limit)",
+                              a->budget >> 20);
+        else if (a->code == RTC_ERROR_OUT_OF_MEMORY)
+            st = op_error_set(err, OP_ERR_NOMEM, "out of memory (%s)", a->error);
+        else
+            st = op_error_set(err, OP_ERR_INTERNAL, "%s", a->error);
         op_accel_free(a);
         return st;
     }
