@@ -235,7 +235,7 @@ static void render_tile(void *user, int task, int thread)
                                                            job->opt->seed, pixel, (uint32_t)k);
                 float u[2], dx, dy;
                 op_path_sample(&ps, OP_DIM_PIXEL, 2, u);
-                op_film_sample_offset(film, u[0], u[1], &dx, &dy);
+                float weight = op_film_sample_offset(film, u[0], u[1], &dx, &dy);
                 float lens[2] = {0.5f, 0.5f};
                 if (op_camera_lens_dims(&s->camera))
                     op_path_sample(&ps, OP_DIM_LENS, 2, lens);
@@ -246,10 +246,10 @@ static void render_tile(void *user, int task, int thread)
                 op_v3 L = op_li(&job->ctx, org, dir, tmin, tmax, &ps, &alpha);
                 if (!isfinite(L.x) || !isfinite(L.y) || !isfinite(L.z))
                     continue; /* a numerically broken path: dropped (counts as black) */
-                acc[0] += L.x;
-                acc[1] += L.y;
-                acc[2] += L.z;
-                acc[3] += alpha;
+                acc[0] += weight * L.x;
+                acc[1] += weight * L.y;
+                acc[2] += weight * L.z;
+                acc[3] += weight * alpha;
             }
             float *o = buf + 4 * ((size_t)y * w + x);
             for (int c = 0; c < 4; c++)

@@ -9,6 +9,76 @@
 #include "math/vec.h"
 #include "scene/scene_color.h"
 
+/* The 1-D profile of a tabulated filter at x (|x| <= radius), unnormalized. */
+static double table_profile(const op_filter_table *t, double radius, double x)
+{
+    if (t->kind == 1) { /* Lanczos: sinc(x) sinc(x / lobes) */
+        double a = fabs(x);
+        if (a >= radius)
+            return 0.0;
+        if (a < 1e-6)
+            return 1.0;
+        double px = M_PI * a, pl = px / t->lobes;
+        return sin(px) / px * sin(pl) / pl;
+    }
+    /* Mitchell-Netravali over radius 2, scaled to the filter's radius */
+    double a = fabs(2.0 * x / radius), b = t->b, c = t->c;
+    if (a < 1.0)
+        return ((12.0 - 9.0 * b - 6.0 * c) * a * a * a + (-18.0 + 12.0 * b + 6.0 * c) * a * a +
+                (6.0 - 2.0 * b)) / 6.0;
+    if (a < 2.0)
+        return ((-b - 6.0 * c) * a * a * a + (6.0 * b + 30.0 * c) * a * a +
+                (-12.0 * b - 48.0 * c) * a + (8.0 * b + 24.0 * c)) / 6.0;
+    return 0.0;
+}
+
+/* Tabulates the profile's magnitude per bin (the mean of 16 points of each) and its integral. */
+static void table_build(op_filter_table *t, double radius)
+{
+    double w = 2.0 * radius / OP_FILTER_BINS, sum = 0.0, abs_sum = 0.0;
+    t->cdf[0] = 0.0f;
+    double run = 0.0;
+    for (int i = 0; i < OP_FILTER_BINS; i++) {
+        double bin = 0.0;
+        for (int k = 0; k < 16; k++) {
+            double f = table_profile(t, radius, -radius + w * (i + (k + 0.5) / 16.0));
+            sum += f * w / 16.0;
+            bin += fabs(f) / 16.0;
+        }
+        bin = fmax(bin, 1e-9); /* every bin can be drawn: f is non-zero inside almost all */
+        abs_sum += bin * w;
+        run += bin;
+        t->cdf[i + 1] = (float)run;
+    }
+    for (int i = 1; i <= OP_FILTER_BINS; i++)
+        t->cdf[i] = (float)(t->cdf[i] / run);
+    t->cdf[OP_FILTER_BINS] = 1.0f;
+    t->integral = sum;
+    t->abs_integral = abs_sum;
+}
+
+/* Draws x from the table; returns f(x) / (pdf(x) integral of f). */
+static float table_sample(const op_film *film, float u, float *x)
+{
+    const op_filter_table *t = &film->table;
+    int lo = 0, hi = OP_FILTER_BINS; /* cdf[lo] <= u < cdf[hi] */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (t->cdf[mid] <= u)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double r = film->filter_radius, w = 2.0 * r / OP_FILTER_BINS;
+    double p_bin = (double)t->cdf[lo + 1] - (double)t->cdf[lo];
+    double frac = p_bin > 0.0 ? ((double)u - t->cdf[lo]) / p_bin : 0.5;
+    frac = fmin(fmax(frac, 0.0), 1.0);
+    double xv = -r + w * (lo + frac);
+    *x = (float)xv;
+    double pdf = p_bin / w;
+    return pdf > 0.0 ? (float)(table_profile(t, r, xv) / (pdf * t->integral)) : 0.0f;
+}
+
 static op_status build_filter(op_node *f, op_film *out, op_error *err)
 {
     out->filter = OP_FILTER_GAUSSIAN;
@@ -36,9 +106,43 @@ static op_status build_filter(op_node *f, op_film *out, op_error *err)
                                 "is not in (0, 4]", f->file, f->line, sd);
         out->stddev = (float)sd;
         out->filter_radius = 4.0f * (float)sd;
+    } else if (strcmp(f->type, "mitchell") == 0 || strcmp(f->type, "catmullrom") == 0) {
+        int mitchell = strcmp(f->type, "mitchell") == 0;
+        double r, b, c;
+        GET_OR_FAIL(op_node_float(f, "radius", 2.0, &r, err));
+        GET_OR_FAIL(op_node_float(f, "B", mitchell ? 1.0 / 3.0 : 0.0, &b, err));
+        GET_OR_FAIL(op_node_float(f, "C", mitchell ? 1.0 / 3.0 : 0.5, &c, err));
+        if (!(r > 0.0 && r <= 16.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"%s\">: radius %g is "
+                                "not in (0, 16]", f->file, f->line, f->type, r);
+        if (!(fabs(b) <= 10.0 && fabs(c) <= 10.0))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"%s\">: B %g and C %g "
+                                "are not both in [-10, 10]", f->file, f->line, f->type, b, c);
+        out->filter = OP_FILTER_TABLE;
+        out->filter_radius = (float)r;
+        out->table.kind = 0;
+        out->table.b = b;
+        out->table.c = c;
+    } else if (strcmp(f->type, "lanczos") == 0) {
+        long long lobes;
+        GET_OR_FAIL(op_node_int(f, "lobes", 3, &lobes, err));
+        if (lobes < 1 || lobes > 16)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"lanczos\">: lobes "
+                                "%lld is not in 1 .. 16", f->file, f->line, lobes);
+        out->filter = OP_FILTER_TABLE;
+        out->filter_radius = (float)lobes;
+        out->table.kind = 1;
+        out->table.lobes = (int)lobes;
     } else {
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"%s\">: unknown filter "
-                            "(box, tent, gaussian)", f->file, f->line, f->type);
+                            "(box, tent, gaussian, mitchell, catmullrom, lanczos)", f->file,
+                            f->line, f->type);
+    }
+    if (out->filter == OP_FILTER_TABLE) {
+        table_build(&out->table, out->filter_radius);
+        if (!(out->table.integral > 1e-6 * out->table.abs_integral))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <rfilter type=\"%s\">: the filter's "
+                                "integral is not positive", f->file, f->line, f->type);
     }
     return OP_OK;
 }
@@ -229,9 +333,11 @@ static float tent_warp(float u)
     return u < 0.5f ? sqrtf(2.0f * u) - 1.0f : 1.0f - sqrtf(2.0f - 2.0f * u);
 }
 
-void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy)
+float op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy)
 {
     switch (film->filter) {
+    case OP_FILTER_TABLE:
+        return table_sample(film, u1, dx) * table_sample(film, u2, dy);
     case OP_FILTER_BOX:
         *dx = u1 - 0.5f;
         *dy = u2 - 0.5f;
@@ -251,6 +357,7 @@ void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, f
         break;
     }
     }
+    return 1.0f;
 }
 
 static int has_ext(const char *path, const char *ext)

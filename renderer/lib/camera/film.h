@@ -1,14 +1,32 @@
 /* film.h - the film (hdrfilm / ldrfilm: size, crop window, output settings), its
  * reconstruction filter, and developing its image into an image file (tone mapping, pixel
  * format, the file format by name). The filter is applied by filter importance sampling:
- * each sample's position within its pixel is drawn from the filter's own distribution and the
- * sample is given weight 1, so pixels never share samples and tiles are independent. */
+ * each sample's position within its pixel is drawn from the filter's own distribution (for
+ * filters with negative lobes, from a table of its magnitude) and a pixel is the mean of its
+ * samples' weighted values, so pixels never share samples and tiles are independent. */
 #ifndef OP_FILM_H
 #define OP_FILM_H
 
 #include "scene/scene_desc.h"
 
-typedef enum op_filter_type { OP_FILTER_BOX, OP_FILTER_TENT, OP_FILTER_GAUSSIAN } op_filter_type;
+typedef enum op_filter_type {
+    OP_FILTER_BOX,
+    OP_FILTER_TENT,
+    OP_FILTER_GAUSSIAN,
+    OP_FILTER_TABLE /* mitchell, catmullrom, lanczos: sampled from filter_table */
+} op_filter_type;
+
+/* A separable filter's 1-D profile f on [-radius, radius], tabulated in OP_FILTER_BINS equal
+ * bins: cdf of |f| (bin averages), and f's integral. */
+enum { OP_FILTER_BINS = 512 };
+typedef struct op_filter_table {
+    float cdf[OP_FILTER_BINS + 1];
+    double integral;              /* of f (not |f|), > 0 */
+    double abs_integral;          /* of |f| over the bins' averages */
+    int kind;                     /* 0 Mitchell-Netravali (b, c), 1 Lanczos (lobes) */
+    double b, c;                  /* Mitchell-Netravali's B and C */
+    int lobes;                    /* Lanczos */
+} op_filter_table;
 typedef enum op_pixel_format { OP_PIXFMT_RGB, OP_PIXFMT_RGBA, OP_PIXFMT_LUMINANCE } op_pixel_format;
 
 typedef struct op_film {
@@ -25,8 +43,10 @@ typedef struct op_film {
     int reinhard;               /* ldrfilm: tonemapMethod reinhard */
     double key, burn;           /* ldrfilm: Reinhard's key (0.18) and burn (0) */
     op_filter_type filter;
-    float filter_radius;        /* box 0.5, tent 1 (or radius), gaussian 4 * stddev */
+    float filter_radius;        /* box 0.5, tent 1 (or radius), gaussian 4 * stddev,
+                                   mitchell/catmullrom 2 (or radius), lanczos lobes */
     float stddev;
+    op_filter_table table;      /* OP_FILTER_TABLE's */
 } op_film;
 
 /* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
@@ -36,8 +56,10 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err);
  * film is OP_ERR_INPUT, the message starting with `where`. */
 op_status op_film_set_crop(op_film *film, long long x, long long y, long long w, long long h,
                            const char *where, op_error *err);
-/* The offset of a sample from its pixel's centre, in pixels, drawn from the filter. */
-void op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
+/* The offset of a sample from its pixel's centre, in pixels, drawn from the filter; returns the
+ * weight of the sample's value (1 for box, tent and gaussian; for a filter with negative lobes
+ * f(dx) f(dy) / (pdf * integral of f squared), whose mean over samples is 1). */
+float op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
 
 /* The image format of an output path (".exr", ".png", ".pfm" or ".hdr"): by its extension,
  * else the film's when the file name has no dot; NULL for an unknown extension. */
