@@ -22,6 +22,7 @@
 #include "scene/scene_desc.h"
 #include "bsdf/texture.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/principled.h"
 
 typedef enum op_bsdf_type {
     OP_BSDF_DIFFUSE,
@@ -37,7 +38,8 @@ typedef enum op_bsdf_type {
     OP_BSDF_THROUGH, /* a white Lambertian behind a boundary: f = t(cos wo) / pi (the irradiance
                         that crosses it, op_bsdf_through) */
     OP_BSDF_ROUGHCONDUCTOR,
-    OP_BSDF_ROUGHDIFFUSE /* Oren-Nayar */
+    OP_BSDF_ROUGHDIFFUSE, /* Oren-Nayar */
+    OP_BSDF_PRINCIPLED    /* Mitsuba 3's principled and principledthin (principled.h) */
 } op_bsdf_type;
 
 /* What a translucent shape's boundary lets through, per direction: t[k] is the fraction of
@@ -81,6 +83,7 @@ typedef struct op_bsdf {
     float rough_fdr;
     int masked;            /* wrapped in a mask: opacity below applies */
     op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
+    op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures */
 } op_bsdf;
 
 typedef struct op_bsdf_sample {
