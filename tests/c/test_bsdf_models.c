@@ -630,6 +630,41 @@ static void test_roughplastic_tables(void **state)
     assert_true(r.rough_t[OP_THROUGH_N / 2] < b.rough_t[OP_THROUGH_N / 2]);
 }
 
+/* A principled weight from a checkerboard: Mitsuba 3's single-channel lookup, whose colours
+ * are the other way round from the colour lookup (its published textured-principled
+ * references render so): at (0.25, 0.25) color1, at (0.75, 0.25) color0. diff_trans reaches
+ * 2, beyond a reflectance's range. */
+static void test_principled_textures(void **state)
+{
+    (void)state;
+    const char *xml =
+        "<scene version=\"3.0.0\"><bsdf type=\"principledthin\">"
+        "<texture name=\"spec_trans\" type=\"checkerboard\"><float name=\"color0\" "
+        "value=\"0.7\"/><float name=\"color1\" value=\"0.1\"/></texture>"
+        "<texture name=\"diff_trans\" type=\"checkerboard\"><float name=\"color0\" "
+        "value=\"2\"/><float name=\"color1\" value=\"0.4\"/></texture>"
+        "<texture name=\"base_color\" type=\"checkerboard\"><rgb name=\"color0\" "
+        "value=\"0.9, 0.5, 0.1\"/><float name=\"color1\" value=\"0.2\"/></texture>"
+        "</bsdf></scene>";
+    const char *path = op_test_write_temp("principled_tex.xml", xml);
+    op_node *root = NULL;
+    op_error err = {0};
+    OP_ASSERT_OK(op_desc_parse(path, NULL, 0, NULL, &root, &err), err);
+    op_tex_cache *cache = op_tex_cache_new(1 << 20);
+    op_bsdf b, scratch;
+    OP_ASSERT_OK(op_bsdf_build(root->children[0], cache, &b, &err), err);
+    op_desc_free(root);
+    const op_bsdf *at = op_bsdf_at(&b, 0.25f, 0.25f, &scratch);
+    assert_float_equal(at->pr.v[OP_PR_SPEC_TRANS], 0.1, 1e-6);
+    assert_float_equal(at->pr.v[OP_PR_DIFF_TRANS], 0.4, 1e-6);
+    assert_float_equal(at->pr.base_color.x, 0.9, 1e-6); /* a colour: color0 */
+    at = op_bsdf_at(&b, 0.75f, 0.25f, &scratch);
+    assert_float_equal(at->pr.v[OP_PR_SPEC_TRANS], 0.7, 1e-6);
+    assert_float_equal(at->pr.v[OP_PR_DIFF_TRANS], 2.0, 1e-6);
+    assert_float_equal(at->pr.base_color.x, 0.2, 1e-6);
+    op_tex_cache_free(cache);
+}
+
 static void test_conductor_names(void **state)
 {
     (void)state;
@@ -668,6 +703,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_conductor_names),
         cmocka_unit_test(test_roughplastic_tables),
+        cmocka_unit_test(test_principled_textures),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_reciprocity),
         cmocka_unit_test(test_chi2),

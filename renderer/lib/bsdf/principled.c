@@ -62,6 +62,13 @@ static op_status read_weight(op_node *n, op_pr_param k, op_tex_cache *cache, op_
             GET_OR_FAIL(op_texture_build_unbounded(t, cache, &p->tex[k], err));
         else
             GET_OR_FAIL(op_texture_build(t, cache, &p->tex[k], err));
+        if (p->tex[k].type == OP_TEX_CHECKERBOARD) {
+            /* Mitsuba 3's checkerboard gives its single-channel value (what a weight reads)
+             * with color0 and color1 the other way round from its colour value */
+            op_v3 c0 = p->tex[k].color0;
+            p->tex[k].color0 = p->tex[k].color1;
+            p->tex[k].color1 = c0;
+        }
         p->textured = 1;
         *given = 1;
         return OP_OK;
