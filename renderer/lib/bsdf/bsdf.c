@@ -1,6 +1,7 @@
 /* bsdf.c - the surface scattering models (see bsdf.h). */
 #include "bsdf/bsdf.h"
 
+#include <stddef.h>
 #include <string.h>
 #include <strings.h>
 
@@ -339,14 +340,16 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
 
 const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
 {
+    /* what precedes pr (the last member), so that other models copy no principled weights */
+    size_t head = offsetof(op_bsdf, pr);
     if (b->type == OP_BSDF_PRINCIPLED && b->pr.textured) {
-        *scratch = *b;
+        memcpy(scratch, b, head);
         op_principled_at(&b->pr, u, v, &scratch->pr);
         return scratch;
     }
     if (b->refl_tex.type == OP_TEX_NONE && b->spec_tex.type == OP_TEX_NONE)
         return b;
-    *scratch = *b;
+    memcpy(scratch, b, head);
     if (b->refl_tex.type != OP_TEX_NONE)
         scratch->reflectance = op_texture_eval(&b->refl_tex, u, v);
     if (b->spec_tex.type != OP_TEX_NONE)

@@ -83,7 +83,8 @@ typedef struct op_bsdf {
     float rough_fdr;
     int masked;            /* wrapped in a mask: opacity below applies */
     op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
-    op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures */
+    op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures (last:
+                              op_bsdf_at copies it only for this type) */
 } op_bsdf;
 
 typedef struct op_bsdf_sample {
