@@ -1,7 +1,8 @@
 /* bsdf.h - surface scattering models as Mitsuba 0.6 defines them: diffuse, roughdiffuse
  * (Oren-Nayar), dielectric, roughdielectric (Walter et al. 2007), conductor, roughconductor
  * (named conductors: conductor_table.h), plastic, roughplastic (GGX); the rough ones over the
- * microfacet distributions of microfacet.h. Reflecting models may be two-sided, and Mitsuba's
+ * microfacet distributions of microfacet.h; Mitsuba 3's principled and principledthin
+ * (principled.h). Reflecting models may be two-sided, and Mitsuba's
  * `mask` (cut-out opacity) goes around any of them. The boundary of a translucent shape
  * (op_bsdf_boundary) is the reflection of a dielectric, roughdielectric, plastic, roughplastic
  * or coating whose transmitted part is the subsurface transport (docs/subsurface-rendering.md).
