@@ -338,6 +338,9 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
                         node->file, node->line, node->type);
 }
 
+_Static_assert(offsetof(op_bsdf, pr) + sizeof(op_principled) == sizeof(op_bsdf),
+               "op_bsdf_at copies what precedes pr: it must stay op_bsdf's last member");
+
 const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
 {
     /* what precedes pr (the last member), so that other models copy no principled weights */
