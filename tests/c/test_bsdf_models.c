@@ -5,7 +5,9 @@
  *    without the radiance scaling 1 / eta^2) and equals what the model predicts where that is
  *    known (diffuse: its reflectance; smooth conductor: the exact Fresnel reflectance; smooth
  *    dielectric: F + (1 - F) / eta^2; rough conductor "none" and rough dielectric at low
- *    roughness: close to 1, Smith's model losing only a little energy there);
+ *    roughness: close to 1, Smith's model losing only a little energy there; Mitsuba 3's
+ *    principled, whose diffuse is not energy conserving, only where it reduces to a GGX
+ *    conductor or dielectric);
  *  - reciprocity: f(wi, wo) = f(wo, wi) for reflection, f(wi, wo) eta^2 = f(wo, wi) for
  *    refraction (eta: the index of wo's side over wi's, radiance-scaled BTDF);
  *  - sampling: the directions drawn fit the density op_bsdf_eval reports (a chi-square test of
@@ -42,6 +44,8 @@ typedef struct model {
     int chi2;         /* has a non-delta part smooth enough for the binned test */
     int boundary;     /* test op_bsdf_boundary's reflection lobe of it instead */
 } model;
+
+#define M3(bsdf) "<scene version=\"3.0.0\">" bsdf "</scene>"
 
 static const model models[] = {
     {"<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.8, 0.5, 0.2\"/></bsdf>",
@@ -120,6 +124,48 @@ static const model models[] = {
     {"<bsdf type=\"roughdielectric\"><float name=\"alpha\" value=\"0.3\"/></bsdf>", EXPECT_BOUND,
      1, 1},
     {"<bsdf type=\"coating\"/>", EXPECT_BOUND, 0, 1},
+    /* Mitsuba 3's principled: its diffuse (with retro-reflection and sheen) is not energy
+     * conserving by design, so only its bound with a darker base, and energy close to 1 where
+     * it is a GGX conductor (metallic 1, Schlick's F of a white base: 1) or dielectric
+     * (spec_trans 1, white base) of low roughness */
+    {M3("<bsdf type=\"principled\"/>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"1\"/>"
+     "<float name=\"metallic\" value=\"1\"/><float name=\"roughness\" value=\"0.2\"/></bsdf>"),
+     EXPECT_NEAR_ONE, 0, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.9, 0.6, 0.3\"/>"
+     "<float name=\"metallic\" value=\"1\"/><float name=\"roughness\" value=\"0.45\"/>"
+     "<float name=\"anisotropic\" value=\"0.7\"/></bsdf>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"1\"/>"
+     "<float name=\"spec_trans\" value=\"1\"/><float name=\"roughness\" value=\"0.2\"/>"
+     "<float name=\"eta\" value=\"1.5\"/></bsdf>"), EXPECT_NEAR_ONE, 0, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.8, 0.9, 1\"/>"
+     "<float name=\"spec_trans\" value=\"1\"/><float name=\"roughness\" value=\"0.5\"/>"
+     "<float name=\"specular\" value=\"0.7\"/></bsdf>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.3, 0.6, 0.8\"/>"
+     "<float name=\"spec_trans\" value=\"0.6\"/><float name=\"metallic\" value=\"0.2\"/>"
+     "<float name=\"anisotropic\" value=\"0.5\"/><float name=\"roughness\" value=\"0.4\"/>"
+     "<float name=\"eta\" value=\"1.3\"/><float name=\"clearcoat\" value=\"0.5\"/></bsdf>"),
+     EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.5\"/>"
+     "<float name=\"clearcoat\" value=\"1\"/><float name=\"clearcoat_gloss\" value=\"0.3\"/>"
+     "<float name=\"roughness\" value=\"0.7\"/></bsdf>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.6, 0.4, 0.2\"/>"
+     "<float name=\"anisotropic\" value=\"0.8\"/><float name=\"roughness\" value=\"0.6\"/>"
+     "<float name=\"metallic\" value=\"0.4\"/><float name=\"spec_tint\" value=\"0.5\"/>"
+     "<float name=\"sheen\" value=\"1\"/><float name=\"sheen_tint\" value=\"0.5\"/>"
+     "<float name=\"flatness\" value=\"0.5\"/><float name=\"main_specular_sampling_rate\" "
+     "value=\"0.5\"/></bsdf>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"twosided\"><bsdf type=\"principled\"><float name=\"metallic\" "
+     "value=\"0.5\"/></bsdf></bsdf>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principledthin\"/>"), EXPECT_BOUND, 1, 0},
+    {M3("<bsdf type=\"principledthin\"><rgb name=\"base_color\" value=\"1\"/>"
+     "<float name=\"spec_trans\" value=\"1\"/><float name=\"roughness\" value=\"0.2\"/>"
+     "</bsdf>"), EXPECT_NEAR_ONE, 0, 0},
+    {M3("<bsdf type=\"principledthin\"><rgb name=\"base_color\" value=\"0.7, 0.3, 0.3\"/>"
+     "<float name=\"spec_trans\" value=\"0.6\"/><float name=\"diff_trans\" value=\"1.4\"/>"
+     "<float name=\"anisotropic\" value=\"0.5\"/><float name=\"roughness\" value=\"0.5\"/>"
+     "<float name=\"eta\" value=\"1.33\"/><float name=\"sheen\" value=\"0.8\"/>"
+     "<float name=\"spec_tint\" value=\"0.3\"/></bsdf>"), EXPECT_BOUND, 1, 0},
 };
 enum { NMODELS = sizeof models / sizeof models[0] };
 
@@ -141,7 +187,10 @@ static op_v3 dir_at(float cos_t, float phi)
 static void build(const model *m, op_bsdf *b)
 {
     char text[2048];
-    snprintf(text, sizeof text, "<scene version=\"0.6.0\">%s</scene>", m->xml);
+    if (strncmp(m->xml, "<scene", 6) == 0) /* a whole scene (a Mitsuba 3 one) */
+        snprintf(text, sizeof text, "%s", m->xml);
+    else
+        snprintf(text, sizeof text, "<scene version=\"0.6.0\">%s</scene>", m->xml);
     const char *path = op_test_write_temp("bsdf.xml", text);
     op_node *root = NULL;
     op_error err = {0};
@@ -159,7 +208,8 @@ static void build(const model *m, op_bsdf *b)
 
 static int transmits(const op_bsdf *b)
 {
-    return b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_ROUGHDIELECTRIC;
+    return b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_ROUGHDIELECTRIC ||
+           (b->type == OP_BSDF_PRINCIPLED && (b->pr.thin || b->pr.v[OP_PR_SPEC_TRANS] > 0.0f));
 }
 
 /* Whether wi may come from below the surface for b. */
@@ -171,6 +221,8 @@ static int both_sides(const op_bsdf *b)
 /* The index of wo's side over wi's, for a refraction of b from wi. */
 static float eta_rel(const op_bsdf *b, op_v3 wi)
 {
+    if (b->type == OP_BSDF_PRINCIPLED) /* a thin sheet: the same medium on both sides */
+        return b->pr.thin ? 1.0f : (wi.z > 0.0f ? b->pr.v[OP_PR_ETA] : 1.0f / b->pr.v[OP_PR_ETA]);
     return wi.z > 0.0f ? b->eta : 1.0f / b->eta;
 }
 
@@ -282,6 +334,11 @@ static void test_reciprocity(void **state)
                 wo.z = -wo.z;
             }
             if (fabsf(wi.z) < 1e-3f || fabsf(wo.z) < 1e-3f)
+                continue;
+            /* principledthin's transmission is not reciprocal as Mitsuba 3 defines it: its
+             * half vector is that of the reflection mirrored through the sheet, and which
+             * facets may pass light is judged from wo's side only */
+            if (b.type == OP_BSDF_PRINCIPLED && b.pr.thin && wi.z * wo.z < 0.0f)
                 continue;
             float p1, p2;
             op_v3 f1 = op_bsdf_eval(&b, wi, wo, &p1), f2 = op_bsdf_eval(&b, wo, wi, &p2);
@@ -521,6 +578,21 @@ static void test_chi2_rejects_wrong_density(void **state)
     p = chi2_pvalue(&b, &wrong, wi, 2, "index 1.55 for 1.5");
     if (!(p < 1e-6))
         fail_msg("a density of index 1.55 passes for samples of 1.5 (p %g)", p);
+    /* principled: a main lobe of roughness 0.55 for 0.5, and a transmission share of spec_trans
+     * 0.55 for 0.5 */
+    model pr = {M3("<bsdf type=\"principled\"><float name=\"spec_trans\" value=\"0.5\"/>"
+                   "<float name=\"clearcoat\" value=\"1\"/></bsdf>"), EXPECT_BOUND, 1, 0};
+    build(&pr, &b);
+    wrong = b;
+    wrong.pr.v[OP_PR_ROUGHNESS] = 0.55f;
+    p = chi2_pvalue(&b, &wrong, wi, 3, "principled roughness 0.55 for 0.5");
+    if (!(p < 1e-6))
+        fail_msg("a principled density of roughness 0.55 passes for samples of 0.5 (p %g)", p);
+    wrong = b;
+    wrong.pr.v[OP_PR_SPEC_TRANS] = 0.55f;
+    p = chi2_pvalue(&b, &wrong, wi, 4, "principled spec_trans 0.55 for 0.5");
+    if (!(p < 1e-6))
+        fail_msg("a principled density of spec_trans 0.55 passes for samples of 0.5 (p %g)", p);
 }
 
 /* Conductor names: every name of Mitsuba 0.6's documentation is known, and copper agrees with
@@ -556,6 +628,41 @@ static void test_roughplastic_tables(void **state)
     build(&rough, &r);
     assert_true(r.rough_fdr < b.rough_fdr - 0.1f);
     assert_true(r.rough_t[OP_THROUGH_N / 2] < b.rough_t[OP_THROUGH_N / 2]);
+}
+
+/* A principled weight from a checkerboard: Mitsuba 3's single-channel lookup, whose colours
+ * are the other way round from the colour lookup (its published textured-principled
+ * references render so): at (0.25, 0.25) color1, at (0.75, 0.25) color0. diff_trans reaches
+ * 2, beyond a reflectance's range. */
+static void test_principled_textures(void **state)
+{
+    (void)state;
+    const char *xml =
+        "<scene version=\"3.0.0\"><bsdf type=\"principledthin\">"
+        "<texture name=\"spec_trans\" type=\"checkerboard\"><float name=\"color0\" "
+        "value=\"0.7\"/><float name=\"color1\" value=\"0.1\"/></texture>"
+        "<texture name=\"diff_trans\" type=\"checkerboard\"><float name=\"color0\" "
+        "value=\"2\"/><float name=\"color1\" value=\"0.4\"/></texture>"
+        "<texture name=\"base_color\" type=\"checkerboard\"><rgb name=\"color0\" "
+        "value=\"0.9, 0.5, 0.1\"/><float name=\"color1\" value=\"0.2\"/></texture>"
+        "</bsdf></scene>";
+    const char *path = op_test_write_temp("principled_tex.xml", xml);
+    op_node *root = NULL;
+    op_error err = {0};
+    OP_ASSERT_OK(op_desc_parse(path, NULL, 0, NULL, &root, &err), err);
+    op_tex_cache *cache = op_tex_cache_new(1 << 20);
+    op_bsdf b, scratch;
+    OP_ASSERT_OK(op_bsdf_build(root->children[0], cache, &b, &err), err);
+    op_desc_free(root);
+    const op_bsdf *at = op_bsdf_at(&b, 0.25f, 0.25f, &scratch);
+    assert_float_equal(at->pr.v[OP_PR_SPEC_TRANS], 0.1, 1e-6);
+    assert_float_equal(at->pr.v[OP_PR_DIFF_TRANS], 0.4, 1e-6);
+    assert_float_equal(at->pr.base_color.x, 0.9, 1e-6); /* a colour: color0 */
+    at = op_bsdf_at(&b, 0.75f, 0.25f, &scratch);
+    assert_float_equal(at->pr.v[OP_PR_SPEC_TRANS], 0.7, 1e-6);
+    assert_float_equal(at->pr.v[OP_PR_DIFF_TRANS], 2.0, 1e-6);
+    assert_float_equal(at->pr.base_color.x, 0.2, 1e-6);
+    op_tex_cache_free(cache);
 }
 
 static void test_conductor_names(void **state)
@@ -596,6 +703,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_conductor_names),
         cmocka_unit_test(test_roughplastic_tables),
+        cmocka_unit_test(test_principled_textures),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_reciprocity),
         cmocka_unit_test(test_chi2),

@@ -1,6 +1,7 @@
 /* bsdf.c - the surface scattering models (see bsdf.h). */
 #include "bsdf/bsdf.h"
 
+#include <stddef.h>
 #include <string.h>
 #include <strings.h>
 
@@ -252,6 +253,10 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         return OP_OK;
     }
     double int_ior = 1.5046, ext_ior = 1.00028;
+    if (strcmp(node->type, "principled") == 0 || strcmp(node->type, "principledthin") == 0) {
+        b->type = OP_BSDF_PRINCIPLED;
+        return op_principled_build(node, tex, &b->pr, err);
+    }
     if (strcmp(node->type, "diffuse") == 0) {
         b->type = OP_BSDF_DIFFUSE;
         return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
@@ -328,15 +333,26 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
                         "(diffuse, roughdiffuse, dielectric, roughdielectric, conductor, "
-                        "roughconductor, plastic, roughplastic, coating, twosided, mask)",
+                        "roughconductor, plastic, roughplastic, coating, principled, "
+                        "principledthin, twosided, mask)",
                         node->file, node->line, node->type);
 }
 
+_Static_assert(offsetof(op_bsdf, pr) + sizeof(op_principled) == sizeof(op_bsdf),
+               "op_bsdf_at copies what precedes pr: it must stay op_bsdf's last member");
+
 const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
 {
+    /* what precedes pr (the last member), so that other models copy no principled weights */
+    size_t head = offsetof(op_bsdf, pr);
+    if (b->type == OP_BSDF_PRINCIPLED && b->pr.textured) {
+        memcpy(scratch, b, head);
+        op_principled_at(&b->pr, u, v, &scratch->pr);
+        return scratch;
+    }
     if (b->refl_tex.type == OP_TEX_NONE && b->spec_tex.type == OP_TEX_NONE)
         return b;
-    *scratch = *b;
+    memcpy(scratch, b, head);
     if (b->refl_tex.type != OP_TEX_NONE)
         scratch->reflectance = op_texture_eval(&b->refl_tex, u, v);
     if (b->spec_tex.type != OP_TEX_NONE)
@@ -576,6 +592,8 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
         wi.z = -wi.z;
         wo.z = -wo.z;
     }
+    if (b->type == OP_BSDF_PRINCIPLED)
+        return op_principled_eval(&b->pr, wi, wo, pdf);
     if (wi.z <= 0.0f || wo.z <= 0.0f)
         return v3s(0.0f);
     switch (b->type) {
@@ -744,6 +762,10 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         s->pdf = s->wo.z * OP_INV_PI;
         s->weight = v3_mul(b->reflectance, op_bsdf_through_at(b->through, s->wo.z));
         break;
+    case OP_BSDF_PRINCIPLED:
+        if (!op_principled_sample(&b->pr, wi, u1, u2, u3, &s->wo, &s->weight, &s->pdf))
+            return 0;
+        break;
     case OP_BSDF_ROUGHDIELECTRIC: /* above: both sides, never flipped */
     case OP_BSDF_COATING:
         return 0; /* only as a boundary (op_bsdf_boundary), which scene building enforces */
@@ -787,6 +809,8 @@ op_v3 op_bsdf_albedo(const op_bsdf *b)
     case OP_BSDF_PLASTIC:
     case OP_BSDF_ROUGHPLASTIC:
         return b->reflectance;
+    case OP_BSDF_PRINCIPLED:
+        return b->pr.base_color;
     default:
         return b->specular;
     }
@@ -876,7 +900,7 @@ op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr
 {
     static const char *names[] = {"diffuse", "dielectric", "conductor", "plastic", "roughplastic",
                                   "roughdielectric", "coating", "sheen", "through",
-                                  "roughconductor", "roughdiffuse"};
+                                  "roughconductor", "roughdiffuse", "principled"};
     int rough = b->type == OP_BSDF_ROUGHPLASTIC || b->type == OP_BSDF_ROUGHDIELECTRIC;
     if (!(rough || b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_PLASTIC ||
           b->type == OP_BSDF_COATING) || b->masked || b->twosided)

@@ -1,7 +1,8 @@
 /* bsdf.h - surface scattering models as Mitsuba 0.6 defines them: diffuse, roughdiffuse
  * (Oren-Nayar), dielectric, roughdielectric (Walter et al. 2007), conductor, roughconductor
  * (named conductors: conductor_table.h), plastic, roughplastic (GGX); the rough ones over the
- * microfacet distributions of microfacet.h. Reflecting models may be two-sided, and Mitsuba's
+ * microfacet distributions of microfacet.h; Mitsuba 3's principled and principledthin
+ * (principled.h). Reflecting models may be two-sided, and Mitsuba's
  * `mask` (cut-out opacity) goes around any of them. The boundary of a translucent shape
  * (op_bsdf_boundary) is the reflection of a dielectric, roughdielectric, plastic, roughplastic
  * or coating whose transmitted part is the subsurface transport (docs/subsurface-rendering.md).
@@ -22,6 +23,7 @@
 #include "scene/scene_desc.h"
 #include "bsdf/texture.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/principled.h"
 
 typedef enum op_bsdf_type {
     OP_BSDF_DIFFUSE,
@@ -37,7 +39,8 @@ typedef enum op_bsdf_type {
     OP_BSDF_THROUGH, /* a white Lambertian behind a boundary: f = t(cos wo) / pi (the irradiance
                         that crosses it, op_bsdf_through) */
     OP_BSDF_ROUGHCONDUCTOR,
-    OP_BSDF_ROUGHDIFFUSE /* Oren-Nayar */
+    OP_BSDF_ROUGHDIFFUSE, /* Oren-Nayar */
+    OP_BSDF_PRINCIPLED    /* Mitsuba 3's principled and principledthin (principled.h) */
 } op_bsdf_type;
 
 /* What a translucent shape's boundary lets through, per direction: t[k] is the fraction of
@@ -81,6 +84,8 @@ typedef struct op_bsdf {
     float rough_fdr;
     int masked;            /* wrapped in a mask: opacity below applies */
     op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
+    op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures (last:
+                              op_bsdf_at copies it only for this type) */
 } op_bsdf;
 
 typedef struct op_bsdf_sample {

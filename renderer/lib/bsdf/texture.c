@@ -196,7 +196,9 @@ static op_status build_bitmap(op_node *node, op_tex_cache *cache, op_texture *t,
     return OP_OK;
 }
 
-op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err)
+/* op_texture_build, checkerboard colours allowed in [0, cmax]. */
+static op_status texture_build(op_node *node, op_tex_cache *cache, double cmax, op_texture *t,
+                               op_error *err)
 {
     memset(t, 0, sizeof *t);
     node->used = 1;
@@ -237,9 +239,10 @@ op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op
         GET_OR_FAIL(op_node_color(node, "color0", c0, c0, err));
         GET_OR_FAIL(op_node_color(node, "color1", c1, c1, err));
         for (int k = 0; k < 3; k++)
-            if (!(c0[k] >= 0.0 && c0[k] <= 1.0 && c1[k] >= 0.0 && c1[k] <= 1.0))
+            if (!(c0[k] >= 0.0 && c0[k] <= cmax && c1[k] >= 0.0 && c1[k] <= cmax))
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"checkerboard\">: "
-                                    "color0 and color1 must be in [0, 1]", node->file, node->line);
+                                    "color0 and color1 must be in [0, %g]", node->file, node->line,
+                                    cmax);
         t->color0 = v3_from_d(c0);
         t->color1 = v3_from_d(c1);
         t->type = OP_TEX_CHECKERBOARD;
@@ -247,6 +250,17 @@ op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op
     }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"%s\">: unknown texture type "
                         "(bitmap, checkerboard)", node->file, node->line, node->type);
+}
+
+op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err)
+{
+    return texture_build(node, cache, 1.0, t, err);
+}
+
+op_status op_texture_build_unbounded(op_node *node, op_tex_cache *cache, op_texture *t,
+                                     op_error *err)
+{
+    return texture_build(node, cache, 1e30, t, err);
 }
 
 /* Brings a coordinate into a small range where the wrap mode gives the same texels: [0, 1) for

@@ -49,6 +49,10 @@ const op_image *op_tex_cache_image(const op_tex_cache *c, int i);
 /* Builds t from a <texture> node (marking it and its parameters used), reading the image of a
  * bitmap through cache. Errors name the scene file, line and the image file. */
 op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err);
+/* op_texture_build for values that are not reflectances (a principled BSDF's index of
+ * refraction or diffuse transmission): checkerboard colours may exceed 1. */
+op_status op_texture_build_unbounded(op_node *node, op_tex_cache *cache, op_texture *t,
+                                     op_error *err);
 /* The value at surface coordinates (u, v) (before uscale/uoffset). */
 op_v3 op_texture_eval(const op_texture *t, float u, float v);
 
