@@ -1,5 +1,5 @@
-/* test_dataset_reciprocity.c - the Monte Carlo dataset generator on samples whose two media differ
- * in index of refraction (Marble 1.5, Skin1 1.3; Marble 1.5, Ketchup 1.3) obey reciprocity.
+/* test_dataset_reciprocity.c - both dataset generators on samples whose two media differ in index
+ * of refraction (Marble 1.5, Skin1 1.3; Marble 1.5, Ketchup 1.3) obey reciprocity.
  *
  * The relation. Rd(x_i, x_o) is the power leaving through x_o per power *entering* through x_i
  * under diffuse light from air (docs/datasets.md). Transport from air back into air is
@@ -15,6 +15,7 @@
  * Rd back. With one index for the whole sample both relations are plain symmetry. */
 #include "test_support.h"
 
+#include "dataset_diffusion.h"
 #include "dataset_generate.h"
 #include "dataset_montecarlo.h"
 #include "opaline.h"
@@ -178,12 +179,64 @@ static void montecarlo_pairs_within_error(void **state)
     op_layout_free(&l);
 }
 
+/* The diffusion generator gives a sample of two indices one: its base medium's (the first), or
+ * the spec's eta. A dipole per pair of points has no interface to refract at, and a per-point
+ * index would have to enter the table as T(n_i) / T(n_o), which no dipole supplies. So the mixed
+ * board is exactly the board generated with eta 1.5 given, and exactly symmetric (T is the same
+ * everywhere); its generator text says the one index. */
+static void diffusion_mixed_index_board(void **state)
+{
+    (void)state;
+    op_dataset_spec s;
+    op_error err = {0};
+    op_status st = op_dataset_spec_defaults("chess4x4", &s, &err);
+    OP_ASSERT_OK(st, err);
+    s.width = s.height = 16;
+    s.kernel = 9;
+    s.size_x_cm = s.size_y_cm = 0.8;
+    s.threads = 2;
+    assert_true(s.media[0]->eta == 1.5 && s.media[1]->eta == 1.3);
+    op_dataset mixed, one;
+    st = op_dataset_generate(&s, &mixed, NULL, &err);
+    OP_ASSERT_OK(st, err);
+    s.eta = 1.5;
+    st = op_dataset_generate(&s, &one, NULL, &err);
+    OP_ASSERT_OK(st, err);
+    size_t n = (size_t)16 * 16 * 81;
+    for (int c = 0; c < 3; c++) {
+        double diff = 0;
+        for (size_t i = 0; i < n; i++)
+            diff = fmax(diff, fabs(mixed.rd[c][i] - one.rd[c][i]) / fmax(one.rd[c][i], 1e-30));
+        if (diff > 0)
+            fail_msg("channel %d: the mixed board differs from the board at eta 1.5 by up to "
+                     "%.3g (relative)", c, diff);
+    }
+    if (!strstr(mixed.generator, "eta=1.5") || strstr(mixed.generator, "1.5,"))
+        fail_msg("generator text '%s' does not give the one index 1.5", mixed.generator);
+    int K = 9, h = K / 2;
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < 16; y++)
+            for (int x = 0; x < 16; x++)
+                for (int dy = -h; dy <= h; dy++)
+                    for (int dx = -h; dx <= h; dx++) {
+                        int xo = ((x + dx) % 16 + 16) % 16, yo = ((y + dy) % 16 + 16) % 16;
+                        float a = mixed.rd[c][(y * 16 + x) * K * K + (dy + h) * K + dx + h];
+                        float b = mixed.rd[c][(yo * 16 + xo) * K * K + (h - dy) * K + h - dx];
+                        if (a != b)
+                            fail_msg("channel %d: Rd((%d,%d) -> %+d,%+d) = %g, back %g", c, x, y,
+                                     dx, dy, (double)a, (double)b);
+                    }
+    op_dataset_free(&mixed);
+    op_dataset_free(&one);
+}
+
 int main(void)
 {
     op_log_set_level(OP_LOG_ERROR);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(montecarlo_mixed_index_board),
         cmocka_unit_test(montecarlo_pairs_within_error),
+        cmocka_unit_test(diffusion_mixed_index_board),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
