@@ -47,7 +47,9 @@ static void dataset_usage(FILE *f)
             "  --media A,B         the two media (chessboards: squares; veins: base,vein)\n"
             "  --medium NAME       the (base) medium; for homogeneous, the only one\n"
             "  --eta N             one index of refraction for the whole sample (1 to 3;\n"
-            "                      default: each medium's own, 1.3, Marble and Vein 1.5)\n\n"
+            "                      default: each medium's own, 1.3, Marble and Vein 1.5:\n"
+            "                      montecarlo refracts where they differ, diffusion takes\n"
+            "                      the base medium's)\n\n"
             "media (coefficients in 1/mm; docs/datasets.md): %s\n", op_medium_names());
 }
 

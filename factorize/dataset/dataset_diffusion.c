@@ -205,6 +205,12 @@ op_status op_diffusion_begin(const op_layout *l, int K, op_diffusion **out, op_e
             d->padded[(size_t)y * pw + x] = (uint8_t)op_layout_at(l, x - h, y - h);
 
     /* The table of every value an entry can take. */
+    double eta = op_layout_eta(l, 0);
+    if (eta != op_layout_eta(l, 1))
+        op_log(OP_LOG_WARN, "diffusion: %s (index %.3g) and %s (%.3g) differ in index; a dipole "
+               "has no interface between them to refract at, so the whole sample takes the "
+               "base medium's %.3g (--eta sets another; montecarlo refracts at the interfaces)",
+               l->media[0]->name, eta, l->media[1]->name, op_layout_eta(l, 1), eta);
     float *v = d->values;
     for (int ay = 0; ay <= h; ay++)
         for (int ax = 0; ax <= h; ax++) {
@@ -213,8 +219,6 @@ op_status op_diffusion_begin(const op_layout *l, int K, op_diffusion **out, op_e
             int n = m <= 3 ? 10 : 4; /* more quadrature where Rd varies within a pixel */
             for (int k = 0; k <= m; k++) {
                 double f = (double)k / m;
-                double e0 = op_layout_eta(l, 0), e1 = op_layout_eta(l, 1);
-                double eta = e0 == e1 ? e0 : (1 - f) * e0 + f * e1;
                 for (int c = 0; c < 3; c++) {
                     double ss = (1 - f) * l->media[0]->sigma_s[c] + f * l->media[1]->sigma_s[c];
                     double sa = (1 - f) * l->media[0]->sigma_a[c] + f * l->media[1]->sigma_a[c];

@@ -3,11 +3,15 @@
  * Assumptions: each (x_i, x_o) pair sees a semi-infinite homogeneous medium whose coefficients
  * are the path-length average of sigma_s' and sigma_a along the straight segment x_i -> x_o
  * (sampled at max(|dx|, |dy|) + 1 evenly spaced points, each in the pixel that holds it);
- * the classical dipole of Jensen et al. 2001 (multiple scattering only, no single scattering,
- * relative index: each medium's op_medium.eta, averaged along the segment like the coefficients,
- * or the layout's one eta) gives Rd for that medium; Rd is integrated over both pixels
- * (uniform entry over x_i, exit anywhere in x_o). The segment average is symmetric in its two
- * ends, so Rd(x_i, x_o) == Rd(x_o, x_i) exactly (bit for bit).
+ * the classical dipole of Jensen et al. 2001 (multiple scattering only, no single scattering)
+ * gives Rd for that medium; Rd is integrated over both pixels (uniform entry over x_i, exit
+ * anywhere in x_o). The whole sample has one relative index: the layout's one eta, else the base
+ * medium's (op_layout_eta(l, 0)). A dipole has no interface inside the sample to refract at, and
+ * with two indices reciprocity would ask T(n_i) Rd(x_i, x_o) = T(n_o) Rd(x_o, x_i) (T the diffuse
+ * transmittance into index n, docs/datasets.md), which no dipole supplies; so media of different
+ * index are given the base medium's, with a warning. The segment average is symmetric in its
+ * two ends, so Rd(x_i, x_o) == Rd(x_o, x_i) exactly (bit for bit), which is reciprocity for one
+ * index.
  */
 #ifndef OP_FACTOR_DATASET_DIFFUSION_H
 #define OP_FACTOR_DATASET_DIFFUSION_H

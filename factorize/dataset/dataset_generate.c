@@ -57,7 +57,10 @@ static void describe(const op_dataset_spec *spec, op_dataset *d)
     d->size_y_cm = spec->size_y_cm;
     snprintf(d->name, sizeof d->name, "%s", spec->name);
     const op_medium *a = spec->media[0], *b = spec->media[1];
+    /* diffusion gives the sample the base medium's index (dataset_diffusion.h) */
     double e0 = spec->eta ? spec->eta : a->eta, e1 = spec->eta ? spec->eta : b->eta;
+    if (spec->generator != OP_GEN_MONTECARLO)
+        e1 = e0;
     char etas[48];
     if (e0 == e1)
         snprintf(etas, sizeof etas, "%.2g", e0);

@@ -74,7 +74,6 @@ typedef struct mc_thread {
     double *sum, *sq;   /* K*K tallies of the unit in progress */
 } mc_thread;
 
-/* Traces every photon of channel c entering pixel (px, py); fills row and standard errors. */
 /* The medium (0 or 1) of the pixel under the point at (u, v) sample widths, in the periodic
  * tiling, without integer division. */
 static inline int medium_at(const op_layout *l, double u, double v)
@@ -85,11 +84,112 @@ static inline int medium_at(const op_layout *l, double u, double v)
     return l->map[iy * l->width + ix];
 }
 
+/* A photon: position (mm) and direction; in a sample whose two media differ in index also the
+ * pixel it is in, (cx, cy) unwrapped (floor(x / pixel_x), floor(y / pixel_y) while x, y lie
+ * inside a pixel; kept by the flight on a pixel's side, where rounding could not tell), the
+ * same pixel wrapped into the map, (wx, wy), and its medium m. */
+typedef struct photon {
+    double x, y, z, ux, uy, uz;
+    int64_t cx, cy;
+    int wx, wy, m;
+} photon;
+
+typedef enum flight { FLIGHT_COLLISION, FLIGHT_SURFACE, FLIGHT_INTERFACE } flight;
+
+/* Moves p along its direction for the free path s through the pixel columns: to a tentative
+ * collision (FLIGHT_COLLISION), to the surface z = 0 (FLIGHT_SURFACE), or to the first side of
+ * a pixel where the medium changes (FLIGHT_INTERFACE), where p is reflected (Fresnel, total
+ * internal reflection included) or refracted (Snell) into the next pixel; the caller then draws
+ * a new free path (the majorant's free paths are memoryless). */
+static flight fly(photon *p, double s, const op_layout *l, const double eta_m[2], rng *r)
+{
+    for (;;) {
+        double bx = (double)(p->ux > 0 ? p->cx + 1 : p->cx) * l->pixel_x;
+        double by = (double)(p->uy > 0 ? p->cy + 1 : p->cy) * l->pixel_y;
+        /* Distances to the sides ahead and the surface, each along its own axis (rounding may
+         * leave the photon a hair past a side: 0). Most flights end inside the pixel, found
+         * without dividing. */
+        double dx = p->ux > 0 ? bx - p->x : p->x - bx, dy = p->uy > 0 ? by - p->y : p->y - by;
+        double ax = fabs(p->ux), ay = fabs(p->uy), az = -p->uz;
+        dx = dx > 0 ? dx : 0;
+        dy = dy > 0 ? dy : 0;
+        int reach_x = ax > 0 && s * ax >= dx, reach_y = ay > 0 && s * ay >= dy;
+        int reach_surf = az > 0 && s * az >= p->z;
+        if (!reach_x && !reach_y && !reach_surf) {
+            p->x += p->ux * s;
+            p->y += p->uy * s;
+            p->z += p->uz * s;
+            return FLIGHT_COLLISION;
+        }
+        double tx = reach_x ? dx / ax : INFINITY, ty = reach_y ? dy / ay : INFINITY;
+        double t_surf = reach_surf ? (p->z > 0 ? p->z / az : 0) : INFINITY;
+        double t_side = tx <= ty ? tx : ty;
+        if (t_surf <= t_side) {
+            p->x += p->ux * t_surf;
+            p->y += p->uy * t_surf;
+            p->z = 0;
+            return FLIGHT_SURFACE;
+        }
+        int along_x = tx <= ty;
+        p->x = along_x ? bx : p->x + p->ux * t_side;
+        p->y = along_x ? p->y + p->uy * t_side : by;
+        p->z += p->uz * t_side;
+        s = s > t_side ? s - t_side : 0;
+        int step = (along_x ? p->ux : p->uy) > 0 ? 1 : -1;
+        int wx = p->wx, wy = p->wy;
+        if (along_x)
+            wx = wx + step == l->width ? 0 : wx + step < 0 ? l->width - 1 : wx + step;
+        else
+            wy = wy + step == l->height ? 0 : wy + step < 0 ? l->height - 1 : wy + step;
+        int mn = l->map[wy * l->width + wx];
+        if (mn == p->m) {
+            p->cx += along_x ? step : 0;
+            p->cy += along_x ? 0 : step;
+            p->wx = wx;
+            p->wy = wy;
+            continue;
+        }
+        double *normal = along_x ? &p->ux : &p->uy;
+        double n1 = eta_m[p->m], n2 = eta_m[mn];
+        if (rng_uniform(r) < fresnel(fabs(*normal), n1, n2)) {
+            *normal = -*normal;
+        } else {
+            double q = n1 / n2, sign = *normal > 0 ? 1 : -1;
+            p->ux *= q;
+            p->uy *= q;
+            p->uz *= q;
+            double tangential = along_x ? p->uy * p->uy + p->uz * p->uz
+                                        : p->ux * p->ux + p->uz * p->uz;
+            *normal = sign * sqrt(fmax(0, 1 - tangential));
+            p->cx += along_x ? step : 0;
+            p->cy += along_x ? 0 : step;
+            p->wx = wx;
+            p->wy = wy;
+            p->m = mn;
+        }
+        return FLIGHT_INTERFACE;
+    }
+}
+
+/* Adds an escaping weight w to the tallies of exit offset (ex, ey) pixels, if in the kernel. */
+static inline void tally_exit(mc_thread *t, double w, int64_t ex, int64_t ey, int K)
+{
+    int h = K / 2;
+    if (ex >= -h && ex <= h && ey >= -h && ey <= h) {
+        int col = (int)(ey + h) * K + (int)(ex + h);
+        t->sum[col] += w;
+        t->sq[col] += w * w;
+    }
+}
+
+/* Traces every photon of channel c entering pixel (px, py); fills row and standard errors.
+ * Where the two media have one index, the pixel sides are not interfaces and the flight is a
+ * plain straight line. */
 static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
 {
     mc_job *j = t->job;
     const op_layout *l = j->l;
-    int K = j->out->kernel, h = K / 2, cols = K * K;
+    int K = j->out->kernel, cols = K * K;
     double sig_t[2], p_real[2], albedo[2];
     for (int m = 0; m < 2; m++) {
         sig_t[m] = l->media[m]->sigma_s[c] + l->media[m]->sigma_a[c];
@@ -112,10 +212,15 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
     uint64_t steps = 0;
     uint64_t n = j->o->photons;
     for (uint64_t p = 0; p < n; p++) {
-        double x = (px + rng_uniform(&r)) * l->pixel_x, y = (py + rng_uniform(&r)) * l->pixel_y;
-        double z = 0, ux = 0, uy = 0, uz = 1, w = 1;
+        photon ph = {.x = (px + rng_uniform(&r)) * l->pixel_x};
+        ph.y = (py + rng_uniform(&r)) * l->pixel_y;
+        ph.uz = 1;
+        ph.cx = ph.wx = px;
+        ph.cy = ph.wy = py;
+        ph.m = l->map[py * l->width + px];
+        double w = 1;
         /* The boundary's index where the photon crosses it: that of the medium there. */
-        double eta = eta_m[one_eta ? 0 : l->map[py * l->width + px]];
+        double eta = eta_m[one_eta ? 0 : ph.m];
         if (diffuse) {
             /* Cosine-weighted from outside, kept with the Fresnel transmittance, refracted. */
             double ct, phi;
@@ -124,41 +229,52 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
                 phi = 2 * M_PI * rng_uniform(&r);
             } while (rng_uniform(&r) < fresnel(ct, 1.0, eta));
             double st = sqrt(1 - ct * ct) / eta;
-            ux = st * cos(phi);
-            uy = st * sin(phi);
-            uz = sqrt(1 - st * st);
+            ph.ux = st * cos(phi);
+            ph.uy = st * sin(phi);
+            ph.uz = sqrt(1 - st * st);
         }
         uint64_t k;
         for (k = 0; k < OP_MC_MAX_STEPS; k++) {
             double s = -log(1 - rng_uniform(&r)) * inv_bar;
-            double zn = z + uz * s;
-            if (zn < 0) {
-                /* Reaches the surface: Fresnel reflection or exit; the free path restarts. */
-                double tt = -z / uz;
-                x += ux * tt;
-                y += uy * tt;
-                z = 0;
-                if (!one_eta)
-                    eta = eta_m[medium_at(l, x * inv_tx, y * inv_ty)];
-                if (rng_uniform(&r) < fresnel(-uz, eta, 1.0)) {
-                    uz = -uz;
-                    continue;
-                }
-                total += w;
-                int64_t ex = (int64_t)floor(x * inv_hx) - px, ey = (int64_t)floor(y * inv_hy) - py;
-                if (ex >= -h && ex <= h && ey >= -h && ey <= h) {
-                    int col = (int)(ey + h) * K + (int)(ex + h);
-                    t->sum[col] += w;
-                    t->sq[col] += w * w;
-                }
-                break;
-            }
-            x += ux * s;
-            y += uy * s;
-            z = zn;
             int m = 0;
-            if (hetero)
-                m = medium_at(l, x * inv_tx, y * inv_ty);
+            if (one_eta) {
+                double zn = ph.z + ph.uz * s;
+                if (zn < 0) {
+                    /* Reaches the surface: Fresnel reflection or exit; the free path restarts. */
+                    double tt = -ph.z / ph.uz;
+                    ph.x += ph.ux * tt;
+                    ph.y += ph.uy * tt;
+                    ph.z = 0;
+                    if (rng_uniform(&r) < fresnel(-ph.uz, eta, 1.0)) {
+                        ph.uz = -ph.uz;
+                        continue;
+                    }
+                    total += w;
+                    tally_exit(t, w, (int64_t)floor(ph.x * inv_hx) - px,
+                               (int64_t)floor(ph.y * inv_hy) - py, K);
+                    break;
+                }
+                ph.x += ph.ux * s;
+                ph.y += ph.uy * s;
+                ph.z = zn;
+                if (hetero)
+                    m = medium_at(l, ph.x * inv_tx, ph.y * inv_ty);
+            } else {
+                flight f = fly(&ph, s, l, eta_m, &r);
+                if (f == FLIGHT_INTERFACE)
+                    continue;
+                m = ph.m;
+                if (f == FLIGHT_SURFACE) {
+                    /* As above, at the index of the pixel the photon reaches the surface in. */
+                    if (rng_uniform(&r) < fresnel(-ph.uz, eta_m[m], 1.0)) {
+                        ph.uz = -ph.uz;
+                        continue;
+                    }
+                    total += w;
+                    tally_exit(t, w, ph.cx - px, ph.cy - py, K);
+                    break;
+                }
+            }
             if (hetero && rng_uniform(&r) >= p_real[m])
                 continue; /* null collision */
             w *= albedo[m];
@@ -175,9 +291,9 @@ static void trace_unit(mc_thread *t, int c, int px, int py, uint64_t unit)
                 q = a * a + b * b;
             } while (q >= 1);
             double f = 2 * sqrt(1 - q);
-            ux = a * f;
-            uy = b * f;
-            uz = 1 - 2 * q;
+            ph.ux = a * f;
+            ph.uy = b * f;
+            ph.uz = 1 - 2 * q;
         }
         steps += k + 1;
         if (k == OP_MC_MAX_STEPS)

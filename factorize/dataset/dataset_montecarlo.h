@@ -5,13 +5,17 @@
  * Free paths by delta (Woodcock) tracking against the larger extinction of the two media;
  * isotropic scattering with the reduced coefficients; survival weighting (weight *= albedo at
  * each real collision) with Russian roulette below weight 0.1; the flat boundary (relative index
- * of the medium where the photon crosses it, op_layout_eta) reflects with the unpolarized Fresnel probability, else the photon leaves and
- * its weight is tallied in the exit pixel. Incidence is diffuse by default: directions
- * cosine-weighted outside, kept with the Fresnel transmittance and refracted, which makes the
- * measurement reciprocal (Rd(x_i, x_o) = Rd(x_o, x_i) in expectation, since exit is collected
- * over all directions); OP_MC_NORMAL is the classical normal-incidence pencil beam (the dipole's
- * own setting), which is not reciprocal across media. Either way the power reflected at entry is
- * not part of the power that enters. Each (channel, pixel) has its own random stream
+ * of the medium where the photon crosses it, op_layout_eta) reflects with the unpolarized
+ * Fresnel probability, else the photon leaves and its weight is tallied in the exit pixel. Where
+ * the two media differ in index, the sides between their pixels are interfaces too: a photon
+ * reaching one is reflected (Fresnel, total internal reflection) or refracted (Snell). Incidence
+ * is diffuse by default: directions cosine-weighted outside, kept with the Fresnel transmittance
+ * and refracted, which makes the measurement reciprocal: T(n_i) Rd(x_i, x_o) = T(n_o) Rd(x_o, x_i)
+ * in expectation, T(n) the transmittance of diffuse light from air into index n, since exit is
+ * collected over all directions (one index: Rd(x_i, x_o) = Rd(x_o, x_i); docs/datasets.md);
+ * OP_MC_NORMAL is the classical normal-incidence pencil beam (the dipole's own setting), which is
+ * not reciprocal across media. Either way the power reflected at entry is not part of the power
+ * that enters. Each (channel, pixel) has its own random stream
  * (xoshiro256+ seeded by splitmix64 from seed, channel and pixel), and is traced by one thread
  * in photon order, so the result is bit-identical for any thread count.
  */

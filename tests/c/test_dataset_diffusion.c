@@ -139,13 +139,15 @@ static void threads_do_not_matter(void **state)
 }
 
 /* A response that crosses a square boundary differs from the same response in either medium
- * alone. 8 x 8 pixels of 1 mm, 4 x 4 squares of 2 x 2 pixels. */
+ * alone (at the board's one index, its base medium's). 8 x 8 pixels of 1 mm, 4 x 4 squares of
+ * 2 x 2 pixels. */
 static void heterogeneity_shows(void **state)
 {
     op_dataset_spec s = small_spec("chess4x4", 8, 8, 7, 0.8, 0.8);
     op_dataset chess, ha, hb;
     generate(&s, &chess);
     op_dataset_spec sa = small_spec("homogeneous", 8, 8, 7, 0.8, 0.8);
+    sa.eta = s.media[0]->eta;
     sa.media[0] = sa.media[1] = s.media[0];
     generate(&sa, &ha);
     sa.media[0] = sa.media[1] = s.media[1];

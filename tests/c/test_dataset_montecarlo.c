@@ -1,7 +1,7 @@
 /* test_dataset_montecarlo.c - generator 1 (Monte Carlo transport) at small sizes: against the
- * analytic dipole where diffusion holds and the closed-form total diffuse reflectance,
- * reciprocity within its own standard errors, energy, visible heterogeneity, and bit-identical
- * results whatever the thread count. */
+ * analytic dipole where diffusion holds and the closed-form total diffuse reflectance, energy,
+ * visible heterogeneity, and bit-identical results whatever the thread count (reciprocity:
+ * test_dataset_reciprocity.c). */
 #include "test_support.h"
 
 #include "dataset_generate.h"
@@ -86,49 +86,6 @@ static void homogeneous_matches_dipole(void **state)
                          dip);
         }
     }
-    op_dataset_free(&d);
-    op_layout_free(&l);
-}
-
-/* Rd(x_i, x_o) and Rd(x_o, x_i) agree within their standard errors across a marble/ketchup
- * chessboard: over all pairs the mean squared z-score is near 1 and no pair is a wild outlier.
- * (With normal incidence it is not: the mean z^2 grows with the photon count, 5.6 at 20000
- * photons on marble/skin1.) */
-static void reciprocity_within_error(void **state)
-{
-    op_layout l;
-    op_error err = {0};
-    op_status st = op_layout_chessboard(&l, 8, 8, 0.8, 0.8, 4, op_medium_lookup("marble"),
-                                        op_medium_lookup("ketchup"), &err);
-    OP_ASSERT_OK(st, err);
-    op_dataset d;
-    op_mc_stats s;
-    const int K = 5, h = K / 2, W = 8, H = 8;
-    run_mc(&l, K, 3000, 3, 2, &d, &s);
-    double z2 = 0, zmax = 0;
-    int pairs = 0;
-    for (int c = 0; c < 3; c++)
-        for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++)
-                for (int dy = -h; dy <= h; dy++)
-                    for (int dx = -h; dx <= h; dx++) {
-                        if (dy < 0 || (dy == 0 && dx <= 0))
-                            continue; /* each unordered pair once */
-                        int xo = ((x + dx) % W + W) % W, yo = ((y + dy) % H + H) % H;
-                        size_t i = ((size_t)y * W + x) * K * K + (dy + h) * K + dx + h;
-                        size_t o = ((size_t)yo * W + xo) * K * K + (h - dy) * K + h - dx;
-                        double var = (double)d.se[c][i] * d.se[c][i] +
-                                     (double)d.se[c][o] * d.se[c][o];
-                        if (var <= 0)
-                            continue;
-                        double z = (d.rd[c][i] - d.rd[c][o]) / sqrt(var);
-                        z2 += z * z;
-                        zmax = fmax(zmax, fabs(z));
-                        pairs++;
-                    }
-    assert_true(pairs > 1000);
-    if (z2 / pairs > 1.4 || zmax > 6)
-        fail_msg("reciprocity: mean z^2 %.3f over %d pairs, max |z| %.2f", z2 / pairs, pairs, zmax);
     op_dataset_free(&d);
     op_layout_free(&l);
 }
@@ -248,7 +205,8 @@ static void compare_with_diffusion_and_write(void **state)
         print_message("chess 8x8 px, 1 mm, K 7, channel %d: mean albedo MC %.4f diffusion %.4f; "
                       "relative RMS difference off-centre %.3f\n", c, am / 64, ad / 64,
                       sqrt(num / den));
-        /* Measured (marble/skin1, 1000 photons): albedo within 2 to 12 %, 34 to 45 % RMS over
+        /* Measured (marble/skin1, 1000 photons; Monte Carlo refracting between the squares,
+         * diffusion at the board's one index 1.5): albedo within 2 to 7 %, 31 to 40 % RMS over
          * the off-centre entries (1 mm pixels: the first ring is only 2 mean free paths out). */
         assert_true(fabs(am - ad) < 0.2 * am);
         assert_true(sqrt(num / den) < 0.6);
@@ -276,7 +234,6 @@ int main(void)
     op_log_set_level(OP_LOG_WARN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(homogeneous_matches_dipole),
-        cmocka_unit_test(reciprocity_within_error),
         cmocka_unit_test(reproducible_whatever_the_threads),
         cmocka_unit_test(heterogeneity_shows),
         cmocka_unit_test(compare_with_diffusion_and_write),

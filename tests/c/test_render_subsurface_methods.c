@@ -249,7 +249,9 @@ static void test_energy(void **state)
         const char *name, *type;
         double tol_data; /* against the dataset's albedo */
     } cases[] = {
-        {"RAW_Chess4x4", "raw", 0.01},     {"SVD_S4_Chess4x4", "svd", 0.01},
+        /* SVD with 4 terms misses the blue albedo of this one-index (1.5) board by 1.1 % itself
+         * (0.34722 against 0.35099) */
+        {"RAW_Chess4x4", "raw", 0.01},     {"SVD_S4_Chess4x4", "svd", 0.02},
         {"SVD_S8_Chess4x4", "svd", 0.01},  {"TUCKER_T4_P2_Chess4x4", "tucker", 0.01},
         {"KCTA_Chess4x4", "kcta", 0.01},
         /* NMF with 4 terms misses this dataset's albedo by up to 7 % itself (its factor report
