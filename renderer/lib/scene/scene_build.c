@@ -389,8 +389,9 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape>: a <subsurface> shape cannot also "
                             "be a medium's boundary (give the medium, or the subsurface)",
                             node->file, node->line);
-    /* Mitsuba 0.6: a medium's boundary without a bsdf is index-matched */
-    if ((bsdf && strcmp(bsdf->type, "null") == 0) || (!bsdf && !em && transition)) {
+    /* a medium's boundary without a bsdf: index-matched in Mitsuba 0.6, diffuse in Mitsuba 3 */
+    if ((bsdf && strcmp(bsdf->type, "null") == 0) ||
+        (!bsdf && !em && transition && node->dialect == OP_DIALECT_MITSUBA_0)) {
         if (bsdf)
             op_node_mark_used(bsdf);
         bsdf = NULL;
