@@ -1,6 +1,7 @@
 /* test_render_volume.c - the volumetric path tracer (volpath) against exact results:
- * - Beer-Lambert: a slab of pure absorber, index-matched, seen against a uniform sky, and a
- *   diffuse floor under it lit by a directional light (the shadow ray's transmittance);
+ * - Beer-Lambert: a slab of pure absorber, index-matched, seen against a uniform sky (from
+ *   outside, and from a sensor inside its medium), and a diffuse floor under it lit by a
+ *   directional light (the shadow ray's transmittance);
  * - furnace: a sphere of non-absorbing chromatic, anisotropic medium under a uniform sky is
  *   invisible, behind an index-matched and behind a dielectric boundary;
  * - a half-space of isotropic scattering medium (index 1) against Chandrasekhar's H-function,
@@ -109,6 +110,29 @@ static void test_beer_lambert(void **state)
         e[c] = 0.5 * 3.0 / M_PI * exp(-2.0 * sa[c] * d);
     expect_render("floor under the slab", scene_text("volpath", "0,0,3", "0,0,0", 16, 1024, body),
                   e);
+}
+
+static void test_camera_inside(void **state)
+{
+    (void)state;
+    /* the sensor sits in the slab's medium (referenced by both) at depth 0.5 of 1.2, looking
+     * up at the sky: exp(-sigma_a 0.7) */
+    const char *text =
+        "<scene version=\"0.6.0\"><integrator type=\"volpath\"/>"
+        "<medium type=\"homogeneous\" id=\"ink\"><rgb name=\"sigmaA\" value=\"0.5, 1, 2\"/>"
+        "<rgb name=\"sigmaS\" value=\"0\"/></medium>"
+        "<sensor type=\"radiancemeter\"><transform name=\"toWorld\">"
+        "<lookat origin=\"0,0,0.5\" target=\"0,0,1\" up=\"0,1,0\"/></transform>"
+        "<ref id=\"ink\" name=\"medium\"/>"
+        "<sampler type=\"independent\"><integer name=\"sampleCount\" value=\"256\"/>"
+        "</sampler><film type=\"hdrfilm\"><integer name=\"width\" value=\"16\"/>"
+        "<integer name=\"height\" value=\"16\"/><rfilter type=\"box\"/></film></sensor>"
+        "<shape type=\"cube\"><transform name=\"toWorld\"><scale x=\"50\" y=\"50\" "
+        "z=\"0.6\"/><translate z=\"0.6\"/></transform><ref id=\"ink\" name=\"interior\"/>"
+        "</shape><emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
+        "</scene>";
+    const double e[3] = {exp(-0.5 * 0.7), exp(-1.0 * 0.7), exp(-2.0 * 0.7)};
+    expect_render("camera inside the slab", text, e);
 }
 
 static void test_furnace(void **state)
@@ -245,6 +269,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_beer_lambert),
+        cmocka_unit_test(test_camera_inside),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_half_space_sky),
         cmocka_unit_test(test_half_space_directional),
