@@ -44,8 +44,10 @@ op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err);
  * the lens position (a thin lens's aperture, 2 numbers, drawn only by cameras with an aperture),
  * then per path vertex `depth` (0 = the camera ray's hit) the light sample of emitter `sub`
  * (as many as the emitter reads: position 2, then the triangle of an area light 1), the BSDF
- * sample (direction 2, then the lobe choice 1 where there is one) and Russian roulette (1). */
-enum { OP_DIM_LIGHT = 1, OP_DIM_BSDF = 2, OP_DIM_RR = 3 };
+ * sample (direction 2, then the lobe choice 1 where there is one; a phase function's direction
+ * in a medium), Russian roulette (1) and the free-flight distances of the ray leaving the vertex
+ * (channel 1, distance 1; `sub`: the index-matched boundaries passed before). */
+enum { OP_DIM_LIGHT = 1, OP_DIM_BSDF = 2, OP_DIM_RR = 3, OP_DIM_MEDIUM = 4 };
 #define OP_DIM_PIXEL 0u
 #define OP_DIM_LENS 1u
 #define OP_DIM(depth, kind, sub) \

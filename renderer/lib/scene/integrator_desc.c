@@ -14,6 +14,9 @@ static const char *const path_like[] = {
     "volpath_simple", "volpathmis",    "prb",           "prb_basic",   "prbvolpath",
     "prb_projective", "sppm",          "ppm",           "photonmapper", "vpl",
     NULL};
+/* Rendered by the volumetric path tracer. */
+static const char *const volumetric[] = {"volpath", "volpath_simple", "volpathmis",
+                                                "prbvolpath", NULL};
 /* Render the integrator nested in them. */
 static const char *const wrappers[] = {"moment", "aov", "irrcache", "adaptive", NULL};
 
@@ -98,6 +101,9 @@ static op_status read_path(op_node *n, op_integrator *ig, op_error *err)
     ig->type = OP_INT_PATH;
     ig->max_depth = (int)md;
     ig->rr_depth = (int)rr;
+    ig->volumetric = in_list(volumetric, n->type);
+    if (ig->volumetric)
+        return OP_OK;
     if (strcmp(n->type, "path") != 0) {
         char rest[512];
         take_unused(n, rest, sizeof rest);
@@ -130,6 +136,7 @@ op_status op_integrator_read(op_node *n, op_integrator *ig, op_error *err)
     ig->rr_depth = 5;
     ig->hide_emitters = 0;
     ig->emitter_samples = ig->bsdf_samples = 1;
+    ig->volumetric = 0;
     for (int depth = 0; n; depth++) {
         n->used = 1;
         const char *t = n->type;

@@ -8,6 +8,7 @@
 #include "camera/camera.h"
 #include "sss/dipole_profile.h"
 #include "light/emitter.h"
+#include "medium/medium.h"
 #include "camera/film.h"
 #include "camera/sampler.h"
 #include "opaline_material.h"
@@ -29,6 +30,9 @@ typedef struct op_integrator {
     int hide_emitters;
     int emitter_samples; /* direct: samples of every emitter per pixel sample (>= 0) */
     int bsdf_samples;    /* direct: BSDF samples per pixel sample (>= 0) */
+    int volumetric;      /* path: 1 for Mitsuba's volpath family, which renders media (the
+                            volumetric path tracer; the same as path in a scene without them),
+                            0 for path, which ignores media as Mitsuba's path does */
 } op_integrator;
 
 /* A measured subsurface material on one shape. */
@@ -69,6 +73,8 @@ typedef struct op_shape_rec {
     int bsdf;      /* index into bsdfs */
     int emitter;   /* index into emitters, or -1 */
     int sss;       /* index into sss, or -1 */
+    int interior, exterior; /* indices into media, or -1 (vacuum); both -1: the shape is no
+                               medium transition (a path keeps its medium when crossing it) */
     char label[160]; /* "file:line" of the shape, for messages */
 } op_shape_rec;
 
@@ -92,6 +98,9 @@ struct op_scene {
     op_sss_desc *sss;
     op_sss_plan_entry *sss_plan; /* per sss: its planned layout (op_sss_plan) */
     int nsss;
+    op_pmedium *media;
+    int nmedia;
+    int camera_medium; /* index into media of the medium the sensor sits in, or -1 */
     op_material **materials;
     char **material_paths; /* the file each material was opened from */
     int nmaterials;

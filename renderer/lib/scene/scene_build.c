@@ -4,6 +4,7 @@
 #include "scene/describe.h"
 #include "scene/limits.h"
 #include "scene/material_name.h"
+#include "scene/medium_desc.h"
 #include "scene/scene_path.h"
 #include "scene/subsurface_desc.h"
 #include "sss/layout.h"
@@ -22,7 +23,8 @@ typedef struct builder {
     const op_scene_description *d;
     const op_scene_limits *lim;
     const char *dir;
-    int cap_shapes, cap_bsdfs, cap_emitters, cap_sss, cap_mats;
+    int cap_shapes, cap_bsdfs, cap_emitters, cap_sss, cap_mats, cap_media;
+    op_strmap medium_index;     /* a built medium node's address -> its index, as bsdf_index */
     op_strmap bsdf_index;       /* a built bsdf node's address ("%p") -> its index, to share
                                    referenced ones */
     char **mat_paths;           /* resolved path of each opened material */
@@ -56,6 +58,43 @@ static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
     if (e)
         e->index = s->nbsdfs;
     *index = s->nbsdfs++;
+    return OP_OK;
+}
+
+/* A null (index-matched) boundary: a mask of opacity 0, which every ray passes straight
+ * through without a bounce (the integrators' masks). */
+static op_status add_null_bsdf(builder *b, int *index, op_error *err)
+{
+    op_scene *s = b->s;
+    if (!op_array_grow((void **)&s->bsdfs, &b->cap_bsdfs, s->nbsdfs, sizeof *s->bsdfs))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    op_bsdf *n = &s->bsdfs[s->nbsdfs];
+    op_bsdf_default(n);
+    n->masked = 1;
+    n->opacity = v3s(0.0f);
+    *index = s->nbsdfs++;
+    return OP_OK;
+}
+
+/* The medium of <medium> node, built once however many objects refer to it. */
+static op_status add_medium(builder *b, op_node *node, int *index, op_error *err)
+{
+    op_scene *s = b->s;
+    char key[32];
+    snprintf(key, sizeof key, "%p", (const void *)node);
+    const op_strmap_entry *known = op_strmap_find(&b->medium_index, key, strlen(key));
+    if (known) {
+        *index = known->index;
+        return OP_OK;
+    }
+    if (!op_array_grow((void **)&s->media, &b->cap_media, s->nmedia, sizeof *s->media))
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    GET_OR_FAIL(op_medium_read(node, &s->media[s->nmedia], err));
+    op_strmap_entry *e = op_strmap_add(&b->medium_index, key);
+    if (!e)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    e->index = s->nmedia;
+    *index = s->nmedia++;
     return OP_OK;
 }
 
@@ -313,14 +352,24 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
     int index = s->nshapes;
     op_shape_rec *sh = &s->shapes[index];
     memset(sh, 0, sizeof *sh);
-    sh->bsdf = sh->emitter = sh->sss = -1;
+    sh->bsdf = sh->emitter = sh->sss = sh->interior = sh->exterior = -1;
     snprintf(sh->label, sizeof sh->label, "%s:%d", node->file, node->line);
     GET_OR_FAIL(build_mesh(b, node, sh, err));
     s->nshapes++; /* owns its mesh from here on */
     op_node *bsdf = NULL, *em = NULL, *sss = NULL;
+    int interior = -1, exterior = -1;
     for (int i = 0; i < node->nchildren; i++) {
         op_node *c = node->children[i];
-        if (strcmp(c->tag, "bsdf") == 0 && !bsdf)
+        const char *cn = op_node_child_name(node, i);
+        if (strcmp(c->tag, "medium") == 0) {
+            int *side = cn && strcmp(cn, "interior") == 0   ? &interior
+                        : cn && strcmp(cn, "exterior") == 0 ? &exterior
+                                                            : NULL;
+            if (!side || *side >= 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <medium> inside <shape> must be "
+                                    "named interior or exterior, each once", c->file, c->line);
+            GET_OR_FAIL(add_medium(b, c, side, err));
+        } else if (strcmp(c->tag, "bsdf") == 0 && !bsdf)
             bsdf = c;
         else if (strcmp(c->tag, "emitter") == 0 && !em)
             em = c;
@@ -333,7 +382,23 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
                                  strcmp(c->tag, "subsurface") == 0) ? "a second time " : "");
     }
     int bi = -1, ei = -1, si = -1;
-    GET_OR_FAIL(add_bsdf(b, sss ? NULL : bsdf, &bi, err));
+    int transition = interior >= 0 || exterior >= 0;
+    s->shapes[index].interior = interior;
+    s->shapes[index].exterior = exterior;
+    if (sss && transition)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape>: a <subsurface> shape cannot also "
+                            "be a medium's boundary (give the medium, or the subsurface)",
+                            node->file, node->line);
+    /* a medium's boundary without a bsdf: index-matched in Mitsuba 0.6, diffuse in Mitsuba 3 */
+    if ((bsdf && strcmp(bsdf->type, "null") == 0) ||
+        (!bsdf && !em && transition && node->dialect == OP_DIALECT_MITSUBA_0)) {
+        if (bsdf)
+            op_node_mark_used(bsdf);
+        bsdf = NULL;
+        GET_OR_FAIL(add_null_bsdf(b, &bi, err));
+    } else {
+        GET_OR_FAIL(add_bsdf(b, sss ? NULL : bsdf, &bi, err));
+    }
     s->shapes[index].bsdf = bi;
     op_bsdf_type bt = s->bsdfs[bi].type;
     if (!sss && bt == OP_BSDF_COATING)
@@ -363,6 +428,7 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     s->sampler = b->d->sampler;
     s->camera = b->d->camera;
     s->integrator = b->d->integrator;
+    s->camera_medium = -1;
     for (int i = 0; i < root->nchildren; i++) {
         op_node *c = root->children[i];
         int idx = -1;
@@ -370,6 +436,11 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
             GET_OR_FAIL(add_shape(b, c, err));
         } else if (strcmp(c->tag, "emitter") == 0 && strcmp(c->type, "area") != 0) {
             GET_OR_FAIL(add_emitter(b, c, NULL, -1, &idx, err));
+        } else if (strcmp(c->tag, "sensor") == 0 && op_node_child(c, "medium", 0)) {
+            if (op_node_child(c, "medium", 1))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: more than one <medium>",
+                                    c->file, c->line);
+            GET_OR_FAIL(add_medium(b, op_node_child(c, "medium", 0), &s->camera_medium, err));
         } /* the rest (an area emitter with an id among them) is built where referenced (the
              description refused what is not supported); unreferenced objects are reported
              as unused */
@@ -383,6 +454,14 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
             s->has_masks = 1;
     if (s->nshapes == 0)
         op_log(OP_LOG_WARN, "%s: the scene has no shapes", s->path);
+    int volumetric = s->integrator.type == OP_INT_PATH && s->integrator.volumetric;
+    if (volumetric && s->nmedia > 0 && s->nsss > 0)
+        return op_error_set(err, OP_ERR_INPUT, "%s: volpath renders participating media or "
+                            "translucent (<subsurface>) shapes, not both in one scene", s->path);
+    if (s->nmedia > 0 && !volumetric)
+        op_log(OP_LOG_WARN, "%s: the scene's participating media are ignored by this integrator "
+               "(as Mitsuba's path does; their null boundaries are passed through): use "
+               "volpath to render them", s->path);
     if (s->nemitters == 0 && s->integrator.type <= OP_INT_DIRECT)
         op_log(OP_LOG_WARN, "%s: the scene has no emitters; the image will be black", s->path);
     op_v3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
@@ -447,6 +526,7 @@ op_status op_scene_build(const op_scene_description *d, op_scene *s, op_error *e
     s->material_paths = b.mat_paths; /* the pre-pass cache's key reads them */
     free(b.file_proto);
     op_strmap_free(&b.bsdf_index);
+    op_strmap_free(&b.medium_index);
     op_mesh_cache_free(b.meshes);
     if (st == OP_OK)
         op_desc_report_unused(d->root);
@@ -467,6 +547,7 @@ void op_scene_release(op_scene *s)
         op_emitter_free(&s->emitters[i]);
     free(s->emitters);
     free(s->sss);
+    free(s->media);
     free(s->sss_plan);
     for (int i = 0; i < s->nmaterials; i++) {
         op_material_close(s->materials[i]);

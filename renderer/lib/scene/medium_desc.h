@@ -1,0 +1,13 @@
+/* medium_desc.h - a scene's <medium> and its <phase> (docs/scene-format.md, Participating
+ * media). */
+#ifndef OP_MEDIUM_DESC_H
+#define OP_MEDIUM_DESC_H
+
+#include "medium/medium.h"
+#include "scene/scene_desc.h"
+
+/* Reads a <medium type="homogeneous"> into m (coefficients per scene unit). Any other type, a
+ * bad coefficient or phase function is an OP_ERR_INPUT naming the node's file:line. */
+op_status op_medium_read(op_node *node, op_pmedium *m, op_error *err);
+
+#endif
