@@ -181,10 +181,12 @@ static op_status build_bitmap(op_node *node, op_tex_cache *cache, op_texture *t,
                             node->line, filter);
     }
     GET_OR_FAIL(op_node_float(node, "gamma", 0.0, &gamma, err));
-    int raw;
-    const char *format;
-    GET_OR_FAIL(op_node_bool(node, "raw", 0, &raw, err)); /* Mitsuba 3: the stored values */
-    GET_OR_FAIL(op_node_string(node, "format", "variant", &format, err)); /* its storage */
+    int raw = 0;
+    if (node->dialect == OP_DIALECT_MITSUBA_3) {
+        const char *format; /* the precision Mitsuba 3 stores the image in */
+        GET_OR_FAIL(op_node_bool(node, "raw", 0, &raw, err)); /* the stored values */
+        GET_OR_FAIL(op_node_string(node, "format", "variant", &format, err));
+    }
     if (raw && op_node_has(node, "gamma"))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"bitmap\">: give raw or "
                             "gamma, not both", node->file, node->line);
@@ -254,7 +256,7 @@ op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op
         t->type = OP_TEX_CHECKERBOARD;
         return OP_OK;
     }
-    if (strcmp(node->type, "rawconstant") == 0) {
+    if (strcmp(node->type, "rawconstant") == 0 && node->dialect == OP_DIALECT_MITSUBA_3) {
         double c[3] = {1, 1, 1};
         const op_prop *p = op_node_prop(node, "value");
         if (p && (p->kind == OP_PROP_VECTOR || p->kind == OP_PROP_POINT))
