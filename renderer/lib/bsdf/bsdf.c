@@ -252,6 +252,17 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         b->masked = 1;
         return OP_OK;
     }
+    if (strcmp(node->type, "bumpmap") == 0 || strcmp(node->type, "normalmap") == 0) {
+        op_bump bump;
+        op_node *inner;
+        GET_OR_FAIL(op_bump_build(node, tex, &bump, &inner, err));
+        GET_OR_FAIL(op_bsdf_build(inner, tex, b, err));
+        if (b->bump.type != OP_BUMP_NONE)
+            return op_node_error(node, err, OP_ERR_INPUT, "wraps another bumpmap or normalmap "
+                                 "(not yet supported)");
+        b->bump = bump;
+        return OP_OK;
+    }
     double int_ior = 1.5046, ext_ior = 1.00028;
     if (strcmp(node->type, "principled") == 0 || strcmp(node->type, "principledthin") == 0) {
         b->type = OP_BSDF_PRINCIPLED;
@@ -334,7 +345,7 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
                         "(diffuse, roughdiffuse, dielectric, roughdielectric, conductor, "
                         "roughconductor, plastic, roughplastic, coating, principled, "
-                        "principledthin, twosided, mask)",
+                        "principledthin, twosided, mask, bumpmap, normalmap)",
                         node->file, node->line, node->type);
 }
 

@@ -24,6 +24,7 @@
 #include "bsdf/texture.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/principled.h"
+#include "bsdf/bump.h"
 
 typedef enum op_bsdf_type {
     OP_BSDF_DIFFUSE,
@@ -84,6 +85,8 @@ typedef struct op_bsdf {
     float rough_fdr;
     int masked;            /* wrapped in a mask: opacity below applies */
     op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
+    op_bump bump;          /* wrapped in a bumpmap or normalmap: the tilt of its shading frame,
+                              which the hit's frame gets (geometry/isect.c) */
     op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures (last:
                               op_bsdf_at copies it only for this type) */
 } op_bsdf;
@@ -95,8 +98,8 @@ typedef struct op_bsdf_sample {
     int delta;    /* sampled a specular component */
 } op_bsdf_sample;
 
-/* Builds b from a <bsdf> node (twosided and mask unwrap their child; a mask without a child
- * wraps the default diffuse; nested masks multiply their opacities). Out-of-range reflectances
+/* Builds b from a <bsdf> node (twosided, mask, bumpmap and normalmap unwrap their child; a mask
+ * without a child wraps the default diffuse; nested masks multiply their opacities). Out-of-range reflectances
  * and opacities are clamped to [0, 1] with a warning. The diffuse reflectance (diffuse, plastic,
  * roughplastic) may be a nested or referenced <texture>, whose image is read through tex. */
 op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err);

@@ -181,6 +181,17 @@ static op_status build_bitmap(op_node *node, op_tex_cache *cache, op_texture *t,
                             node->line, filter);
     }
     GET_OR_FAIL(op_node_float(node, "gamma", 0.0, &gamma, err));
+    int raw = 0;
+    if (node->dialect == OP_DIALECT_MITSUBA_3) {
+        const char *format; /* the precision Mitsuba 3 stores the image in */
+        GET_OR_FAIL(op_node_bool(node, "raw", 0, &raw, err)); /* the stored values */
+        GET_OR_FAIL(op_node_string(node, "format", "variant", &format, err));
+    }
+    if (raw && op_node_has(node, "gamma"))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"bitmap\">: give raw or "
+                            "gamma, not both", node->file, node->line);
+    if (raw)
+        gamma = 1.0;
     if (!(gamma == 0.0 || gamma == -1.0 || (gamma > 0.0 && gamma <= 10.0)))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"bitmap\">: gamma %g must "
                             "be -1 (sRGB), 0 (automatic) or in (0, 10]", node->file, node->line,
@@ -248,8 +259,19 @@ static op_status texture_build(op_node *node, op_tex_cache *cache, double cmax, 
         t->type = OP_TEX_CHECKERBOARD;
         return OP_OK;
     }
+    if (strcmp(node->type, "rawconstant") == 0 && node->dialect == OP_DIALECT_MITSUBA_3) {
+        double c[3] = {1, 1, 1};
+        const op_prop *p = op_node_prop(node, "value");
+        if (p && (p->kind == OP_PROP_VECTOR || p->kind == OP_PROP_POINT))
+            GET_OR_FAIL(op_node_vec3(node, "value", c, c, err));
+        else
+            GET_OR_FAIL(op_node_color(node, "value", c, c, err));
+        t->color0 = v3_from_d(c);
+        t->type = OP_TEX_CONSTANT;
+        return OP_OK;
+    }
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"%s\">: unknown texture type "
-                        "(bitmap, checkerboard)", node->file, node->line, node->type);
+                        "(bitmap, checkerboard, rawconstant)", node->file, node->line, node->type);
 }
 
 op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err)
@@ -314,6 +336,8 @@ op_v3 op_texture_eval(const op_texture *t, float u, float v)
         int y = (int)(fminf(fmaxf(sv, -1e9f), 1e9f) * 2.0f) & 1;
         return x == y ? t->color0 : t->color1;
     }
+    if (t->type == OP_TEX_CONSTANT)
+        return t->color0;
     if (t->type != OP_TEX_BITMAP)
         return v3s(0.0f);
     su = reduce(su, t->wrap_u);
@@ -330,4 +354,30 @@ op_v3 op_texture_eval(const op_texture *t, float u, float v)
     op_v3 b = v3_add(v3_scale(texel(t, ix, iy + 1), 1.0f - dx),
                      v3_scale(texel(t, ix + 1, iy + 1), dx));
     return v3_add(v3_scale(a, 1.0f - dy), v3_scale(b, dy));
+}
+
+/* Luminance of linear sRGB (the Y row of its XYZ matrix, as Mitsuba's luminance). */
+static float lum(op_v3 c)
+{
+    return 0.212671f * c.x + 0.715160f * c.y + 0.072169f * c.z;
+}
+
+void op_texture_lum_grad(const op_texture *t, float u, float v, float *du, float *dv)
+{
+    *du = *dv = 0.0f;
+    float su = u * t->uscale + t->uoffset, sv = v * t->vscale + t->voffset;
+    if (t->type != OP_TEX_BITMAP || t->nearest || !isfinite(su) || !isfinite(sv))
+        return;
+    float w = (float)t->img->width, h = (float)t->img->height;
+    float fx = reduce(su, t->wrap_u) * w - 0.5f, fy = reduce(sv, t->wrap_v) * h - 0.5f;
+    float x0 = floorf(fx), y0 = floorf(fy);
+    float dx = fx - x0, dy = fy - y0;
+    int ix = (int)x0, iy = (int)y0;
+    float f00 = lum(texel(t, ix, iy)), f10 = lum(texel(t, ix + 1, iy));
+    float f01 = lum(texel(t, ix, iy + 1)), f11 = lum(texel(t, ix + 1, iy + 1));
+    /* d/dx and d/dy of the bilinear blend, in texels; x = su w - 1/2, su = u uscale + ... */
+    float gx = (1.0f - dy) * (f10 - f00) + dy * (f11 - f01);
+    float gy = (1.0f - dx) * (f01 - f00) + dx * (f11 - f10);
+    *du = gx * w * t->uscale;
+    *dv = gy * h * t->vscale;
 }

@@ -1,5 +1,6 @@
 /* texture.h - Mitsuba's 2-D textures: `bitmap` (an image file, bilinear or nearest lookups,
- * wrap modes, gamma) and `checkerboard`, both with uoffset/voffset/uscale/vscale.
+ * wrap modes, gamma) and `checkerboard`, both with uoffset/voffset/uscale/vscale, and Mitsuba
+ * 3's `rawconstant` (one value, used as given).
  *
  * Convention (Mitsuba's): texture coordinate (u, v) = (uv.u * uscale + uoffset,
  * uv.v * vscale + voffset); u runs left to right over the image, v from its TOP row (v = 0) to
@@ -16,7 +17,12 @@
 #include "scene/scene_desc.h"
 #include "opaline_image.h"
 
-typedef enum op_tex_type { OP_TEX_NONE = 0, OP_TEX_BITMAP, OP_TEX_CHECKERBOARD } op_tex_type;
+typedef enum op_tex_type {
+    OP_TEX_NONE = 0,
+    OP_TEX_BITMAP,
+    OP_TEX_CHECKERBOARD,
+    OP_TEX_CONSTANT /* rawconstant: color0 everywhere */
+} op_tex_type;
 
 typedef enum op_tex_wrap {
     OP_WRAP_REPEAT = 0,
@@ -55,5 +61,9 @@ op_status op_texture_build_unbounded(op_node *node, op_tex_cache *cache, op_text
                                      op_error *err);
 /* The value at surface coordinates (u, v) (before uscale/uoffset). */
 op_v3 op_texture_eval(const op_texture *t, float u, float v);
+/* The gradient (*du, *dv) of the luminance of t along the surface coordinates (u, v): analytic
+ * for bilinear lookups (the derivative of the interpolation between the four texels), 0 for
+ * nearest lookups and the piecewise-constant textures. */
+void op_texture_lum_grad(const op_texture *t, float u, float v, float *du, float *dv);
 
 #endif

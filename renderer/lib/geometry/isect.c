@@ -1,6 +1,26 @@
 /* isect.c - surface points from ray hits (see isect.h). */
 #include "geometry/isect.h"
 
+/* The derivatives of the surface position along its texture coordinates on the triangle with
+ * corners a, b, c (world space) of texture coordinates ta, tb, tc: arbitrary tangents of the
+ * geometric normal ng where the coordinates are degenerate, as Mitsuba 0.6 picks them. */
+static void uv_tangents(op_v3 a, op_v3 b, op_v3 c, const float *ta, const float *tb,
+                        const float *tc, op_v3 ng, op_v3 *dpdu, op_v3 *dpdv)
+{
+    float du1 = tb[0] - ta[0], dv1 = tb[1] - ta[1], du2 = tc[0] - ta[0], dv2 = tc[1] - ta[1];
+    float det = du1 * dv2 - dv1 * du2;
+    if (det == 0.0f || !isfinite(1.0f / det)) {
+        op_frame f = op_frame_from_normal(ng);
+        *dpdu = f.s;
+        *dpdv = f.t;
+        return;
+    }
+    op_v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
+    float inv = 1.0f / det;
+    *dpdu = v3_scale(v3_sub(v3_scale(e1, dv2), v3_scale(e2, dv1)), inv);
+    *dpdv = v3_scale(v3_sub(v3_scale(e2, du1), v3_scale(e1, du2)), inv);
+}
+
 void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, op_v3 dir,
                        op_isect *it)
 {
@@ -31,7 +51,6 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
     /* the barycentric point is more accurate than org + t dir far from the origin */
     it->p = v3_add(v3_add(v3_scale(a, b0), v3_scale(b, w1)), v3_scale(c, w2));
     (void)org;
-    (void)dir;
     it->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
     if (m->nrm) {
         const float *n = m->nrm;
@@ -61,6 +80,22 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
         it->v = w2;
     }
     it->frame = op_frame_from_normal(it->ns);
+    const op_bump *bump = &scene->bsdfs[sh->bsdf].bump;
+    if (sh->sss < 0 && bump->type != OP_BUMP_NONE) {
+        /* the tilt of a bumpmap or normalmap, in the frame whose s follows dp/du (without
+         * texture coordinates the parameterization is barycentric, as in Mitsuba 3: (u, v) the
+         * weights of corners b and c) */
+        op_v3 dpdu = v3_sub(b, a), dpdv = v3_sub(c, a);
+        if (m->uv) {
+            const float *t = m->uv;
+            int kb = sh->instanced && sh->place.swap ? 2 : 1; /* the corner b came from */
+            uv_tangents(a, b, c, t + 2 * idx[0], t + 2 * idx[kb], t + 2 * idx[3 - kb], it->ng,
+                        &dpdu, &dpdv);
+        }
+        op_frame sh_frame = op_frame_from_tangent(it->ns, dpdu);
+        it->frame = op_bump_frame(bump, &sh_frame, it->ng, dpdu, dpdv, it->u, it->v, v3_neg(dir));
+        it->ns = it->frame.n;
+    }
 }
 
 op_v3 op_offset_origin(op_v3 p, op_v3 ng, op_v3 w)

@@ -401,6 +401,10 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
     }
     s->shapes[index].bsdf = bi;
     op_bsdf_type bt = s->bsdfs[bi].type;
+    if (s->bsdfs[bi].bump.needs_uv && !s->shapes[index].mesh.uv)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: a bump or normal map "
+                            "needs the shape's texture coordinates, which this shape lacks (as "
+                            "Mitsuba 0.6 requires)", bsdf->file, bsdf->line, bsdf->type);
     if (!sss && bt == OP_BSDF_COATING)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\"> is rendered only as the "
                             "surface of a shape with a <subsurface>", bsdf->file, bsdf->line,
