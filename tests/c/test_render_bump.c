@@ -126,7 +126,9 @@ static void test_identity_normalmap(void **state)
  * +y, under light of irradiance pi arriving 30 degrees from the zenith on the +y side, with a
  * constant normal map tilted by 40 degrees: along dp/du toward the light (cos 10 degrees),
  * away from it (cos 70 degrees), or along the other tangent (cos 40 cos 30). The radiance is
- * 0.5 cos(light, tilted normal) exactly. */
+ * 0.5 cos(light, tilted normal) exactly without Mitsuba 3's shadowing term, and that times
+ * the term with it (the default): 2 / (1 + sqrt(1 + a2 tan^2 30)), a2 = tan^2(40) / 8
+ * (Estevez et al. 2019; 1 for the untilted map). */
 static void test_tilted_normalmap(void **state)
 {
     (void)state;
@@ -142,20 +144,29 @@ static void test_tilted_normalmap(void **state)
         {{0.0, 0.0, 1.0}, cos(ph), "untilted"},
     };
     const char *light = light_from(v3(0.0f, (float)sin(ph), (float)cos(ph)));
-    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
-        char shape[2048];
-        snprintf(shape, sizeof shape,
-                 "<shape type=\"rectangle\"><transform name=\"to_world\"><rotate z=\"1\" "
-                 "angle=\"90\"/></transform><bsdf type=\"normalmap\">"
-                 "<texture name=\"normalmap\" type=\"rawconstant\"><vector name=\"value\" "
-                 "value=\"%.9g, %.9g, %.9g\"/></texture><bsdf type=\"diffuse\"><rgb "
-                 "name=\"reflectance\" value=\"0.5\"/></bsdf></bsdf></shape>",
-                 0.5 * (cases[k].n[0] + 1.0), 0.5 * (cases[k].n[1] + 1.0),
-                 0.5 * (cases[k].n[2] + 1.0));
-        op_image img = op_test_render_image(scene3("tilt.xml", "direct", shape, light), 4, 2, 0);
-        assert_region(&img, 2, RES - 2, 0.5 * cases[k].cos, 2e-3, cases[k].what);
-        op_image_free(&img);
-    }
+    double a2 = fmin(tan(th) * tan(th) / 8.0, 1.0), t2 = tan(ph) * tan(ph);
+    double term = 2.0 / (1.0 + sqrt(1.0 + a2 * t2));
+    for (int shadowing = 0; shadowing <= 1; shadowing++)
+        for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+            char shape[2048];
+            snprintf(shape, sizeof shape,
+                     "<shape type=\"rectangle\"><transform name=\"to_world\"><rotate z=\"1\" "
+                     "angle=\"90\"/></transform><bsdf type=\"normalmap\">%s"
+                     "<texture name=\"normalmap\" type=\"rawconstant\"><vector name=\"value\" "
+                     "value=\"%.9g, %.9g, %.9g\"/></texture><bsdf type=\"diffuse\"><rgb "
+                     "name=\"reflectance\" value=\"0.5\"/></bsdf></bsdf></shape>",
+                     shadowing ? "" : "<boolean name=\"use_shadowing_function\" value=\"false\"/>",
+                     0.5 * (cases[k].n[0] + 1.0), 0.5 * (cases[k].n[1] + 1.0),
+                     0.5 * (cases[k].n[2] + 1.0));
+            op_image img =
+                op_test_render_image(scene3("tilt.xml", "direct", shape, light), 4, 2, 0);
+            double want = 0.5 * cases[k].cos * (shadowing && cases[k].n[2] < 1.0 ? term : 1.0);
+            char what[160];
+            snprintf(what, sizeof what, "%s, %s", cases[k].what,
+                     shadowing ? "with the shadowing term" : "without the shadowing term");
+            assert_region(&img, 2, RES - 2, want, 2e-3, what);
+            op_image_free(&img);
+        }
 }
 
 /* Writes a w x 1 8-bit grey PNG whose stored values are bytes[i] (left to right). */
@@ -201,6 +212,7 @@ static void test_bump_ramp(void **state)
         char shape[2048];
         snprintf(shape, sizeof shape,
                  "<shape type=\"rectangle\"><bsdf type=\"bumpmap\">"
+                 "<boolean name=\"use_shadowing_function\" value=\"false\"/>"
                  "<float name=\"scale\" value=\"%.9g\"/>"
                  "<texture name=\"height\" type=\"bitmap\"><string name=\"filename\" "
                  "value=\"%s\"/><boolean name=\"raw\" value=\"true\"/><string "

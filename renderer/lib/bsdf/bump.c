@@ -36,13 +36,10 @@ op_status op_bump_build(op_node *node, op_tex_cache *cache, op_bump *bump, op_no
     if (!isfinite(scale))
         return op_node_error(node, err, OP_ERR_INPUT, "scale must be finite");
     bump->flip_invalid = 0;
+    bump->shadowing = 0;
     if (m3) {
         GET_OR_FAIL(op_node_bool(node, "flipInvalidNormals", 1, &bump->flip_invalid, err));
-        int shadowing;
-        GET_OR_FAIL(op_node_bool(node, "useShadowingFunction", 1, &shadowing, err));
-        if (shadowing)
-            op_log(OP_LOG_DEBUG, "%s:%d: <bsdf type=\"%s\">: Mitsuba 3's shadowing term for "
-                   "tilted normals is not applied", node->file, node->line, node->type);
+        GET_OR_FAIL(op_node_bool(node, "useShadowingFunction", 1, &bump->shadowing, err));
     }
     GET_OR_FAIL(op_texture_build(tex, cache, &bump->tex, err));
     bump->type = normal ? OP_BUMP_NORMAL : OP_BUMP_HEIGHT;

@@ -22,6 +22,7 @@ typedef struct op_bump {
                            the surface from the front (or the reverse) is mirrored about the
                            untilted normal */
     int needs_uv;       /* Mitsuba 0.6: only on shapes with texture coordinates */
+    int shadowing;      /* Mitsuba 3's use_shadowing_function (op_isect_shadowing) */
 } op_bump;
 
 /* Reads a <bsdf type="bumpmap"> or "normalmap" node's own parameters into *bump (its texture,

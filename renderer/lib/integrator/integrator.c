@@ -68,7 +68,8 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
         if ((v3_dot(ls.wi, it->ng) > 0.0f) != (wo_l.z > 0.0f))
             continue;
         float bsdf_pdf;
-        op_v3 f = op_bsdf_eval(bsdf, wi_l, wo_l, &bsdf_pdf);
+        op_v3 f = v3_scale(op_bsdf_eval(bsdf, wi_l, wo_l, &bsdf_pdf),
+                           op_isect_shadowing(it, ls.wi));
         if (v3_is_black(f))
             continue;
         op_v3 org = op_offset_origin(it->p, it->ng, ls.wi);
@@ -202,7 +203,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
         op_v3 wo = op_frame_to_world(&it.frame, bs.wo);
         if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f))
             break;
-        beta = v3_mul(beta, bs.weight);
+        beta = v3_mul(beta, v3_scale(bs.weight, op_isect_shadowing(&it, wo)));
         if (v3_is_black(beta) || !isfinite(v3_max(beta)))
             break;
         prev_pdf = bs.pdf;
@@ -329,7 +330,7 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
         if ((v3_dot(wo, it.ng) > 0.0f) != (bs.wo.z > 0.0f) || v3_is_black(bs.weight))
             continue;
         op_v3 le = bsdf_sample_emission(s, &it, wo, bs.pdf, bs.delta, nl, nb, ps);
-        sum = v3_add(sum, v3_mul(bs.weight, le));
+        sum = v3_add(sum, v3_mul(v3_scale(bs.weight, op_isect_shadowing(&it, wo)), le));
     }
     if (nb > 0)
         L = v3_add(L, v3_mul(beta, v3_scale(sum, 1.0f / (float)nb)));

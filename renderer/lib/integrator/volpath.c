@@ -74,7 +74,7 @@ static op_v3 vertex_eval(const op_scene *s, const vertex *v, op_v3 wi, op_v3 wo,
         *pdf = 0.0f;
         return v3s(0.0f);
     }
-    return op_bsdf_eval(v->bsdf, wi_l, wo_l, pdf);
+    return v3_scale(op_bsdf_eval(v->bsdf, wi_l, wo_l, pdf), op_isect_shadowing(v->it, wo));
 }
 
 /* Next-event estimation at vertex v (path vertex `depth`, light arriving along -wi's
@@ -218,7 +218,7 @@ op_v3 op_volpath_li(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float t
             wo = op_frame_to_world(&v.it->frame, bs.wo);
             if ((v3_dot(wo, v.it->ng) > 0.0f) != (bs.wo.z > 0.0f))
                 break;
-            beta = v3_mul(beta, bs.weight);
+            beta = v3_mul(beta, v3_scale(bs.weight, op_isect_shadowing(v.it, wo)));
             prev_pdf = bs.pdf;
             prev_delta = bs.delta;
             med = medium_after(s, v.it, wo, med);
