@@ -22,27 +22,53 @@ static op_status read_nonneg_color(op_node *n, const char *name, double def, op_
     return OP_OK;
 }
 
-/* The sampling weight of envmap pixel (x, y): its luminance (negative channels count as 0)
- * times sin(theta) at the row's centre. */
-static double env_pixel_weight(const op_emitter *e, int x, int y)
+/* The luminance of envmap pixel (x, y) (negative channels count as 0). */
+static double env_luminance(const op_emitter *e, int x, int y)
 {
     const float *px = e->env.pixels + ((size_t)y * e->env.width + x) * (size_t)e->env.channels;
-    double lum = 0.2126 * fmax(px[0], 0.0) + 0.7152 * fmax(px[1], 0.0) + 0.0722 * fmax(px[2], 0.0);
-    return lum * sin(M_PI * (y + 0.5) / e->env.height);
+    return 0.2126 * fmax(px[0], 0.0) + 0.7152 * fmax(px[1], 0.0) + 0.0722 * fmax(px[2], 0.0);
 }
 
-/* Builds the envmap's row and column CDFs; a black map is sampled by sin(theta) alone (its
- * emission is zero anyway). Returns 0, or -1 when out of memory. */
+static double env_pixel_weight(const op_emitter *e, int x, int y)
+{
+    return e->env_cell[(size_t)y * e->env.width + x];
+}
+
+/* Builds the envmap's cell weights and its row and column CDFs; a black map is sampled by
+ * sin(theta) alone (its emission is zero anyway). A cell is the pixel's square of (u, v); its
+ * weight is the mean luminance over it of the bilinear interpolation op_emitter_env_le makes
+ * (for pixel-centred texels exactly the luminances filtered by 1/8, 3/4, 1/8 along each axis,
+ * u wrapping and v clamped; used for Mitsuba 3's rows too, where it covers every texel the cell
+ * interpolates), times sin(theta) at the cell's centre: non-zero wherever the emission is.
+ * Returns 0, or -1 when out of memory. */
 static int env_build_distribution(op_emitter *e)
 {
     int w = e->env.width, h = e->env.height;
     e->env_row_cdf = malloc(((size_t)h + 1) * sizeof(float));
     e->env_col_cdf = malloc((size_t)h * ((size_t)w + 1) * sizeof(float));
+    e->env_cell = malloc((size_t)h * (size_t)w * sizeof(float));
     double *rows = malloc((size_t)h * sizeof(double));
-    if (!e->env_row_cdf || !e->env_col_cdf || !rows) {
+    float *across = malloc((size_t)h * (size_t)w * sizeof(float));
+    if (!e->env_row_cdf || !e->env_col_cdf || !e->env_cell || !rows || !across) {
         free(rows);
+        free(across);
         return -1;
     }
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            across[(size_t)y * w + x] =
+                (float)(0.125 * env_luminance(e, (x + w - 1) % w, y) +
+                        0.75 * env_luminance(e, x, y) + 0.125 * env_luminance(e, (x + 1) % w, y));
+    for (int y = 0; y < h; y++) {
+        const float *up = across + (size_t)(y > 0 ? y - 1 : 0) * w;
+        const float *mid = across + (size_t)y * w;
+        const float *down = across + (size_t)(y + 1 < h ? y + 1 : h - 1) * w;
+        double st = sin(M_PI * (y + 0.5) / h);
+        for (int x = 0; x < w; x++)
+            e->env_cell[(size_t)y * w + x] =
+                (float)((0.125 * up[x] + 0.75 * mid[x] + 0.125 * down[x]) * st);
+    }
+    free(across);
     double total = 0.0;
     for (int y = 0; y < h; y++) {
         float *cdf = e->env_col_cdf + (size_t)y * (w + 1);
@@ -260,7 +286,7 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         e->type = OP_EM_ENVMAP;
         op_sky_model sky;
         GET_OR_FAIL(op_sky_build(node, &xf, max_pixels, &sky, &e->env, err));
-        return env_place(node, &xf, 1.0, e, err);
+        return env_place(node, &xf, 1.0, e, err); /* tabulated at pixel centres */
     }
     if (strcmp(t, "constant") == 0) {
         e->type = OP_EM_CONSTANT;
@@ -278,6 +304,7 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         if (!path)
             return op_error_set(err, OP_ERR_NOMEM, "out of memory");
         e->type = OP_EM_ENVMAP;
+        e->env_row_corners = node->dialect == OP_DIALECT_MITSUBA_3;
         op_status st = op_image_read_limited(path, 1, (uint64_t)max_pixels, &e->env, NULL, err);
         if (st == OP_OK && e->env.channels < 3) {
             op_image_free(&e->env);
@@ -301,7 +328,9 @@ void op_emitter_free(op_emitter *e)
         op_image_free(&e->env);
         free(e->env_row_cdf);
         free(e->env_col_cdf);
+        free(e->env_cell);
         e->env_row_cdf = e->env_col_cdf = NULL;
+        e->env_cell = NULL;
     }
 }
 
@@ -335,15 +364,40 @@ static void env_pixel(const op_emitter *e, op_v3 d, int *x, int *y, float *sin_t
     *sin_theta = sqrtf(fmaxf(0.0f, 1.0f - cy * cy));
 }
 
+/* The envmap's radiance at map-space direction d (unit), before its scale: the bilinear
+ * interpolation of its pixels as Mitsuba makes it, u wrapping around, texel centres at
+ * u = (x + 0.5) / width, and at v = (y + 0.5) / height (0.6, v clamped) or y / (height - 1)
+ * (Mitsuba 3). */
+static op_v3 env_bilinear(const op_emitter *e, op_v3 d)
+{
+    int w = e->env.width, h = e->env.height;
+    float u = atan2f(d.x, -d.z) * (0.5f * OP_INV_PI);
+    u -= floorf(u);
+    float v = acosf(fmaxf(-1.0f, fminf(1.0f, d.y))) * OP_INV_PI;
+    float fx = u * (float)w - 0.5f;
+    float fy = e->env_row_corners ? v * (float)(h - 1) : v * (float)h - 0.5f;
+    fy = fmaxf(0.0f, fminf(fy, (float)(h - 1)));
+    float x0f = floorf(fx), y0f = floorf(fy);
+    float tx = fx - x0f, ty = fy - y0f;
+    int x0 = ((int)x0f % w + w) % w, x1 = (x0 + 1) % w;
+    int y0 = (int)y0f < h ? (int)y0f : h - 1, y1 = y0 + 1 < h ? y0 + 1 : h - 1;
+    size_t ch = (size_t)e->env.channels;
+    const float *p00 = e->env.pixels + ((size_t)y0 * w + x0) * ch;
+    const float *p10 = e->env.pixels + ((size_t)y0 * w + x1) * ch;
+    const float *p01 = e->env.pixels + ((size_t)y1 * w + x0) * ch;
+    const float *p11 = e->env.pixels + ((size_t)y1 * w + x1) * ch;
+    float c[3];
+    for (int k = 0; k < 3; k++)
+        c[k] = (1.0f - ty) * ((1.0f - tx) * p00[k] + tx * p10[k]) +
+               ty * ((1.0f - tx) * p01[k] + tx * p11[k]);
+    return v3(c[0], c[1], c[2]);
+}
+
 op_v3 op_emitter_env_le(const op_emitter *e, op_v3 dir)
 {
     if (e->type == OP_EM_CONSTANT)
         return e->value;
-    int x, y;
-    float st;
-    env_pixel(e, op_frame_to_local(&e->frame, dir), &x, &y, &st);
-    const float *px = e->env.pixels + ((size_t)y * e->env.width + x) * (size_t)e->env.channels;
-    return v3_scale(v3(px[0], px[1], px[2]), e->value.x);
+    return v3_scale(env_bilinear(e, op_frame_to_local(&e->frame, dir)), e->value.x);
 }
 
 /* The density over the unit (u, v) square of envmap pixel (x, y). */
@@ -487,8 +541,7 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
         s->pdf = env_uv_pdf(e, x, y) / (2.0f * OP_PI * OP_PI * st);
         if (!(s->pdf > 0.0f))
             return 0;
-        const float *px = e->env.pixels + ((size_t)y * w + x) * (size_t)e->env.channels;
-        s->value = v3_scale(v3(px[0], px[1], px[2]), e->value.x / s->pdf);
+        s->value = v3_scale(env_bilinear(e, d), e->value.x / s->pdf);
         return !v3_is_black(s->value);
     }
     }

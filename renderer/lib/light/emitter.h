@@ -42,9 +42,12 @@ typedef struct op_emitter {
     op_v3 dir;              /* directional, collimated: the direction the light travels */
     op_image env;           /* envmap */
     op_frame env_to_world;  /* envmap: columns of the map-to-world rotation (toWorld's) */
+    int env_row_corners;    /* envmap: rows lie at v = y / (height - 1) (Mitsuba 3), not at
+                               pixel centres (y + 0.5) / height (Mitsuba 0.6) */
+    float *env_cell;        /* envmap: each pixel cell's sampling weight (env_build_distribution) */
     float *env_row_cdf;     /* envmap: height + 1 entries, the rows' cumulative weight */
     float *env_col_cdf;     /* envmap: height rows of width + 1, each row's cumulative weight */
-    double env_weight;      /* envmap: the sum of all pixel weights (luminance * sin(theta)) */
+    double env_weight;      /* envmap: the sum of all cell weights */
 } op_emitter;
 
 typedef struct op_light_sample {
