@@ -77,8 +77,8 @@ typedef struct look_sum {
     float h2, wsum;
     int ok, nb;
     int linear;             /* the dipole's: also the moments of the local linear fit */
-    double sd[3], sdd[6];   /* sum of w d and of w d d^T (pair_a, pair_b), d = x_j - p */
-    double smd[3][3];       /* per channel: sum of w M d */
+    float sd[3], sdd[6];    /* sum of w d and of w d d^T (pair_a, pair_b), d = x_j - p */
+    float smd[3][3];        /* per channel: sum of w M d */
     float lo[3], hi[3];     /* per channel: the least and greatest M summed */
     uint32_t k[LOOK_BATCH]; /* the screened points */
     float w[LOOK_BATCH];    /* and their 1 - r^2/h^2 */
@@ -107,16 +107,15 @@ static void look_flush(look_sum *ls)
         ls->m = v3_add(ls->m, v3_scale(q->m, w));
         if (ls->linear) {
             op_v3 pj = ss->lk.pos[ls->k[b]];
-            const double d[3] = {(double)pj.x - ls->p.x, (double)pj.y - ls->p.y,
-                                 (double)pj.z - ls->p.z};
-            const float mj[3] = {q->m.x, q->m.y, q->m.z};
+            const float d[3] = {pj.x - ls->p.x, pj.y - ls->p.y, pj.z - ls->p.z};
+            const float wd[3] = {w * d[0], w * d[1], w * d[2]}, mj[3] = {q->m.x, q->m.y, q->m.z};
             for (int a = 0; a < 3; a++)
-                ls->sd[a] += w * d[a];
+                ls->sd[a] += wd[a];
             for (int a = 0; a < 6; a++)
-                ls->sdd[a] += w * d[pair_a[a]] * d[pair_b[a]];
+                ls->sdd[a] += wd[pair_a[a]] * d[pair_b[a]];
             for (int c = 0; c < 3; c++) {
                 for (int a = 0; a < 3; a++)
-                    ls->smd[c][a] += (double)w * mj[c] * d[a];
+                    ls->smd[c][a] += mj[c] * wd[a];
                 ls->lo[c] = fminf(ls->lo[c], mj[c]);
                 ls->hi[c] = fmaxf(ls->hi[c], mj[c]);
             }
@@ -143,20 +142,18 @@ static op_v3 linear_fit(const look_sum *ls)
     double A00 = C[1] * C[2] - C[5] * C[5], A01 = C[4] * C[5] - C[3] * C[2];
     double A02 = C[3] * C[5] - C[4] * C[1], A11 = C[0] * C[2] - C[4] * C[4];
     double A12 = C[3] * C[4] - C[0] * C[5], A22 = C[0] * C[1] - C[3] * C[3];
-    double det = C[0] * A00 + C[3] * A01 + C[4] * A02;
+    double det = C[0] * A00 + C[3] * A01 + C[4] * A02, idet = det > 0.0 ? 1.0 / det : 0.0;
     const float mean[3] = {ls->m.x * (float)iw, ls->m.y * (float)iw, ls->m.z * (float)iw};
     float out[3];
     for (int c = 0; c < 3; c++) {
         double v = mean[c];
-        if (det > 0.0) {
-            double g[3], b[3];
-            for (int a = 0; a < 3; a++)
-                g[a] = ls->smd[c][a] * iw - xm[a] * mean[c];
-            b[0] = (A00 * g[0] + A01 * g[1] + A02 * g[2]) / det;
-            b[1] = (A01 * g[0] + A11 * g[1] + A12 * g[2]) / det;
-            b[2] = (A02 * g[0] + A12 * g[1] + A22 * g[2]) / det;
-            v -= b[0] * xm[0] + b[1] * xm[1] + b[2] * xm[2];
-        }
+        double g[3], b[3];
+        for (int a = 0; a < 3; a++)
+            g[a] = ls->smd[c][a] * iw - xm[a] * mean[c];
+        b[0] = (A00 * g[0] + A01 * g[1] + A02 * g[2]) * idet;
+        b[1] = (A01 * g[0] + A11 * g[1] + A12 * g[2]) * idet;
+        b[2] = (A02 * g[0] + A12 * g[1] + A22 * g[2]) * idet;
+        v -= b[0] * xm[0] + b[1] * xm[1] + b[2] * xm[2];
         out[c] = (float)(v < ls->lo[c] ? ls->lo[c] : v > ls->hi[c] ? ls->hi[c] : v);
     }
     return v3(out[0], out[1], out[2]);
