@@ -69,11 +69,17 @@ op_status op_sss_lookup_prepare(sss_shape *ss, op_error *err)
  * h (h2 = h^2). The points are screened by distance in batches, without data-dependent branches,
  * and those within h then summed in the order they came. */
 enum { LOOK_BATCH = 64 };
+/* The axes of the six entries of a symmetric 3 x 3 matrix: xx yy zz xy xz yz. */
+static const int pair_a[6] = {0, 1, 2, 0, 0, 1}, pair_b[6] = {0, 1, 2, 1, 2, 2};
 typedef struct look_sum {
     const sss_shape *ss;
     op_v3 p, n, m;
     float h2, wsum;
     int ok, nb;
+    int linear;             /* the dipole's: also the moments of the local linear fit */
+    float sd[3], sdd[6];    /* sum of w d and of w d d^T (pair_a, pair_b), d = x_j - p */
+    float smd[3][3];        /* per channel: sum of w M d */
+    float lo[3], hi[3];     /* per channel: the least and greatest M summed */
     uint32_t k[LOOK_BATCH]; /* the screened points */
     float w[LOOK_BATCH];    /* and their 1 - r^2/h^2 */
 } look_sum;
@@ -99,8 +105,58 @@ static void look_flush(look_sum *ls)
         ls->ok &= q->recv;
         ls->wsum += w;
         ls->m = v3_add(ls->m, v3_scale(q->m, w));
+        if (ls->linear) {
+            op_v3 pj = ss->lk.pos[ls->k[b]];
+            const float d[3] = {pj.x - ls->p.x, pj.y - ls->p.y, pj.z - ls->p.z};
+            const float wd[3] = {w * d[0], w * d[1], w * d[2]}, mj[3] = {q->m.x, q->m.y, q->m.z};
+            for (int a = 0; a < 3; a++)
+                ls->sd[a] += wd[a];
+            for (int a = 0; a < 6; a++)
+                ls->sdd[a] += wd[pair_a[a]] * d[pair_b[a]];
+            for (int c = 0; c < 3; c++) {
+                for (int a = 0; a < 3; a++)
+                    ls->smd[c][a] += mj[c] * wd[a];
+                ls->lo[c] = fminf(ls->lo[c], mj[c]);
+                ls->hi[c] = fmaxf(ls->hi[c], mj[c]);
+            }
+        }
     }
     ls->nb = 0;
+}
+
+/* The dipole's exitance at p from the moments of ls (wsum > 0): per channel, the value at p of
+ * the weighted least-squares fit M(x) = M(p) + b . (x - p) over the points summed. Exact where
+ * the exitance varies linearly (the weighted mean is off there by the gradient times the offset
+ * of the points' weighted centroid from p: a few per cent in a profile's steep tail). b is
+ * solved with a ridge of h^2 / 1000 (h the lookup radius), so that a direction the points do not
+ * span (their plane's normal, a row of points) gets none; the value is clamped to the range of
+ * the M summed, so that it never extrapolates past them (at an open edge). */
+static op_v3 linear_fit(const look_sum *ls)
+{
+    double iw = 1.0 / ls->wsum, xm[3], C[6], ridge = 1e-3 * ls->h2;
+    for (int a = 0; a < 3; a++)
+        xm[a] = ls->sd[a] * iw;
+    for (int a = 0; a < 6; a++)
+        C[a] = ls->sdd[a] * iw - xm[pair_a[a]] * xm[pair_b[a]] + (a < 3 ? ridge : 0.0);
+    /* the inverse of the symmetric C by its adjugate (C is positive definite: the ridge) */
+    double A00 = C[1] * C[2] - C[5] * C[5], A01 = C[4] * C[5] - C[3] * C[2];
+    double A02 = C[3] * C[5] - C[4] * C[1], A11 = C[0] * C[2] - C[4] * C[4];
+    double A12 = C[3] * C[4] - C[0] * C[5], A22 = C[0] * C[1] - C[3] * C[3];
+    double det = C[0] * A00 + C[3] * A01 + C[4] * A02, idet = det > 0.0 ? 1.0 / det : 0.0;
+    const float mean[3] = {ls->m.x * (float)iw, ls->m.y * (float)iw, ls->m.z * (float)iw};
+    float out[3];
+    for (int c = 0; c < 3; c++) {
+        double v = mean[c];
+        double g[3], b[3];
+        for (int a = 0; a < 3; a++)
+            g[a] = ls->smd[c][a] * iw - xm[a] * mean[c];
+        b[0] = (A00 * g[0] + A01 * g[1] + A02 * g[2]) * idet;
+        b[1] = (A01 * g[0] + A11 * g[1] + A12 * g[2]) * idet;
+        b[2] = (A02 * g[0] + A12 * g[1] + A22 * g[2]) * idet;
+        v -= b[0] * xm[0] + b[1] * xm[1] + b[2] * xm[2];
+        out[c] = (float)(v < ls->lo[c] ? ls->lo[c] : v > ls->hi[c] ? ls->hi[c] : v);
+    }
+    return v3(out[0], out[1], out[2]);
 }
 
 /* Screens the points [k0, k1) of the lookup's copy. */
@@ -134,6 +190,16 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
     ls.wsum = 0.0f;
     ls.ok = 1;
     ls.nb = 0;
+    ls.linear = ss->hier;
+    if (ls.linear) {
+        memset(ls.sd, 0, sizeof ls.sd);
+        memset(ls.sdd, 0, sizeof ls.sdd);
+        memset(ls.smd, 0, sizeof ls.smd);
+        for (int ch = 0; ch < 3; ch++) {
+            ls.lo[ch] = INFINITY;
+            ls.hi[ch] = -INFINITY;
+        }
+    }
     int32_t c[3];
     cell_of(&g->cells, p, c);
     uint32_t b = g->occ.size ? cell_slot(&g->occ, c) : 0;
@@ -156,7 +222,10 @@ static int lookup_within(const sss_shape *ss, op_v3 p, op_v3 n, float h, op_v3 *
     }
     look_flush(&ls);
     *wsum = ls.wsum;
-    *out = ls.wsum > 0.0f ? v3_scale(ls.m, 1.0f / ls.wsum) : v3s(0.0f);
+    if (!(ls.wsum > 0.0f))
+        *out = v3s(0.0f);
+    else
+        *out = ls.linear ? linear_fit(&ls) : v3_scale(ls.m, 1.0f / ls.wsum);
     return ls.ok;
 }
 
