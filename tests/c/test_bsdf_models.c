@@ -665,6 +665,55 @@ static void test_principled_textures(void **state)
     op_tex_cache_free(cache);
 }
 
+/* A rough conductor's alphas as textures of one value: a Mitsuba 3 checkerboard gives color1
+ * where its colour is color0 (as Mitsuba 3's single-value lookup does), a Mitsuba 0.6 one
+ * color0; a colour texture's value is its luminance (3) or mean (0.6); alpha sets both.
+ * want[0..1]: alphaU, alphaV in the checkerboard's color0 cell, want[2..3] in a color1 cell. */
+static void check_rough_textures(const char *version, const float want[4])
+{
+    int m3 = version[0] == '3';
+    char xml[2048];
+    snprintf(xml, sizeof xml,
+             "<scene version=\"%s\"><bsdf type=\"roughconductor\">"
+             "<texture name=\"%s\" type=\"checkerboard\"><float name=\"color0\" "
+             "value=\"0.05\"/><float name=\"color1\" value=\"0.3\"/></texture>"
+             "<texture name=\"%s\" type=\"checkerboard\"><rgb name=\"color0\" "
+             "value=\"0.1, 0.2, 0.9\"/><float name=\"color1\" value=\"0.3\"/></texture>"
+             "</bsdf><bsdf type=\"roughdielectric\"><texture name=\"alpha\" "
+             "type=\"checkerboard\"><float name=\"color0\" value=\"0.05\"/><float "
+             "name=\"color1\" value=\"0.3\"/></texture></bsdf></scene>",
+             version, m3 ? "alpha_u" : "alphaU", m3 ? "alpha_v" : "alphaV");
+    const char *path = op_test_write_temp("rough_tex.xml", xml);
+    op_node *root = NULL;
+    op_error err = {0};
+    OP_ASSERT_OK(op_desc_parse(path, NULL, 0, NULL, &root, &err), err);
+    op_tex_cache *cache = op_tex_cache_new(1 << 20);
+    op_bsdf b, d, scratch;
+    OP_ASSERT_OK(op_bsdf_build(root->children[0], cache, &b, &err), err);
+    OP_ASSERT_OK(op_bsdf_build(root->children[1], cache, &d, &err), err);
+    op_desc_free(root);
+    const op_bsdf *at = op_bsdf_at(&b, 0.25f, 0.25f, &scratch); /* the color0 cell */
+    assert_float_equal(at->mf.alpha_u, want[0], 1e-6);
+    assert_float_equal(at->mf.alpha_v, want[1], 1e-5);
+    at = op_bsdf_at(&b, 0.75f, 0.25f, &scratch);
+    assert_float_equal(at->mf.alpha_u, want[2], 1e-6);
+    assert_float_equal(at->mf.alpha_v, want[3], 1e-5);
+    at = op_bsdf_at(&d, 0.25f, 0.25f, &scratch);
+    assert_float_equal(at->mf.alpha_u, want[0], 1e-6);
+    assert_float_equal(at->mf.alpha_v, want[0], 1e-6);
+    assert_float_equal(at->alpha, want[0], 1e-6);
+    op_tex_cache_free(cache);
+}
+
+static void test_rough_textures(void **state)
+{
+    (void)state;
+    float lum = 0.212671f * 0.1f + 0.715160f * 0.2f + 0.072169f * 0.9f;
+    const float m3[4] = {0.3f, 0.3f, 0.05f, lum}, m06[4] = {0.05f, 0.4f, 0.3f, 0.3f};
+    check_rough_textures("3.0.0", m3);
+    check_rough_textures("0.6.0", m06);
+}
+
 static void test_conductor_names(void **state)
 {
     (void)state;
@@ -704,6 +753,7 @@ int main(void)
         cmocka_unit_test(test_conductor_names),
         cmocka_unit_test(test_roughplastic_tables),
         cmocka_unit_test(test_principled_textures),
+        cmocka_unit_test(test_rough_textures),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_reciprocity),
         cmocka_unit_test(test_chi2),

@@ -141,9 +141,31 @@ static op_status read_alpha(op_node *node, float *out, op_error *err)
 
 /* A microfacet model's distribution as Mitsuba 0.6 reads it: distribution (beckmann, ggx,
  * phong, or as: Phong read through alphaU/alphaV), alpha (default 0.1) or both alphaU and
- * alphaV, sampleVisible (default true). Alphas below 1e-4 are raised to it with a warning. */
-static op_status read_microfacet(op_node *node, op_microfacet *out, op_error *err)
+ * alphaV, sampleVisible (default true). Alphas below 1e-4 are raised to it with a warning.
+ * Each alpha may be a texture (tex[0] for alphaU or alpha, tex[1] for alphaV or alpha; cache
+ * reads their images), its constant then being the default. */
+static op_status read_microfacet(op_node *node, op_tex_cache *cache, op_texture tex[2],
+                                 op_microfacet *out, op_error *err)
 {
+    static const char *const names[3] = {"alpha", "alphaU", "alphaV"};
+    int textured[3] = {0, 0, 0};
+    for (int k = 0; k < 3; k++) {
+        const char *given = NULL;
+        op_node *t = texture_child(node, names[k], NULL, &given);
+        if (!t)
+            continue;
+        if (op_node_has(node, names[k]))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: %s is given both "
+                                "as a number and as a texture", node->file, node->line,
+                                node->type, names[k]);
+        if (!cache)
+            return op_error_set(err, OP_ERR_INTERNAL, "%s:%d: <bsdf type=\"%s\">: no texture "
+                                "cache", node->file, node->line, node->type);
+        GET_OR_FAIL(op_texture_build_value(t, cache, 1e30, &tex[k == 2 ? 1 : 0], err));
+        if (k == 0)
+            tex[1] = tex[0];
+        textured[k] = 1;
+    }
     const char *dist;
     double au = 0.1, av = 0.1;
     int visible;
@@ -159,8 +181,9 @@ static op_status read_microfacet(op_node *node, op_microfacet *out, op_error *er
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown distribution "
                             "\"%s\" (beckmann, ggx, phong, as)", node->file, node->line,
                             node->type, dist);
-    int has_u = op_node_has(node, "alphaU"), has_v = op_node_has(node, "alphaV");
-    if (op_node_has(node, "alpha") && (has_u || has_v))
+    int has_u = op_node_has(node, "alphaU") || textured[1];
+    int has_v = op_node_has(node, "alphaV") || textured[2];
+    if ((op_node_has(node, "alpha") || textured[0]) && (has_u || has_v))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: give alpha or "
                             "alphaU/alphaV, not both", node->file, node->line, node->type);
     if (has_u != has_v)
@@ -295,7 +318,7 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         GET_OR_FAIL(read_reflectance(node, "specularTransmittance", NULL, 1.0, &b->transmittance,
                                      err));
         if (rough_dielectric) {
-            GET_OR_FAIL(read_microfacet(node, &b->mf, err));
+            GET_OR_FAIL(read_microfacet(node, tex, b->alpha_tex, &b->mf, err));
             b->alpha = fminf(fmaxf(b->mf.alpha_u, 0.001f), 1.0f);
         }
         b->eta = (float)(int_ior / ext_ior);
@@ -305,7 +328,7 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
     if (strcmp(node->type, "conductor") == 0 || rough_conductor) {
         b->type = rough_conductor ? OP_BSDF_ROUGHCONDUCTOR : OP_BSDF_CONDUCTOR;
         if (rough_conductor)
-            GET_OR_FAIL(read_microfacet(node, &b->mf, err));
+            GET_OR_FAIL(read_microfacet(node, tex, b->alpha_tex, &b->mf, err));
         GET_OR_FAIL(read_textured(node, "specularReflectance", NULL, 1.0, tex, &b->specular,
                                   &b->spec_tex, err));
         return read_conductor(node, b, err);
@@ -361,13 +384,24 @@ const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
         op_principled_at(&b->pr, u, v, &scratch->pr);
         return scratch;
     }
-    if (b->refl_tex.type == OP_TEX_NONE && b->spec_tex.type == OP_TEX_NONE)
+    if (b->refl_tex.type == OP_TEX_NONE && b->spec_tex.type == OP_TEX_NONE &&
+        b->alpha_tex[0].type == OP_TEX_NONE && b->alpha_tex[1].type == OP_TEX_NONE)
         return b;
     memcpy(scratch, b, head);
     if (b->refl_tex.type != OP_TEX_NONE)
         scratch->reflectance = op_texture_eval(&b->refl_tex, u, v);
     if (b->spec_tex.type != OP_TEX_NONE)
         scratch->specular = op_texture_eval(&b->spec_tex, u, v);
+    if (b->alpha_tex[0].type != OP_TEX_NONE || b->alpha_tex[1].type != OP_TEX_NONE) {
+        float au = b->alpha_tex[0].type != OP_TEX_NONE
+                       ? op_texture_eval_value(&b->alpha_tex[0], u, v)
+                       : b->mf.alpha_u;
+        float av = b->alpha_tex[1].type != OP_TEX_NONE
+                       ? op_texture_eval_value(&b->alpha_tex[1], u, v)
+                       : b->mf.alpha_v;
+        scratch->mf = op_mf_make(b->mf.type, au, av, b->mf.visible);
+        scratch->alpha = fminf(fmaxf(scratch->mf.alpha_u, 0.001f), 1.0f);
+    }
     return scratch;
 }
 

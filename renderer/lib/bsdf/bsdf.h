@@ -71,6 +71,8 @@ typedef struct op_bsdf {
                               the isotropic GGX roughness it has as a boundary; roughdiffuse:
                               Oren-Nayar's roughness (sigma sqrt 2) */
     op_microfacet mf;      /* roughconductor, roughdielectric */
+    op_texture alpha_tex[2]; /* roughconductor, roughdielectric: alphaU and alphaV (alpha: both)
+                              as textures of one value, looked up by op_bsdf_at */
     int fast_approx;       /* roughdiffuse: Oren-Nayar's qualitative model */
     op_v3 sigma_a;         /* coating: absorption per unit thickness */
     float thickness;       /* coating: layer thickness */

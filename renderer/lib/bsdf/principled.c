@@ -58,17 +58,8 @@ static op_status read_weight(op_node *n, op_pr_param k, op_tex_cache *cache, op_
         if (!cache)
             return op_error_set(err, OP_ERR_INTERNAL, "%s:%d: <bsdf type=\"%s\">: no texture "
                                 "cache", n->file, n->line, n->type);
-        if (weights[k].max > 1.0f)
-            GET_OR_FAIL(op_texture_build_unbounded(t, cache, &p->tex[k], err));
-        else
-            GET_OR_FAIL(op_texture_build(t, cache, &p->tex[k], err));
-        if (p->tex[k].type == OP_TEX_CHECKERBOARD) {
-            /* Mitsuba 3's checkerboard gives its single-channel value (what a weight reads)
-             * with color0 and color1 the other way round from its colour value */
-            op_v3 c0 = p->tex[k].color0;
-            p->tex[k].color0 = p->tex[k].color1;
-            p->tex[k].color1 = c0;
-        }
+        GET_OR_FAIL(op_texture_build_value(t, cache, weights[k].max > 1.0f ? 1e30 : 1.0,
+                                           &p->tex[k], err));
         p->textured = 1;
         *given = 1;
         return OP_OK;
@@ -169,10 +160,8 @@ void op_principled_at(const op_principled *p, float u, float v, op_principled *o
     if (p->base_tex.type != OP_TEX_NONE)
         out->base_color = op_texture_eval(&p->base_tex, u, v);
     for (int k = 0; k < OP_PR_N; k++)
-        if (p->tex[k].type != OP_TEX_NONE) {
-            op_v3 c = op_texture_eval(&p->tex[k], u, v);
-            out->v[k] = c.x == c.y && c.y == c.z ? c.x : luminance(c);
-        }
+        if (p->tex[k].type != OP_TEX_NONE)
+            out->v[k] = op_texture_eval_value(&p->tex[k], u, v);
     out->v[OP_PR_ETA] = fmaxf(out->v[OP_PR_ETA], 1e-3f);
 }
 

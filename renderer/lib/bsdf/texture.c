@@ -285,6 +285,19 @@ op_status op_texture_build_unbounded(op_node *node, op_tex_cache *cache, op_text
     return texture_build(node, cache, 1e30, t, err);
 }
 
+op_status op_texture_build_value(op_node *node, op_tex_cache *cache, double vmax, op_texture *t,
+                                 op_error *err)
+{
+    GET_OR_FAIL(texture_build(node, cache, vmax, t, err));
+    t->value_lum = node->dialect == OP_DIALECT_MITSUBA_3;
+    if (t->type == OP_TEX_CHECKERBOARD && t->value_lum) {
+        op_v3 c0 = t->color0;
+        t->color0 = t->color1;
+        t->color1 = c0;
+    }
+    return OP_OK;
+}
+
 /* Brings a coordinate into a small range where the wrap mode gives the same texels: [0, 1) for
  * repeat, [0, 2) for mirror, [-1, 2] otherwise (beyond which nothing changes). */
 static float reduce(float x, op_tex_wrap w)
@@ -360,6 +373,14 @@ op_v3 op_texture_eval(const op_texture *t, float u, float v)
 static float lum(op_v3 c)
 {
     return 0.212671f * c.x + 0.715160f * c.y + 0.072169f * c.z;
+}
+
+float op_texture_eval_value(const op_texture *t, float u, float v)
+{
+    op_v3 c = op_texture_eval(t, u, v);
+    if (c.x == c.y && c.y == c.z)
+        return c.x;
+    return t->value_lum ? lum(c) : (c.x + c.y + c.z) / 3.0f;
 }
 
 void op_texture_lum_grad(const op_texture *t, float u, float v, float *du, float *dv)

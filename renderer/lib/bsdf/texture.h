@@ -39,6 +39,8 @@ typedef struct op_texture {
     op_tex_wrap wrap_u, wrap_v;
     float uoffset, voffset, uscale, vscale;
     op_v3 color0, color1;    /* checkerboard */
+    int value_lum;           /* op_texture_eval_value of a colour: its luminance (Mitsuba 3),
+                                not its mean (0.6) */
 } op_texture;
 
 typedef struct op_tex_cache op_tex_cache;
@@ -57,6 +59,15 @@ const op_image *op_tex_cache_image(const op_tex_cache *c, int i);
 op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err);
 /* op_texture_build for values that are not reflectances (a principled BSDF's index of
  * refraction or diffuse transmission): checkerboard colours may exceed 1. */
+/* op_texture_build for a texture read as one value (a roughness, a principled weight), its
+ * checkerboard colours in [0, vmax]: as Mitsuba 3 reads one value, a checkerboard gives color1
+ * where its colour lookup gives color0 and the reverse. */
+op_status op_texture_build_value(op_node *node, op_tex_cache *cache, double vmax, op_texture *t,
+                                 op_error *err);
+/* The one value of a texture built by op_texture_build_value at (u, v): a grey colour's value,
+ * else its luminance (Mitsuba 3 files) or the mean of its channels (Mitsuba 0.6), as each
+ * reads one value from a colour texture. */
+float op_texture_eval_value(const op_texture *t, float u, float v);
 op_status op_texture_build_unbounded(op_node *node, op_tex_cache *cache, op_texture *t,
                                      op_error *err);
 /* The value at surface coordinates (u, v) (before uscale/uoffset). */
