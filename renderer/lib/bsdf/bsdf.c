@@ -405,6 +405,32 @@ const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
     return scratch;
 }
 
+/* Whether textures a and b give the same values everywhere (field by field: the same image,
+ * lookup, placement and colours). */
+static int same_texture(const op_texture *a, const op_texture *b)
+{
+    return a->type == b->type && a->img == b->img && a->nearest == b->nearest &&
+           a->wrap_u == b->wrap_u && a->wrap_v == b->wrap_v && a->uoffset == b->uoffset &&
+           a->voffset == b->voffset && a->uscale == b->uscale && a->vscale == b->vscale &&
+           a->color0.x == b->color0.x && a->color0.y == b->color0.y &&
+           a->color0.z == b->color0.z && a->color1.x == b->color1.x &&
+           a->color1.y == b->color1.y && a->color1.z == b->color1.z &&
+           a->value_lum == b->value_lum;
+}
+
+int op_bsdf_is_anisotropic(const op_bsdf *b)
+{
+    switch (b->type) {
+    case OP_BSDF_ROUGHCONDUCTOR:
+    case OP_BSDF_ROUGHDIELECTRIC:
+        return b->mf.alpha_u != b->mf.alpha_v || !same_texture(&b->alpha_tex[0], &b->alpha_tex[1]);
+    case OP_BSDF_PRINCIPLED:
+        return b->pr.v[OP_PR_ANISOTROPIC] != 0.0f || b->pr.tex[OP_PR_ANISOTROPIC].type != OP_TEX_NONE;
+    default:
+        return 0;
+    }
+}
+
 int op_bsdf_is_smooth_only(const op_bsdf *b)
 {
     return b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_CONDUCTOR ||

@@ -123,6 +123,10 @@ void op_bsdf_default(op_bsdf *b);
 const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch);
 /* Whether the BSDF has a non-delta component that next-event estimation can evaluate. */
 int op_bsdf_is_smooth_only(const op_bsdf *b);
+/* Whether b's model depends on the orientation of its shading frame about the normal (an
+ * anisotropic microfacet model or principled): its frame's tangent then follows dp/du, as in
+ * Mitsuba, where the other models keep an arbitrary tangent (so their images do not change). */
+int op_bsdf_is_anisotropic(const op_bsdf *b);
 
 /* f * |cos(wo)| and the sampling density of wo (solid angle), non-delta parts only. */
 op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf);

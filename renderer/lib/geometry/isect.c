@@ -82,11 +82,12 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
     it->frame = op_frame_from_normal(it->ns);
     it->n0 = it->ns;
     it->shadow_a2 = 0.0f;
-    const op_bump *bump = &scene->bsdfs[sh->bsdf].bump;
-    if (sh->sss < 0 && bump->type != OP_BUMP_NONE) {
-        /* the tilt of a bumpmap or normalmap, in the frame whose s follows dp/du (without
-         * texture coordinates the parameterization is barycentric, as in Mitsuba 3: (u, v) the
-         * weights of corners b and c) */
+    const op_bsdf *bsdf = &scene->bsdfs[sh->bsdf];
+    const op_bump *bump = &bsdf->bump;
+    if (sh->sss < 0 && (bump->type != OP_BUMP_NONE || op_bsdf_is_anisotropic(bsdf))) {
+        /* the frame whose s follows dp/du, and the tilt of a bumpmap or normalmap in it
+         * (without texture coordinates the parameterization is barycentric, as in Mitsuba 3:
+         * (u, v) the weights of corners b and c) */
         op_v3 dpdu = v3_sub(b, a), dpdv = v3_sub(c, a);
         if (m->uv) {
             const float *t = m->uv;
@@ -95,7 +96,10 @@ void op_isect_from_hit(const op_scene *scene, const op_ray_hit *hit, op_v3 org, 
                         &dpdu, &dpdv);
         }
         op_frame sh_frame = op_frame_from_tangent(it->ns, dpdu);
-        it->frame = op_bump_frame(bump, &sh_frame, it->ng, dpdu, dpdv, it->u, it->v, v3_neg(dir));
+        it->frame = bump->type == OP_BUMP_NONE
+                        ? sh_frame
+                        : op_bump_frame(bump, &sh_frame, it->ng, dpdu, dpdv, it->u, it->v,
+                                        v3_neg(dir));
         if (bump->shadowing) {
             float ct = fminf(fabsf(v3_dot(it->frame.n, it->ns)), 1.0f);
             it->shadow_a2 = ct > 0.0f ? fminf(0.125f * (1.0f - ct * ct) / (ct * ct), 1.0f) : 1.0f;
