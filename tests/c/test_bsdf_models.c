@@ -166,6 +166,10 @@ static const model models[] = {
      "<float name=\"anisotropic\" value=\"0.5\"/><float name=\"roughness\" value=\"0.5\"/>"
      "<float name=\"eta\" value=\"1.33\"/><float name=\"sheen\" value=\"0.8\"/>"
      "<float name=\"spec_tint\" value=\"0.3\"/></bsdf>"), EXPECT_BOUND, 1, 0},
+    /* last, so that the models above keep their random directions (each model's seed is its
+     * index) */
+    {"<bsdf type=\"roughplastic\"><float name=\"alpha\" value=\"0.4\"/>"
+     "<string name=\"distribution\" value=\"beckmann\"/></bsdf>", EXPECT_BOUND, 1, 0},
 };
 enum { NMODELS = sizeof models / sizeof models[0] };
 

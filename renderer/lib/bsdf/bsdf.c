@@ -116,9 +116,9 @@ static op_status read_textured(op_node *n, const char *name, const char *alias, 
     return OP_OK;
 }
 
-/* A rough model's distribution (beckmann, ggx or phong: all rendered as GGX) and alpha
- * (default 0.1, clamped to [0.001, 1] with a warning). */
-static op_status read_alpha(op_node *node, float *out, op_error *err)
+/* A rough plastic's distribution (beckmann, the default, sets *beckmann; ggx; phong, rendered
+ * as GGX) and alpha (default 0.1, clamped to [0.001, 1] with a warning). */
+static op_status read_alpha(op_node *node, float *out, int *beckmann, op_error *err)
 {
     const char *dist;
     double alpha;
@@ -127,9 +127,10 @@ static op_status read_alpha(op_node *node, float *out, op_error *err)
     if (strcmp(dist, "beckmann") != 0 && strcmp(dist, "ggx") != 0 && strcmp(dist, "phong") != 0)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown distribution "
                             "\"%s\"", node->file, node->line, node->type, dist);
-    if (strcmp(dist, "ggx") != 0)
-        op_log(OP_LOG_DEBUG, "%s:%d: %s: distribution %s rendered as ggx", node->file, node->line,
-               node->type, dist);
+    *beckmann = strcmp(dist, "beckmann") == 0;
+    if (strcmp(dist, "phong") == 0)
+        op_log(OP_LOG_DEBUG, "%s:%d: %s: distribution phong rendered as ggx", node->file,
+               node->line, node->type);
     if (!(alpha > 0.0 && alpha <= 1.0)) {
         op_log(OP_LOG_WARN, "%s:%d: <bsdf type=\"%s\">: alpha %g clamped to [0.001, 1]",
                node->file, node->line, node->type, alpha);
@@ -344,7 +345,7 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         GET_OR_FAIL(op_node_bool(node, "nonlinear", 0, &b->nonlinear, err));
         b->eta = (float)(int_ior / ext_ior);
         if (rough) {
-            GET_OR_FAIL(read_alpha(node, &b->alpha, err));
+            GET_OR_FAIL(read_alpha(node, &b->alpha, &b->rough_beckmann, err));
             roughplastic_tables(b);
         }
         return OP_OK;
@@ -470,23 +471,31 @@ static float fresnel_conductor1(float ci, float eta, float k)
     return 0.5f * (rp + rs);
 }
 
-/* The GGX reflection of a dielectric interface (f |cos wo|, without the specular tint) and the
- * density of wo under ggx_sample_m's reflection. */
-static float ggx_reflect(op_v3 wi, op_v3 wo, float eta, float a, float *pdf)
+/* The isotropic distribution of a rough plastic's or a sheen's interface: Beckmann or GGX of
+ * roughness alpha, its normals drawn by D(m) m.z (visible: drawn from those visible). */
+static op_microfacet interface_mf(const op_bsdf *b, int visible)
 {
-    op_microfacet mf = op_mf_make(OP_MF_GGX, a, a, 0);
+    return op_mf_make(b->rough_beckmann ? OP_MF_BECKMANN : OP_MF_GGX, b->alpha, b->alpha,
+                      visible);
+}
+
+/* The reflection of b's rough dielectric interface (f |cos wo|, without the specular tint) and
+ * the density of wo under interface_normal's reflection. */
+static float interface_reflect(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
+{
+    op_microfacet mf = interface_mf(b, 0);
     op_v3 h = v3_norm(v3_add(wi, wo));
     float ct, d = op_mf_d(&mf, h);
-    float fh = fresnel_dielectric(v3_dot(wi, h), eta, &ct);
+    float fh = fresnel_dielectric(v3_dot(wi, h), b->eta, &ct);
     float g = op_mf_g1(&mf, wi, h) * op_mf_g1(&mf, wo, h);
     *pdf = op_mf_pdf(&mf, wi, h) / (4.0f * v3_dot(wo, h));
     return fh * d * g / (4.0f * wi.z);
 }
 
-/* A normal of the isotropic GGX distribution of roughness a, with density D(m) m.z. */
-static op_v3 ggx_sample_m(float u1, float u2, float a)
+/* A normal of b's interface, with density D(m) m.z. */
+static op_v3 interface_normal(const op_bsdf *b, float u1, float u2)
 {
-    op_microfacet mf = op_mf_make(OP_MF_GGX, a, a, 0);
+    op_microfacet mf = interface_mf(b, 0);
     return op_mf_sample(&mf, v3(0.0f, 0.0f, 1.0f), u1, u2);
 }
 
@@ -679,14 +688,14 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     case OP_BSDF_ROUGHPLASTIC: {
         float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
         float ps = plastic_spec_prob(b, fi), spec_pdf;
-        float spec = ggx_reflect(wi, wo, b->eta, b->alpha, &spec_pdf);
+        float spec = interface_reflect(b, wi, wo, &spec_pdf);
         *pdf = ps * spec_pdf + (1.0f - ps) * wo.z * OP_INV_PI;
         return v3_add(v3_scale(b->specular, spec), plastic_diffuse(b, wi, wo));
     }
     case OP_BSDF_SHEEN:
         if (b->alpha <= 0.0f)
             return v3s(0.0f);
-        return v3_scale(b->specular, ggx_reflect(wi, wo, b->eta, b->alpha, pdf));
+        return v3_scale(b->specular, interface_reflect(b, wi, wo, pdf));
     case OP_BSDF_ROUGHCONDUCTOR:
         return rough_conductor(b, wi, wo, pdf);
     case OP_BSDF_ROUGHDIFFUSE:
@@ -800,7 +809,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
         float ps = plastic_spec_prob(b, fi);
         if (u3 < ps) {
-            op_v3 m = ggx_sample_m(u1, u2, b->alpha);
+            op_v3 m = interface_normal(b, u1, u2);
             s->wo = v3_sub(v3_scale(m, 2.0f * v3_dot(wi, m)), wi);
         } else {
             s->wo = op_sample_cosine(u1, u2);
@@ -820,7 +829,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
             s->weight = v3_scale(b->specular, fresnel_dielectric(wi.z, b->eta, &ct));
             break;
         }
-        op_v3 m = ggx_sample_m(u1, u2, b->alpha);
+        op_v3 m = interface_normal(b, u1, u2);
         s->wo = v3_sub(v3_scale(m, 2.0f * v3_dot(wi, m)), wi);
         if (!weigh_sample(b, wi, s))
             return 0;
@@ -918,13 +927,12 @@ static double lobe_albedo(const op_bsdf *lobe, float mu)
     return r > 1.0 ? 1.0 : r;
 }
 
-/* The energy a smooth-microfacet GGX dielectric interface of relative index eta and roughness
- * alpha reflects (*r) and transmits (*t) for light arriving at cos mu > 0: the means over its
- * visible normals m of F(wi.m) G1(wr, m) and (1 - F) G1(wt, m) (wr, wt the reflected and
- * refracted directions), on a THROUGH_GRID^2 stratified grid. */
-static void rough_interface(float eta, float alpha, float mu, double *r, double *t)
+/* The energy a rough dielectric interface of relative index eta and distribution mf (drawing
+ * visible normals) reflects (*r) and transmits (*t) for light arriving at cos mu > 0: the
+ * means over its visible normals m of F(wi.m) G1(wr, m) and (1 - F) G1(wt, m) (wr, wt the
+ * reflected and refracted directions), on a THROUGH_GRID^2 stratified grid. */
+static void rough_interface(float eta, op_microfacet mf, float mu, double *r, double *t)
 {
-    op_microfacet mf = op_mf_make(OP_MF_GGX, alpha, alpha, 1);
     op_v3 wi = v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
     double sr = 0.0, st = 0.0;
     for (int i = 0; i < THROUGH_GRID * THROUGH_GRID; i++) {
@@ -957,8 +965,8 @@ static void roughplastic_tables(op_bsdf *b)
     for (int k = 0; k < OP_THROUGH_N; k++) {
         float mu = fmaxf((float)k / (float)(OP_THROUGH_N - 1), 1e-4f);
         double re, te, ri, ti;
-        rough_interface(b->eta, b->alpha, mu, &re, &te);
-        rough_interface(1.0f / b->eta, b->alpha, mu, &ri, &ti);
+        rough_interface(b->eta, interface_mf(b, 1), mu, &re, &te);
+        rough_interface(1.0f / b->eta, interface_mf(b, 1), mu, &ri, &ti);
         b->rough_t[k] = (float)te;
         double w = (k == 0 || k == OP_THROUGH_N - 1) ? 0.5 : 1.0; /* trapezoid rule */
         fdr += 2.0 * w * ri * mu / (OP_THROUGH_N - 1);

@@ -70,6 +70,8 @@ typedef struct op_bsdf {
     float alpha;           /* roughplastic, sheen: GGX roughness (sheen: 0 smooth); roughdielectric:
                               the isotropic GGX roughness it has as a boundary; roughdiffuse:
                               Oren-Nayar's roughness (sigma sqrt 2) */
+    int rough_beckmann;    /* roughplastic: Beckmann normals (Mitsuba's default distribution),
+                              not GGX */
     op_microfacet mf;      /* roughconductor, roughdielectric */
     op_texture alpha_tex[2]; /* roughconductor, roughdielectric: alphaU and alphaV (alpha: both)
                               as textures of one value, looked up by op_bsdf_at */
