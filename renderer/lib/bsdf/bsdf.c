@@ -6,6 +6,7 @@
 #include <strings.h>
 
 #include "bsdf/conductor_table.h"
+#include "bsdf/fresnel.h"
 
 /* Named indices of refraction: Mitsuba 0.6's table (src/bsdfs/ior.h there, Hecht's Optics at
  * ~589 nm), where "air" (1.000277) and "silicone oil" (1.52045) keep the values opaline has
@@ -438,24 +439,6 @@ int op_bsdf_is_smooth_only(const op_bsdf *b)
            (b->type == OP_BSDF_SHEEN && b->alpha <= 0.0f);
 }
 
-/* Unpolarized Fresnel reflectance of a dielectric; cos_i > 0 on the side of the normal (outside).
- * *cos_t receives the cosine of the refracted direction (0 on total internal reflection). */
-static float fresnel_dielectric(float cos_i, float eta, float *cos_t)
-{
-    float e = cos_i >= 0.0f ? eta : 1.0f / eta;
-    float ci = fabsf(cos_i);
-    float sin2_t = (1.0f - ci * ci) / (e * e);
-    if (sin2_t >= 1.0f) {
-        *cos_t = 0.0f;
-        return 1.0f;
-    }
-    float ct = sqrtf(1.0f - sin2_t);
-    float rs = (ci - e * ct) / (ci + e * ct);
-    float rp = (e * ci - ct) / (e * ci + ct);
-    *cos_t = ct;
-    return 0.5f * (rs * rs + rp * rp);
-}
-
 /* Fresnel reflectance of a conductor for one channel (the common approximation of pbrt). */
 static float fresnel_conductor1(float ci, float eta, float k)
 {
@@ -486,7 +469,7 @@ static float interface_reflect(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     op_microfacet mf = interface_mf(b, 0);
     op_v3 h = v3_norm(v3_add(wi, wo));
     float ct, d = op_mf_d(&mf, h);
-    float fh = fresnel_dielectric(v3_dot(wi, h), b->eta, &ct);
+    float fh = op_fresnel_dielectric(v3_dot(wi, h), b->eta, &ct);
     float g = op_mf_g1(&mf, wi, h) * op_mf_g1(&mf, wo, h);
     *pdf = op_mf_pdf(&mf, wi, h) / (4.0f * v3_dot(wo, h));
     return fh * d * g / (4.0f * wi.z);
@@ -544,7 +527,7 @@ static op_v3 rough_dielectric(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     /* h must face wi and wo from their own sides */
     if (d <= 0.0f || ih * wi.z <= 0.0f || oh * wo.z <= 0.0f)
         return v3s(0.0f);
-    float ct, f = fresnel_dielectric(ih, b->eta, &ct);
+    float ct, f = op_fresnel_dielectric(ih, b->eta, &ct);
     float g = op_mf_g1(&b->mf, wi, h) * op_mf_g1(&b->mf, wo, h);
     float pm = op_mf_pdf(&b->mf, wi.z > 0.0f ? wi : v3_neg(wi), h);
     float ci = fabsf(wi.z);
@@ -566,7 +549,7 @@ static int rough_dielectric_sample(const op_bsdf *b, op_v3 wi, float u1, float u
     if (wi.z == 0.0f)
         return 0;
     op_v3 m = op_mf_sample(&b->mf, wi.z > 0.0f ? wi : v3_neg(wi), u1, u2);
-    float ct, c = v3_dot(wi, m), f = fresnel_dielectric(c, b->eta, &ct);
+    float ct, c = v3_dot(wi, m), f = op_fresnel_dielectric(c, b->eta, &ct);
     if (c * wi.z <= 0.0f)
         return 0; /* a normal facing away (only drawn without visible normals) */
     if (u3 < f) {
@@ -650,8 +633,8 @@ static op_v3 plastic_diffuse(const op_bsdf *b, op_v3 wi, op_v3 wo)
         fo = 1.0f - rough_t_at(b, wo.z);
         fdr = b->rough_fdr;
     } else {
-        fi = fresnel_dielectric(wi.z, b->eta, &ct);
-        fo = fresnel_dielectric(wo.z, b->eta, &ct);
+        fi = op_fresnel_dielectric(wi.z, b->eta, &ct);
+        fo = op_fresnel_dielectric(wo.z, b->eta, &ct);
         fdr = -1.440f / (b->eta * b->eta) + 0.710f / b->eta + 0.668f + 0.0636f * b->eta;
     }
     op_v3 d = b->reflectance;
@@ -681,12 +664,12 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
         *pdf = wo.z * OP_INV_PI;
         return v3_scale(b->reflectance, wo.z * OP_INV_PI);
     case OP_BSDF_PLASTIC: {
-        float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
+        float ct, fi = op_fresnel_dielectric(wi.z, b->eta, &ct);
         *pdf = (1.0f - plastic_spec_prob(b, fi)) * wo.z * OP_INV_PI;
         return plastic_diffuse(b, wi, wo);
     }
     case OP_BSDF_ROUGHPLASTIC: {
-        float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
+        float ct, fi = op_fresnel_dielectric(wi.z, b->eta, &ct);
         float ps = plastic_spec_prob(b, fi), spec_pdf;
         float spec = interface_reflect(b, wi, wo, &spec_pdf);
         *pdf = ps * spec_pdf + (1.0f - ps) * wo.z * OP_INV_PI;
@@ -745,7 +728,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         s->weight = b->reflectance;
         break;
     case OP_BSDF_DIELECTRIC: {
-        float ct, f = fresnel_dielectric(wi.z, b->eta, &ct);
+        float ct, f = op_fresnel_dielectric(wi.z, b->eta, &ct);
         s->delta = 1;
         s->pdf = 1.0f;
         if (u3 < f) {
@@ -789,7 +772,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
     case OP_BSDF_PLASTIC: {
         if (wi.z <= 0.0f)
             return 0;
-        float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
+        float ct, fi = op_fresnel_dielectric(wi.z, b->eta, &ct);
         float ps = plastic_spec_prob(b, fi);
         if (u3 < ps) {
             s->wo = v3(-wi.x, -wi.y, wi.z);
@@ -806,7 +789,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
     case OP_BSDF_ROUGHPLASTIC: {
         if (wi.z <= 0.0f)
             return 0;
-        float ct, fi = fresnel_dielectric(wi.z, b->eta, &ct);
+        float ct, fi = op_fresnel_dielectric(wi.z, b->eta, &ct);
         float ps = plastic_spec_prob(b, fi);
         if (u3 < ps) {
             op_v3 m = interface_normal(b, u1, u2);
@@ -826,7 +809,7 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
             s->wo = v3(-wi.x, -wi.y, wi.z);
             s->delta = 1;
             s->pdf = 1.0f;
-            s->weight = v3_scale(b->specular, fresnel_dielectric(wi.z, b->eta, &ct));
+            s->weight = v3_scale(b->specular, op_fresnel_dielectric(wi.z, b->eta, &ct));
             break;
         }
         op_v3 m = interface_normal(b, u1, u2);
@@ -903,7 +886,7 @@ static op_v3 coating_absorption(const op_bsdf *b, float cos)
     if (b->type != OP_BSDF_COATING || v3_is_black(b->sigma_a))
         return v3s(1.0f);
     float ct;
-    fresnel_dielectric(fmaxf(cos, 1e-4f), b->eta, &ct);
+    op_fresnel_dielectric(fmaxf(cos, 1e-4f), b->eta, &ct);
     float len = b->thickness / fmaxf(ct, 1e-4f);
     return v3(expf(-b->sigma_a.x * len), expf(-b->sigma_a.y * len), expf(-b->sigma_a.z * len));
 }
@@ -942,7 +925,7 @@ static void rough_interface(float eta, op_microfacet mf, float mu, double *r, do
         float c = v3_dot(wi, m), ct;
         if (c <= 0.0f)
             continue;
-        float f = fresnel_dielectric(c, eta, &ct);
+        float f = op_fresnel_dielectric(c, eta, &ct);
         op_v3 wr = v3_sub(v3_scale(m, 2.0f * c), wi);
         if (wr.z > 0.0f)
             sr += f * op_mf_g1(&mf, wr, m);
@@ -1008,7 +991,7 @@ op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr
             r = 1.0;
         } else if (!rough) {
             float ct;
-            r = fresnel_dielectric(mu, b->eta, &ct);
+            r = op_fresnel_dielectric(mu, b->eta, &ct);
         } else {
             r = lobe_albedo(&lobe, mu);
         }

@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 
 /* Each weight's name (camelCase, dialect.h), default and largest value. */
@@ -172,24 +173,6 @@ static float schlick_weight(float cos)
     return m * m * m * m * m;
 }
 
-/* The unpolarized Fresnel reflectance of a dielectric of relative index eta for cos_i (> 0 on
- * the outside); *cos_t: the refracted cosine (0 on total internal reflection). */
-static float fresnel(float cos_i, float eta, float *cos_t)
-{
-    float e = cos_i >= 0.0f ? eta : 1.0f / eta;
-    float ci = fabsf(cos_i);
-    float sin2_t = (1.0f - ci * ci) / (e * e);
-    if (sin2_t >= 1.0f) {
-        *cos_t = 0.0f;
-        return 1.0f;
-    }
-    float ct = sqrtf(1.0f - sin2_t);
-    float rs = (ci - e * ct) / (ci + e * ct);
-    float rp = (e * ci - ct) / (e * ci + ct);
-    *cos_t = ct;
-    return 0.5f * (rs * rs + rp * rp);
-}
-
 /* Schlick's approximation of normal-incidence reflectance r0 at cos_i (> 0 outside), taken at
  * the refracted angle when leaving the denser side. */
 static op_v3 schlick(op_v3 r0, float cos_i, float eta)
@@ -298,7 +281,7 @@ static op_v3 eval_full(const op_principled *p, op_v3 wi, op_v3 wo, float *pdf)
     float s = front ? 1.0f : -1.0f, ih = v3_dot(wi, wh), oh = v3_dot(wo, wh);
     int compat_r = reflect_ && ih * s > 0.0f && oh * s > 0.0f;
     int compat_t = refract_ && ih * s > 0.0f && -oh * s > 0.0f;
-    float ct, f = fresnel(ih, eta, &ct);
+    float ct, f = op_fresnel_dielectric(ih, eta, &ct);
     op_microfacet mf = main_lobe(p->v[OP_PR_ROUGHNESS], p->v[OP_PR_ANISOTROPIC]);
     float d = op_mf_d(&mf, wh), g = op_mf_g1(&mf, wi, wh) * op_mf_g1(&mf, wo, wh);
     op_v3 base = p->base_color, val = v3s(0.0f);
@@ -380,7 +363,7 @@ static op_v3 eval_thin(const op_principled *p, op_v3 wi, op_v3 wo, float *pdf)
     int compat_t = refract_ && ih > 0.0f && -oh > 0.0f;
     op_microfacet mr = main_lobe(r, an), mt = main_lobe((0.65f * eta - 0.35f) * r, an);
     op_v3 base = p->base_color, val = v3s(0.0f);
-    float ct, f = fresnel(ih, eta, &ct);
+    float ct, f = op_fresnel_dielectric(ih, eta, &ct);
     if (st > 0.0f && compat_r) {
         float tint = p->v[OP_PR_SPEC_TINT];
         op_v3 ft = v3s(f * (1.0f - tint));
@@ -447,7 +430,7 @@ static int sample_full(const op_principled *p, op_v3 wi, float u1, float u2, flo
     float s = front ? 1.0f : -1.0f, eta = p->v[OP_PR_ETA];
     op_microfacet mf = main_lobe(p->v[OP_PR_ROUGHNESS], p->v[OP_PR_ANISOTROPIC]);
     op_v3 m = op_mf_sample(&mf, v3_scale(wi, s), u1, u2);
-    float c = v3_dot(wi, m), ct, f = fresnel(c, eta, &ct);
+    float c = v3_dot(wi, m), ct, f = op_fresnel_dielectric(c, eta, &ct);
     float ptrans = (front ? bsdf : 1.0f) * (1.0f - f);
     float ur = fminf((x - pd - pcc) / ps, 1.0f);
     if (ur < ptrans) {
