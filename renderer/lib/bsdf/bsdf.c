@@ -251,6 +251,42 @@ void op_bsdf_default(op_bsdf *b)
 
 static void roughplastic_tables(op_bsdf *b);
 
+/* A mask around its nested <bsdf> (default diffuse): opacity a colour or a texture (read as one
+ * value in Mitsuba 3 files, as Mitsuba 3 does; per channel in Mitsuba 0.6 files). Nested masks
+ * multiply their opacities; one of them at most may be textured. */
+static op_status build_mask(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err)
+{
+    op_v3 opacity = v3s(1.0f);
+    op_texture t;
+    memset(&t, 0, sizeof t);
+    const char *given = NULL;
+    op_node *tn = texture_child(node, "opacity", NULL, &given);
+    if (tn && op_node_has(node, "opacity"))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"mask\">: opacity is given both "
+                            "as a colour and as a texture", node->file, node->line);
+    if (tn && !tex)
+        return op_error_set(err, OP_ERR_INTERNAL, "%s:%d: <bsdf type=\"mask\">: no texture cache",
+                            node->file, node->line);
+    if (tn && node->dialect == OP_DIALECT_MITSUBA_3)
+        GET_OR_FAIL(op_texture_build_value(tn, tex, 1.0, &t, err));
+    else if (tn)
+        GET_OR_FAIL(op_texture_build(tn, tex, &t, err));
+    else
+        GET_OR_FAIL(read_reflectance(node, "opacity", NULL, 0.5, &opacity, err));
+    op_node *inner = op_node_child(node, "bsdf", 0);
+    if (inner)
+        GET_OR_FAIL(op_bsdf_build(inner, tex, b, err));
+    if (tn && b->opacity_tex.type != OP_TEX_NONE)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"mask\">: nested masks with "
+                            "textured opacities are not supported (one of them may be textured)",
+                            node->file, node->line);
+    if (tn)
+        b->opacity_tex = t;
+    b->opacity = b->masked ? v3_mul(b->opacity, opacity) : opacity;
+    b->masked = 1;
+    return OP_OK;
+}
+
 op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err)
 {
     op_bsdf_default(b);
@@ -267,16 +303,8 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         b->twosided = 1;
         return OP_OK;
     }
-    if (strcmp(node->type, "mask") == 0) {
-        op_v3 opacity;
-        GET_OR_FAIL(read_reflectance(node, "opacity", NULL, 0.5, &opacity, err));
-        op_node *inner = op_node_child(node, "bsdf", 0);
-        if (inner)
-            GET_OR_FAIL(op_bsdf_build(inner, tex, b, err));
-        b->opacity = b->masked ? v3_mul(b->opacity, opacity) : opacity;
-        b->masked = 1;
-        return OP_OK;
-    }
+    if (strcmp(node->type, "mask") == 0)
+        return build_mask(node, tex, b, err);
     if (strcmp(node->type, "bumpmap") == 0 || strcmp(node->type, "normalmap") == 0) {
         op_bump bump;
         op_node *inner;
@@ -311,8 +339,8 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
                              &b->refl_tex, err);
     }
     int rough_dielectric = strcmp(node->type, "roughdielectric") == 0;
-    if (strcmp(node->type, "dielectric") == 0 || strcmp(node->type, "thindielectric") == 0 ||
-        rough_dielectric) {
+    int thin = strcmp(node->type, "thindielectric") == 0;
+    if (strcmp(node->type, "dielectric") == 0 || thin || rough_dielectric) {
         b->type = rough_dielectric ? OP_BSDF_ROUGHDIELECTRIC : OP_BSDF_DIELECTRIC;
         GET_OR_FAIL(read_ior(node, "intIOR", "bk7", &int_ior, err));
         GET_OR_FAIL(read_ior(node, "extIOR", "air", &ext_ior, err));
@@ -324,6 +352,12 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
             b->alpha = fminf(fmaxf(b->mf.alpha_u, 0.001f), 1.0f);
         }
         b->eta = (float)(int_ior / ext_ior);
+        if (thin) {
+            b->type = OP_BSDF_CONDUCTOR;
+            b->mirror = 1;
+            b->twosided = 1;
+            b->thin = 1;
+        }
         return OP_OK;
     }
     int rough_conductor = strcmp(node->type, "roughconductor") == 0;
@@ -838,30 +872,45 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
     return 1;
 }
 
-float op_bsdf_opacity_prob(const op_bsdf *b)
+int op_bsdf_passable(const op_bsdf *b)
 {
-    if (!b->masked)
-        return 1.0f;
-    return (b->opacity.x + b->opacity.y + b->opacity.z) * (1.0f / 3.0f);
+    return b->masked || b->thin;
 }
 
-op_v3 op_bsdf_hit_weight(const op_bsdf *b)
+int op_bsdf_passage_varies(const op_bsdf *b)
 {
-    float p = op_bsdf_opacity_prob(b);
-    return p > 0.0f ? v3_scale(b->masked ? b->opacity : v3s(1.0f), 1.0f / p) : v3s(0.0f);
+    return b->thin || (b->masked && b->opacity_tex.type != OP_TEX_NONE);
 }
 
-op_v3 op_bsdf_pass_weight(const op_bsdf *b)
+op_bsdf_passage op_bsdf_passage_at(const op_bsdf *b, float u, float v, float cos_i)
 {
-    float p = op_bsdf_opacity_prob(b);
-    return p < 1.0f ? v3_scale(op_bsdf_transmittance(b), 1.0f / (1.0f - p)) : v3s(0.0f);
-}
-
-op_v3 op_bsdf_transmittance(const op_bsdf *b)
-{
-    if (!b->masked)
-        return v3s(0.0f);
-    return v3_sub(v3s(1.0f), b->opacity);
+    op_bsdf_passage pa = {1.0f, v3s(1.0f), v3s(0.0f), v3s(0.0f)};
+    op_v3 opacity = v3s(1.0f);
+    float p = 1.0f; /* the probability of meeting the nested surface */
+    if (b->masked) {
+        opacity = b->opacity;
+        if (b->opacity_tex.type != OP_TEX_NONE) {
+            op_v3 o = b->opacity_tex.value_lum ? v3s(op_texture_eval_value(&b->opacity_tex, u, v))
+                                               : op_texture_eval(&b->opacity_tex, u, v);
+            o = v3(fminf(fmaxf(o.x, 0.0f), 1.0f), fminf(fmaxf(o.y, 0.0f), 1.0f),
+                   fminf(fmaxf(o.z, 0.0f), 1.0f));
+            opacity = v3_mul(opacity, o);
+        }
+        p = (opacity.x + opacity.y + opacity.z) * (1.0f / 3.0f);
+        pa.through = v3_sub(v3s(1.0f), opacity);
+        pa.hit = p > 0.0f ? v3_scale(opacity, 1.0f / p) : v3s(0.0f);
+    }
+    pa.stop = p;
+    if (b->thin) {
+        /* the slab's reflectance with every inner reflection: R + T^2 R / (1 - R^2) */
+        float ct, r = op_fresnel_dielectric(fabsf(cos_i), b->eta, &ct);
+        r *= 2.0f / (1.0f + r);
+        pa.stop = p * r;
+        pa.through = v3_add(pa.through, v3_mul(opacity, v3_scale(b->transmittance, 1.0f - r)));
+    }
+    if (pa.stop < 1.0f)
+        pa.pass = v3_scale(pa.through, 1.0f / (1.0f - pa.stop));
+    return pa;
 }
 
 op_v3 op_bsdf_albedo(const op_bsdf *b)
@@ -968,8 +1017,8 @@ op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr
           b->type == OP_BSDF_COATING) || b->masked || b->twosided)
         return op_error_set(err, OP_ERR_INPUT, "a %s%s bsdf cannot be the surface of a translucent "
                             "shape (dielectric, roughdielectric, plastic, roughplastic or coating)",
-                            b->masked ? "masked " : (b->twosided ? "twosided " : ""),
-                            names[b->type]);
+                            b->masked ? "masked " : (b->twosided && !b->thin ? "twosided " : ""),
+                            b->thin ? "thindielectric" : names[b->type]);
     if (b->type == OP_BSDF_ROUGHDIELECTRIC &&
         (b->mf.type != OP_MF_GGX || b->mf.alpha_u != b->mf.alpha_v))
         op_log(OP_LOG_DEBUG, "roughdielectric: as a translucent shape's boundary its distribution "

@@ -11,11 +11,11 @@
  * dielectrics). Values returned are f * |cos(wo)|; light refracted into a medium of relative
  * index eta is radiance, scaled by 1 / eta^2.
  *
- * A mask is not a scattering lobe: the integrator lets a ray pass straight through a masked
- * surface with probability 1 - op_bsdf_opacity_prob() (weight op_bsdf_pass_weight(), not a
- * bounce), and shadow rays are attenuated by 1 - opacity; otherwise the nested model applies,
- * weighted by op_bsdf_hit_weight(). The eval/sample functions below describe the nested model
- * only. */
+ * Passable surfaces: a ray meeting a mask (cut-out opacity, `mask`) or a thin dielectric
+ * (`thindielectric`, a two-sided perfect mirror that light also crosses straight) either stops
+ * there, and the model applies, or goes straight on without a bounce (op_bsdf_passage); shadow
+ * rays cross it attenuated. The eval/sample functions below describe the model a ray that
+ * stopped meets. */
 #ifndef OP_BSDF_H
 #define OP_BSDF_H
 
@@ -89,6 +89,11 @@ typedef struct op_bsdf {
     float rough_fdr;
     int masked;            /* wrapped in a mask: opacity below applies */
     op_v3 opacity;         /* mask: per-channel opacity in [0, 1] (1 = opaque) */
+    op_texture opacity_tex;/* mask: when set, the opacity (times the one above) varies over
+                              the surface */
+    int thin;              /* thindielectric: a conductor mirror of reflectance specular that is
+                              crossed straight with the thin slab's transmittance (eta, and
+                              transmittance = specularTransmittance) */
     op_bump bump;          /* wrapped in a bumpmap or normalmap: the tilt of its shading frame,
                               which the hit's frame gets (geometry/isect.c) */
     op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures (last:
@@ -135,16 +140,24 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf);
 /* Samples wo; returns 0 when the sample is absorbed. */
 int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
                        op_bsdf_sample *s);
-/* Mask: the probability that a ray stops at the surface (mean opacity; 1 when not masked, 0 for
- * a fully transparent mask). */
-float op_bsdf_opacity_prob(const op_bsdf *b);
-/* Mask: the throughput factor of a ray that stopped at the surface (opacity / prob) or passed
- * through it ((1 - opacity) / (1 - prob)); both are 1 for grey opacities. */
-op_v3 op_bsdf_hit_weight(const op_bsdf *b);
-op_v3 op_bsdf_pass_weight(const op_bsdf *b);
-/* Mask: the fraction of light that crosses the surface along a shadow ray (1 - opacity; 0 when
- * not masked). */
-op_v3 op_bsdf_transmittance(const op_bsdf *b);
+/* What a ray meeting a passable surface does before any scattering: it stops with
+ * probability stop (the model applies, the throughput times hit) or passes straight on (times
+ * pass; not a bounce). A shadow ray carries the fraction through across it (exact, no
+ * sampling). A surface that is not passable always stops: stop 1, hit 1, through 0. */
+typedef struct op_bsdf_passage {
+    float stop;
+    op_v3 hit, pass, through;
+} op_bsdf_passage;
+
+/* Whether rays can pass b (a mask or a thin dielectric). */
+int op_bsdf_passable(const op_bsdf *b);
+/* Whether b's passage depends on where and how the surface is met (a textured opacity, a
+ * thin dielectric); when not, any arguments of op_bsdf_passage_at give it. */
+int op_bsdf_passage_varies(const op_bsdf *b);
+/* The passage of b at surface coordinates (u, v) (a textured opacity) for a ray whose
+ * direction makes cosine cos_i with the shading normal (a thin dielectric's reflectance;
+ * either sign). */
+op_bsdf_passage op_bsdf_passage_at(const op_bsdf *b, float u, float v, float cos_i);
 
 /* A colour for the albedo debug view. */
 op_v3 op_bsdf_albedo(const op_bsdf *b);

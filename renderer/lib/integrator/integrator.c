@@ -9,11 +9,11 @@
 #include "integrator/volpath.h"
 
 /* Transmittance of the segment org + t dir, t in (0, tmax): 0 when an opaque surface lies on
- * it, else the product of 1 - opacity over the masked surfaces it crosses (exact, no sampling).
- */
+ * it, else the product of what the passable surfaces it crosses let through (exact, no
+ * sampling). */
 static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax)
 {
-    if (!s->has_masks)
+    if (!s->has_passable)
         return op_accel_occluded(s->accel, org, dir, 0.0f, tmax) ? v3s(0.0f) : v3s(1.0f);
     op_v3 T = v3s(1.0f);
     op_v3 end = v3_add(org, v3_scale(dir, isinf(tmax) ? 0.0f : tmax));
@@ -22,10 +22,10 @@ static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float
         op_ray_hit hit;
         if (!walk_intersect(s, &w, &hit))
             return T;
-        const op_bsdf *mask = shape_mask(s, hit.shape);
-        if (!mask)
+        const op_bsdf *pb = shape_passable(s, hit.shape);
+        if (!pb)
             return v3s(0.0f);
-        T = v3_mul(T, op_bsdf_transmittance(mask));
+        T = v3_mul(T, passage_at_hit(s, pb, &hit, w.org, dir).through);
         if (v3_is_black(T))
             return T;
         op_v3 p = v3_add(w.org, v3_scale(dir, hit.t));
@@ -73,8 +73,9 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
         if (v3_is_black(f))
             continue;
         op_v3 org = op_offset_origin(it->p, it->ng, ls.wi);
-        float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-        op_v3 tr = shadow_transmittance(s, org, ls.wi, tmax);
+        op_v3 sd;
+        float tmax = shadow_ray(it->p, org, ls.wi, ls.dist, &sd);
+        op_v3 tr = shadow_transmittance(s, org, sd, tmax);
         if (v3_is_black(tr))
             continue;
         float w = ls.pdf > 0.0f ? op_mis((float)n_light * ls.pdf, (float)n_bsdf * bsdf_pdf) : 1.0f;
@@ -120,7 +121,7 @@ static const op_bsdf *surface_at(const op_trace_ctx *ctx, const op_isect *it, op
 
 /* The path-tracing loop. With start != NULL the path begins at that surface with bsdf
  * start_bsdf seen from direction wi (world, pointing away from the surface). A ray that passes
- * through a masked surface goes on in the same direction without counting a bounce; dist_acc
+ * through a passable surface goes on in the same direction without counting a bounce; dist_acc
  * keeps the length of the straight segment since the last bounce for the emitters' MIS. */
 static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
                    const op_isect *start, const op_bsdf *start_bsdf, op_path_sampler *ps,
@@ -172,15 +173,17 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
                     L = v3_add(L, v3_scale(v3_mul(beta, le), mis));
                 }
             }
-            const op_bsdf *mask = shape_mask(s, it.shape);
-            if (mask && mask_passes(mask, ps)) {
-                beta = v3_mul(beta, op_bsdf_pass_weight(mask));
-                if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
-                    break;
-                continue;
+            const op_bsdf *pb = shape_passable(s, it.shape);
+            if (pb) {
+                op_bsdf_passage pa = passage_at(pb, &it, d);
+                if (passage_passes(&pa, ps)) {
+                    beta = v3_mul(beta, pa.pass);
+                    if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
+                        break;
+                    continue;
+                }
+                beta = v3_mul(beta, pa.hit);
             }
-            if (mask)
-                beta = v3_mul(beta, op_bsdf_hit_weight(mask));
             if (alpha)
                 *alpha = 1.0f;
             if (max_depth >= 0 && depth + 2 > max_depth)
@@ -223,7 +226,7 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
 }
 
 /* Emission that a BSDF sample (direction dir from it, density pdf, delta or not) finds: the
- * first area emitter's front or the environment, through masked surfaces as the path tracer
+ * first area emitter's front or the environment, through passable surfaces as the path tracer
  * passes them, weighted by the power heuristic of n_bsdf such samples against n_light samples of
  * the emitter found (weight 1 for delta samples). */
 static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 dir, float pdf,
@@ -256,10 +259,13 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
                 L = v3_add(L, v3_scale(v3_mul(T, le), mis));
             }
         }
-        const op_bsdf *mask = shape_mask(s, hit.shape);
-        if (!mask || !mask_passes(mask, ps))
+        const op_bsdf *pb = shape_passable(s, hit.shape);
+        if (!pb)
             return L;
-        T = v3_mul(T, op_bsdf_pass_weight(mask));
+        op_bsdf_passage pa = passage_at_hit(s, pb, &hit, w.org, dir);
+        if (!passage_passes(&pa, ps))
+            return L;
+        T = v3_mul(T, pa.pass);
         if (v3_is_black(T))
             return L;
         op_v3 p = v3_add(w.org, v3_scale(dir, hit.t));
@@ -268,7 +274,7 @@ static op_v3 bsdf_sample_emission(const op_scene *s, const op_isect *it, op_v3 d
     }
 }
 
-/* Mitsuba's `direct` integrator: emission seen along the camera ray (through masked surfaces),
+/* Mitsuba's `direct` integrator: emission seen along the camera ray (through passable surfaces),
  * then at the surface found emitterSamples samples of every emitter and bsdfSamples BSDF samples
  * combined by multiple importance sampling; no indirect light. A translucent shape shows its
  * pre-pass's exitance (or, without one, acts as a diffuse surface of its mean albedo). */
@@ -295,15 +301,17 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
             L = v3_add(L, v3_mul(beta, area_emission(sh, &s->emitters[sh->emitter], it.prim,
                                                      v3_neg(dir), &nw)));
         }
-        const op_bsdf *mask = shape_mask(s, it.shape);
-        if (mask && mask_passes(mask, ps)) {
-            beta = v3_mul(beta, op_bsdf_pass_weight(mask));
-            if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
-                return L;
-            continue;
+        const op_bsdf *pb = shape_passable(s, it.shape);
+        if (pb) {
+            op_bsdf_passage pa = passage_at(pb, &it, dir);
+            if (passage_passes(&pa, ps)) {
+                beta = v3_mul(beta, pa.pass);
+                if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
+                    return L;
+                continue;
+            }
+            beta = v3_mul(beta, pa.hit);
         }
-        if (mask)
-            beta = v3_mul(beta, op_bsdf_hit_weight(mask));
         break;
     }
     *alpha = 1.0f;
@@ -337,7 +345,7 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
     return L;
 }
 
-/* The debug views; masked surfaces are seen through as by the path tracer (stochastically
+/* The debug views; passable surfaces are seen through as by the path tracer (stochastically
  * where partly opaque). */
 static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
                         op_path_sampler *ps, float *alpha)
@@ -351,8 +359,11 @@ static op_v3 debug_view(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmi
         if (!walk_intersect(s, &w, &hit))
             return v3s(0.0f);
         op_isect_from_hit(s, &hit, w.org, dir, &it);
-        const op_bsdf *mask = shape_mask(s, it.shape);
-        if (!mask || !mask_passes(mask, ps))
+        const op_bsdf *pb = shape_passable(s, it.shape);
+        if (!pb)
+            break;
+        op_bsdf_passage pa = passage_at(pb, &it, dir);
+        if (!passage_passes(&pa, ps))
             break;
         if (!walk_past(&w, it.p, it.ng, hit.t))
             return v3s(0.0f);
@@ -399,8 +410,8 @@ void op_camera_sss_hits(const op_scene *s, op_v3 org, op_v3 dir, float tmin, flo
         op_isect_from_hit(s, &hit, w.org, w.dir, &it);
         len += hit.t;
         const op_shape_rec *sh = &s->shapes[it.shape];
-        const op_bsdf *mask = shape_mask(s, it.shape);
-        if (mask && op_bsdf_opacity_prob(mask) < 1.0f) {
+        const op_bsdf *pb = shape_passable(s, it.shape);
+        if (pb && passage_at(pb, &it, w.dir).stop < 1.0f) {
             if (!walk_past(&w, it.p, it.ng, hit.t))
                 return;
             continue;

@@ -30,7 +30,7 @@ typedef struct op_trace_ctx {
 op_v3 op_li(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, float tmax,
             op_path_sampler *ps, float *alpha);
 /* Follows the camera segment of a path from the camera ray (org, dir, tmin, tmax) the way the
- * path tracer would: through masked surfaces (every mask that is not fully opaque is passed) and
+ * path tracer would: through passable surfaces (every one that a ray may pass is passed) and
  * along smooth (delta) bounces, at most max_bounces of them, drawing choices from rng. Calls
  * hit(user, it, dist, cosine) (dist: the path's length to it; cosine: |cos| between the last
  * segment and the surface) for every translucent shape it meets whose exitance the path tracer

@@ -1,6 +1,6 @@
 /* path_parts.h - what the path tracers (integrator.c, volpath.c) share about surfaces along a
- * ray: masked surfaces passed through, area emission, and how many numbers a BSDF sample
- * draws. */
+ * ray: passable surfaces (masks, thin dielectrics) passed through, area emission, and how many
+ * numbers a BSDF sample draws. */
 #ifndef OP_PATH_PARTS_H
 #define OP_PATH_PARTS_H
 
@@ -9,34 +9,51 @@
 #include "camera/sampler.h"
 #include "geometry/isect.h"
 
-/* The most masked surfaces one ray segment may pass through before it counts as absorbed
+/* The most passable surfaces one ray segment may pass through before it counts as absorbed
  * (guards against rays trapped in coincident cut-out surfaces). */
 #define OP_MAX_PASSES 256
 
-/* The BSDF of shape i when it is a mask, else NULL (translucent shapes are never masked). */
-static inline const op_bsdf *shape_mask(const op_scene *s, int i)
+/* The BSDF of shape i when rays can pass it (op_bsdf_passable: a mask, a thin dielectric),
+ * else NULL (translucent shapes are never passable). */
+static inline const op_bsdf *shape_passable(const op_scene *s, int i)
 {
     const op_shape_rec *sh = &s->shapes[i];
-    if (sh->sss >= 0 || !s->bsdfs[sh->bsdf].masked)
+    if (sh->sss >= 0 || !op_bsdf_passable(&s->bsdfs[sh->bsdf]))
         return NULL;
     return &s->bsdfs[sh->bsdf];
 }
 
-/* Whether a ray that reached masked surface bsdf passes through it: always for opacity 0, never
- * for 1, else with probability 1 - opacity drawn from the path's own stream (so the image does
- * not depend on threads). */
-static inline int mask_passes(const op_bsdf *mask, op_path_sampler *ps)
+/* The passage of passable surface b at it for a ray along dir. */
+static inline op_bsdf_passage passage_at(const op_bsdf *b, const op_isect *it, op_v3 dir)
 {
-    float p = op_bsdf_opacity_prob(mask);
-    if (p <= 0.0f)
-        return 1;
-    if (p >= 1.0f)
-        return 0;
-    return op_path_random(ps) >= p;
+    return op_bsdf_passage_at(b, it->u, it->v, v3_dot(dir, it->ns));
 }
 
-/* A ray walked through masked surfaces: the segment org + t dir, t in (tmin, tmax); dist is the
- * length walked before org, passes the masked surfaces passed so far. */
+/* The passage of passable surface b where the ray org + t dir met it (hit). */
+static inline op_bsdf_passage passage_at_hit(const op_scene *s, const op_bsdf *b,
+                                             const op_ray_hit *hit, op_v3 org, op_v3 dir)
+{
+    if (!op_bsdf_passage_varies(b))
+        return op_bsdf_passage_at(b, 0.0f, 0.0f, 1.0f);
+    op_isect it;
+    op_isect_from_hit(s, hit, org, dir, &it);
+    return passage_at(b, &it, dir);
+}
+
+/* Whether a ray passes a surface of passage pa: always for stop 0, never for 1, else with
+ * probability 1 - stop drawn from the path's own stream (so the image does not depend on
+ * threads). */
+static inline int passage_passes(const op_bsdf_passage *pa, op_path_sampler *ps)
+{
+    if (pa->stop <= 0.0f)
+        return 1;
+    if (pa->stop >= 1.0f)
+        return 0;
+    return op_path_random(ps) >= pa->stop;
+}
+
+/* A ray walked through passable surfaces: the segment org + t dir, t in (tmin, tmax); dist is
+ * the length walked before org, passes the surfaces passed so far. */
 typedef struct ray_walk {
     op_v3 org, dir;
     float tmin, tmax, dist;
@@ -76,6 +93,25 @@ static inline op_v3 area_emission(const op_shape_rec *sh, const op_emitter *e, i
     op_trimesh_tri(&sh->mesh, prim, &a, &b, &c);
     *nw = v3_cross(v3_sub(b, a), v3_sub(c, a));
     return op_emitter_area_le(e, *nw, wo);
+}
+
+/* The shadow ray from org (p offset off its surface) to the light sample at distance dist from
+ * p along w: its direction *dir and its length, stopped short of the light's own surface by
+ * 1e-4 of the length or what op_offset_origin would move an origin there, whichever is more
+ * (infinite for a light at infinity). It is aimed from org at the sampled point itself: a ray
+ * along w from org, parallel to p's, would meet the light's surface before or after it. */
+static inline float shadow_ray(op_v3 p, op_v3 org, op_v3 w, float dist, op_v3 *dir)
+{
+    *dir = w;
+    if (isinf(dist))
+        return INFINITY;
+    op_v3 q = v3_add(p, v3_scale(w, dist)), d = v3_sub(q, org);
+    float len = v3_len(d);
+    if (!(len > 0.0f))
+        return 0.0f;
+    *dir = v3_scale(d, 1.0f / len);
+    float mag = fmaxf(1.0f, fmaxf(fabsf(q.x), fmaxf(fabsf(q.y), fabsf(q.z))));
+    return fmaxf(len - fmaxf(1e-4f * len, 1e-4f * mag), 0.0f);
 }
 
 /* How many of op_bsdf_sample_dir's u1, u2, u3 a path should draw for bsdf: the lobe choice u3

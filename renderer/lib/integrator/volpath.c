@@ -17,8 +17,8 @@ static int medium_after(const op_scene *s, const op_isect *it, op_v3 w, int cur)
 }
 
 /* Transmittance of the shadow segment org + t dir, t in (0, tmax), starting in medium med: the
- * media's along it times 1 - opacity of the masked surfaces (index-matched boundaries among
- * them) it crosses; 0 when an opaque surface lies on it. */
+ * media's along it times what the passable surfaces it crosses let through (index-matched and
+ * thin boundaries among them); 0 when an opaque surface lies on it. */
 static op_v3 transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax, int med)
 {
     op_v3 T = v3s(1.0f);
@@ -31,14 +31,14 @@ static op_v3 transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax, 
             T = v3_mul(T, op_pmedium_transmittance(&s->media[med], found ? hit.t : w.tmax));
         if (!found || v3_is_black(T))
             return T;
-        const op_bsdf *mask = shape_mask(s, hit.shape);
-        if (!mask)
+        const op_bsdf *pb = shape_passable(s, hit.shape);
+        if (!pb)
             return v3s(0.0f);
-        T = v3_mul(T, op_bsdf_transmittance(mask));
-        if (v3_is_black(T))
-            return T;
         op_isect it;
         op_isect_from_hit(s, &hit, w.org, dir, &it);
+        T = v3_mul(T, passage_at(pb, &it, dir).through);
+        if (v3_is_black(T))
+            return T;
         med = medium_after(s, &it, dir, med);
         if (!walk_past(&w, it.p, it.ng, hit.t))
             return v3s(0.0f);
@@ -104,8 +104,9 @@ static op_v3 sample_direct(const op_scene *s, const vertex *v, op_v3 wi, int dep
             org = op_offset_origin(v->it->p, v->it->ng, ls.wi);
             med = medium_after(s, v->it, ls.wi, v->med);
         }
-        float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-        op_v3 tr = transmittance(s, org, ls.wi, tmax, med);
+        op_v3 sd;
+        float tmax = shadow_ray(v->p, org, ls.wi, ls.dist, &sd);
+        op_v3 tr = transmittance(s, org, sd, tmax, med);
         if (v3_is_black(tr))
             continue;
         float w = ls.pdf > 0.0f ? op_mis(ls.pdf, pdf) : 1.0f;
@@ -182,17 +183,19 @@ op_v3 op_volpath_li(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float t
                     L = v3_add(L, v3_scale(v3_mul(throughput(beta, r), le), mis));
                 }
             }
-            const op_bsdf *mask = shape_mask(s, it.shape);
-            if (mask && mask_passes(mask, ps)) {
-                beta = v3_mul(beta, op_bsdf_pass_weight(mask));
-                med = medium_after(s, &it, w.dir, med);
-                passes++;
-                if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
-                    break;
-                continue;
+            const op_bsdf *pb = shape_passable(s, it.shape);
+            if (pb) {
+                op_bsdf_passage pa = passage_at(pb, &it, w.dir);
+                if (passage_passes(&pa, ps)) {
+                    beta = v3_mul(beta, pa.pass);
+                    med = medium_after(s, &it, w.dir, med);
+                    passes++;
+                    if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
+                        break;
+                    continue;
+                }
+                beta = v3_mul(beta, pa.hit);
             }
-            if (mask)
-                beta = v3_mul(beta, op_bsdf_hit_weight(mask));
             v.p = it.p;
             v.it = &it;
             v.bsdf = op_bsdf_at(&s->bsdfs[sh->bsdf], it.u, it.v, &scratch);

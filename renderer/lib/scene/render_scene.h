@@ -91,7 +91,8 @@ struct op_scene {
     int nprotos;
     op_bsdf *bsdfs;
     int nbsdfs;
-    int has_masks; /* some shape's bsdf is a mask: shadow rays must look through surfaces */
+    int has_passable; /* some shape's bsdf is passable (op_bsdf_passable): shadow rays must
+                         look through surfaces */
     op_emitter *emitters;
     int nemitters;
     int env; /* index of the environment emitter, or -1 */

@@ -62,7 +62,7 @@ static op_status add_bsdf(builder *b, op_node *node, int *index, op_error *err)
 }
 
 /* A null (index-matched) boundary: a mask of opacity 0, which every ray passes straight
- * through without a bounce (the integrators' masks). */
+ * through without a bounce (a passable surface to the integrators). */
 static op_status add_null_bsdf(builder *b, int *index, op_error *err)
 {
     op_scene *s = b->s;
@@ -454,8 +454,8 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
         if (s->emitters[i].type == OP_EM_AREA)
             s->emitters[i].mesh = &s->shapes[s->emitters[i].shape].mesh;
     for (int i = 0; i < s->nshapes; i++)
-        if (s->shapes[i].sss < 0 && s->bsdfs[s->shapes[i].bsdf].masked)
-            s->has_masks = 1;
+        if (s->shapes[i].sss < 0 && op_bsdf_passable(&s->bsdfs[s->shapes[i].bsdf]))
+            s->has_passable = 1;
     if (s->nshapes == 0)
         op_log(OP_LOG_WARN, "%s: the scene has no shapes", s->path);
     int volumetric = s->integrator.type == OP_INT_PATH && s->integrator.volumetric;
