@@ -14,8 +14,8 @@
  * - projector (Mitsuba 3's, constant irradiance): a plane facing it at distance z receives
  *   pi scale irradiance / z^2 over the frustum's square footprint 2 z tan(fov / 2) wide, nothing
  *   outside;
- * - refusals: a directional light with both direction and toWorld, a spot with a projected
- *   texture, a projector with a textured irradiance. */
+ * - refusals: a directional light with both direction and toWorld, a sky whose sun is below
+ *   the horizon or given twice. (Textured spots and projectors: test_render_textured_emitters.) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -223,12 +223,6 @@ static void test_refusals(void **state)
                    "<transform name=\"toWorld\"><rotate x=\"1\" angle=\"10\"/></transform>"
                    "</emitter>",
                    "direction or toWorld");
-    expect_refused("<emitter type=\"spot\"><texture type=\"checkerboard\" name=\"texture\"/>"
-                   "</emitter>",
-                   "projected texture");
-    expect_refused("<emitter type=\"projector\"><texture type=\"bitmap\" "
-                   "name=\"irradiance\"/></emitter>",
-                   "textured irradiance");
     expect_refused("<emitter type=\"sky\"><float name=\"hour\" value=\"2\"/></emitter>",
                    "below the horizon");
     expect_refused("<emitter type=\"sky\"><vector name=\"sunDirection\" value=\"0,1,0\"/>"

@@ -162,8 +162,49 @@ static op_status env_place(const op_node *node, const op_matrix4 *xf, double sca
     return OP_OK;
 }
 
+/* The <texture> child of node given under name, or NULL. */
+static op_node *texture_child(const op_node *node, const char *name)
+{
+    for (int i = 0; i < node->nchildren; i++) {
+        const char *cn = op_node_child_name(node, i);
+        if (strcmp(node->children[i]->tag, "texture") == 0 && cn && strcmp(cn, name) == 0)
+            return node->children[i];
+    }
+    return NULL;
+}
+
+/* Builds e->tex from node's texture child tex (through textures); a texture that is one value
+ * everywhere (Mitsuba 3's rawconstant) is refused as Mitsuba 3 refuses it. */
+static op_status build_texture(op_node *node, op_node *tex, op_tex_cache *textures,
+                               op_emitter *e, op_error *err)
+{
+    if (!textures)
+        return op_error_set(err, OP_ERR_INTERNAL, "%s:%d: <emitter type=\"%s\">: no texture "
+                            "cache", node->file, node->line, node->type);
+    GET_OR_FAIL(op_texture_build(tex, textures, &e->tex, err));
+    if (e->tex.type == OP_TEX_CONSTANT)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: a texture of one "
+                            "value is refused here (as in Mitsuba 3): give a colour instead",
+                            tex->file, tex->line, node->type);
+    return OP_OK;
+}
+
+/* The unit axes of toWorld xf into f (s = +X, t = +Y, n = +Z); 0 when one is degenerate. */
+static int unit_axes(const op_matrix4 *xf, op_frame *f)
+{
+    double ax[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    op_v3 *out[3] = {&f->s, &f->t, &f->n};
+    for (int k = 0; k < 3; k++) {
+        op_matrix4_vector(xf, ax[k], ax[k]);
+        if (!v3_unit_from_d(ax[k], out[k]))
+            return 0;
+    }
+    return 1;
+}
+
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
-                           long long max_pixels, op_emitter *e, op_error *err)
+                           op_tex_cache *textures, long long max_pixels, op_emitter *e,
+                           op_error *err)
 {
     memset(e, 0, sizeof *e);
     node->used = 1;
@@ -179,9 +220,6 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         e->type = OP_EM_POINT;
         if (strcmp(t, "spot") == 0) {
             e->type = OP_EM_SPOT;
-            if (op_node_child(node, "texture", 0))
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: a "
-                                    "projected texture is not supported", node->file, node->line);
             double cutoff, beam, z[3] = {0, 0, 1};
             GET_OR_FAIL(op_node_float(node, "cutoffAngle", 20.0, &cutoff, err));
             if (!(cutoff > 0.0) || cutoff > 90.0) {
@@ -202,7 +240,15 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
             if (!v3_unit_from_d(z, &axis))
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: toWorld "
                                     "is degenerate", node->file, node->line);
-            e->frame = op_frame_from_normal(axis);
+            op_node *tex = texture_child(node, "texture");
+            if (!tex)
+                e->frame = op_frame_from_normal(axis);
+            else if (!unit_axes(&xf, &e->frame)) /* the texture goes along toWorld's X and Y */
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"spot\">: toWorld "
+                                    "is degenerate", node->file, node->line);
+            else
+                GET_OR_FAIL(build_texture(node, tex, textures, e, err));
+            e->tan_x = (float)tan(cutoff * M_PI / 180.0);
             e->cutoff = (float)(cutoff * M_PI / 180.0);
             e->beam = (float)(beam * M_PI / 180.0);
             e->cos_cutoff = cosf(e->cutoff);
@@ -252,31 +298,35 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         return OP_OK;
     }
     if (strcmp(t, "projector") == 0) {
-        if (op_node_child(node, "texture", 0))
-            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: a "
-                                "textured irradiance is not supported (a constant one is)",
-                                node->file, node->line);
-        double o[3] = {0, 0, 0}, ax[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, tx, ty, scale;
-        op_v3 axis[3];
+        double o[3] = {0, 0, 0}, tx, ty, scale;
         op_matrix4_point(&xf, o, o);
-        for (int k = 0; k < 3; k++) {
-            op_matrix4_vector(&xf, ax[k], ax[k]);
-            if (!v3_unit_from_d(ax[k], &axis[k]))
-                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: "
-                                    "toWorld is degenerate", node->file, node->line);
+        if (!unit_axes(&xf, &e->frame))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: "
+                                "toWorld is degenerate", node->file, node->line);
+        op_node *tex = texture_child(node, "irradiance");
+        int width = 1, height = 1; /* a constant irradiance is a 1 x 1 image */
+        if (tex && op_node_has(node, "irradiance"))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: "
+                                "irradiance is given both as a colour and as a texture",
+                                node->file, node->line);
+        if (tex) {
+            GET_OR_FAIL(build_texture(node, tex, textures, e, err));
+            if (e->tex.type == OP_TEX_BITMAP) {
+                width = e->tex.img->width;
+                height = e->tex.img->height;
+            }
         }
-        /* a constant irradiance is a 1 x 1 image: a square frustum */
-        GET_OR_FAIL(op_camera_read_fov(node, 1, 1, &tx, &ty, err));
+        /* the frustum has the image's aspect ratio */
+        GET_OR_FAIL(op_camera_read_fov(node, width, height, &tx, &ty, err));
         GET_OR_FAIL(op_node_float(node, "scale", 1.0, &scale, err));
         if (!(scale >= 0.0) || !isfinite(scale))
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"projector\">: scale "
                                 "must be finite and >= 0", node->file, node->line);
-        GET_OR_FAIL(read_nonneg_color(node, "irradiance", 1.0, &e->value, err));
+        e->value = v3s(1.0f);
+        if (!tex)
+            GET_OR_FAIL(read_nonneg_color(node, "irradiance", 1.0, &e->value, err));
         e->type = OP_EM_PROJECTOR;
         e->pos = v3_from_d(o);
-        e->frame.s = axis[0];
-        e->frame.t = axis[1];
-        e->frame.n = axis[2];
         e->tan_x = (float)tx;
         e->tan_y = (float)ty;
         e->value = v3_scale(e->value, (float)(M_PI * scale));
@@ -346,6 +396,16 @@ static float spot_falloff(const op_emitter *e, float cos_theta)
     if (cos_theta >= e->cos_beam)
         return 1.0f;
     return (e->cutoff - acosf(fminf(cos_theta, 1.0f))) / (e->cutoff - e->beam);
+}
+
+/* The spot's texture in the direction d (away from the light, inside the cone): the cone's
+ * tangent plane at distance 1 maps onto the texture's unit square, u along +X and v along +Y
+ * of toWorld, the axis at its centre and the cutoff cone touching its edges. */
+static op_v3 spot_texture(const op_emitter *e, op_v3 d)
+{
+    op_v3 local = op_frame_to_local(&e->frame, d);
+    float k = 0.5f / (local.z * e->tan_x);
+    return op_texture_eval(&e->tex, 0.5f + k * local.x, 0.5f + k * local.y);
 }
 
 /* The envmap pixel (*x, *y) that direction d (map space, unit) falls in; *sin_theta gets
@@ -474,7 +534,10 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
         if (f <= 0.0f)
             return 0;
         s->value = v3_scale(e->value, f / d2);
-        return 1;
+        if (e->tex.type == OP_TEX_NONE)
+            return 1;
+        s->value = v3_mul(s->value, spot_texture(e, v3_neg(s->wi)));
+        return !v3_is_black(s->value);
     }
     case OP_EM_AREA: {
         int t = op_trimesh_pick(e->mesh, u3);
@@ -509,7 +572,13 @@ int op_emitter_sample(const op_emitter *e, op_v3 p, float u1, float u2, float u3
         s->wi = v3_scale(d, -1.0f / dist);
         s->pdf = 0.0f;
         /* pi scale irradiance / (z^2 cos): a plane facing it at z = 1 receives pi scale E */
-        s->value = v3_scale(e->value, dist / (local.z * local.z * local.z));
+        op_v3 irradiance = e->value;
+        if (e->tex.type != OP_TEX_NONE) /* Mitsuba's sensor (u, v): u to the left of +X */
+            irradiance = v3_mul(irradiance,
+                                op_texture_eval(&e->tex,
+                                                0.5f - 0.5f * local.x / (local.z * e->tan_x),
+                                                0.5f - 0.5f * local.y / (local.z * e->tan_y)));
+        s->value = v3_scale(irradiance, dist / (local.z * local.z * local.z));
         return !v3_is_black(s->value);
     }
     case OP_EM_DIRECTIONAL:

@@ -1,5 +1,5 @@
 /* emitter.h - light sources: point, spot (Mitsuba's linear falloff in angle from beamWidth to
- * cutoffAngle), area (on a shape, emitting from its front side), directional, constant,
+ * cutoffAngle, times an optional texture projected across the cone), area (on a shape, emitting from its front side), directional, constant,
  * envmap (a lat-long OpenEXR/PNG image in Mitsuba's orientation: +y up), sky (Mitsuba's
  * Hosek-Wilkie sky, light/sky.h, tabulated into an envmap when built) and collimated
  * (Mitsuba's beam: power along one ray, a delta in position and direction, so that no surface
@@ -13,6 +13,7 @@
 #include "scene/scene_desc.h"
 #include "geometry/shape.h"
 #include "opaline_image.h"
+#include "bsdf/texture.h"
 
 typedef enum op_emitter_type {
     OP_EM_POINT,
@@ -31,9 +32,14 @@ typedef struct op_emitter {
     op_v3 value;            /* intensity (point, spot), radiance (area, constant), irradiance
                                (directional), scale (envmap), power (collimated), pi scale
                                irradiance (projector) */
-    op_frame frame;         /* spot: n is the beam axis; envmap: world-to-map rotation rows;
-                               projector: its unit camera axes (s = +X, t = +Y, n = +Z) */
-    float tan_x, tan_y;     /* projector: half extents of its image plane at distance 1 */
+    op_frame frame;         /* spot, projector: the unit axes of toWorld (s = +X, t = +Y,
+                               n = +Z, the beam's or the view's axis); envmap: world-to-map
+                               rotation rows */
+    float tan_x, tan_y;     /* projector: half extents of its image plane at distance 1;
+                               spot: tan_x = tan(cutoff), the texture's half extent there */
+    op_texture tex;         /* spot: the projected texture; projector: the irradiance's; type
+                               OP_TEX_NONE when there is none (a constant irradiance is in
+                               value) */
     float cos_cutoff, cos_beam, cutoff, beam;
     const op_trimesh *mesh; /* area: the shape's mesh (owned by the scene) */
     int shape;              /* area: the shape's index */
@@ -58,9 +64,11 @@ typedef struct op_light_sample {
 } op_light_sample;
 
 /* Builds an emitter node; for an area emitter, mesh/shape are its shape's. An envmap's file is
- * found by op_node_resolve; one of more than max_pixels pixels is refused. */
+ * found by op_node_resolve; one of more than max_pixels pixels is refused. A spot's or a
+ * projector's texture reads its image through textures, which must outlive e. */
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
-                           long long max_pixels, op_emitter *e, op_error *err);
+                           op_tex_cache *textures, long long max_pixels, op_emitter *e,
+                           op_error *err);
 void op_emitter_free(op_emitter *e);
 int op_emitter_is_env(const op_emitter *e);
 

@@ -186,7 +186,7 @@ static op_status find_image(op_scene_description *d, const op_node *node, const 
     return OP_OK;
 }
 
-/* The bitmap textures anywhere under node (a bsdf, its nested bsdfs and textures). */
+/* The bitmap textures anywhere under node (a bsdf, its nested bsdfs and textures; an emitter). */
 static op_status find_textures(op_scene_description *d, op_node *node, op_error *err)
 {
     for (int i = 0; i < node->nchildren; i++) {
@@ -374,6 +374,7 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                                     c->file, c->line);
         } else if (strcmp(c->tag, "emitter") == 0) {
             d->emitters++;
+            GET_OR_FAIL(find_textures(d, c, err)); /* a spot's or a projector's */
             if (strcmp(c->type, "envmap") == 0) {
                 const char *fn;
                 GET_OR_FAIL(op_node_string(c, "filename", NULL, &fn, err));

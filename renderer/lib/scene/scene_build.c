@@ -124,7 +124,7 @@ static op_status add_emitter(builder *b, op_node *node, const op_trimesh *mesh, 
     if (!op_array_grow((void **)&s->emitters, &b->cap_emitters, s->nemitters, sizeof *s->emitters))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     op_emitter *e = &s->emitters[s->nemitters];
-    op_status st = op_emitter_build(node, mesh, shape, b->lim->image_pixels, e, err);
+    op_status st = op_emitter_build(node, mesh, shape, s->textures, b->lim->image_pixels, e, err);
     if (st == OP_OK && (e->type == OP_EM_POINT || e->type == OP_EM_SPOT ||
                         e->type == OP_EM_COLLIMATED || e->type == OP_EM_PROJECTOR))
         st = op_limit_position(b->lim, node, "the light's position", e->pos, err);
