@@ -1,6 +1,6 @@
 /*
- * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM or
- * Radiance HDR, and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
+ * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM,
+ * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
  * opaline.h.
  */
 #ifndef OPALINE_IMAGE_H
