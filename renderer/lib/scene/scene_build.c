@@ -471,8 +471,12 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     for (int i = 0; i < s->nemitters; i++)
         if (s->emitters[i].type == OP_EM_AREA)
             s->emitters[i].mesh = &s->shapes[s->emitters[i].shape].mesh;
-    if (s->camera.type == OP_CAMERA_IRRADIANCEMETER)
+    if (s->camera.type == OP_CAMERA_IRRADIANCEMETER) {
+        if (s->camera.shape < 0) /* the description finds it in a shape the build builds */
+            return op_error_set(err, OP_ERR_INTERNAL, "%s: the irradiancemeter's shape was not "
+                                "built", s->path);
         s->camera.surface = &s->shapes[s->camera.shape].mesh;
+    }
     for (int i = 0; i < s->nshapes; i++)
         if (s->shapes[i].sss < 0 && s->bsdfs[s->shapes[i].bsdf].masked)
             s->has_masks = 1;
