@@ -1,6 +1,6 @@
 /*
- * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM or
- * Radiance HDR, and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
+ * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM,
+ * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
  * opaline.h.
  */
 #ifndef OPALINE_IMAGE_H
@@ -49,6 +49,19 @@ op_status op_image_write_pfm(const char *path, const op_image *img, op_error *er
 /* Radiance RGBE (.hdr): shared-exponent RGB, 4 bytes a pixel (a grey image repeats its
  * channel, alpha is dropped). */
 op_status op_image_write_hdr(const char *path, const op_image *img, op_error *err);
+/* The text formats of op_image_write_matrix. */
+typedef enum op_matrix_format { OP_MATRIX_MATLAB, OP_MATRIX_MATHEMATICA } op_matrix_format;
+/* The image as a text matrix of height rows by width columns per channel, each value with
+ * `digits` (1..17) significant digits, assigned to `variable` (letters, digits and _ after a
+ * letter): MATLAB's "variable = [a, b;\n\tc, d];" (a channel k > 1 as "variable(:, :, k) =
+ * [...];", Inf and NaN as MATLAB spells them) or Mathematica's "variable = {{a, b},\n\t{c, d}};"
+ * (several channels as Transpose[{channel, ...}, {3,1,2}], exponents as *^, Infinity and
+ * Indeterminate), the layouts of Mitsuba 0.6's mfilm. A bad digits or variable is
+ * OP_ERR_INPUT. */
+op_status op_image_write_matrix(const char *path, const op_image *img, op_matrix_format format,
+                                int digits, const char *variable, op_error *err);
+/* Whether name is a variable name op_image_write_matrix accepts. */
+int op_matrix_variable_valid(const char *name);
 /* Reads an image file into linear floats: OpenEXR, PNG (8 or 16 bits), JPEG, TIFF, Radiance
  * HDR, BMP, PNM or PFM, chosen by content, or TGA (which has no signature) by the name's
  * extension .tga. PNG (libpng), OpenEXR (its C API) and PFM are read here, the others through

@@ -118,9 +118,10 @@ typedef struct op_scene_info {
     int width, height;        /* the image rendered (the crop window when there is one) */
     int full_width, full_height;
     int spp;                  /* the sampler's sampleCount */
-    const char *film_type;    /* "hdrfilm" or "ldrfilm" */
+    const char *film_type;    /* "hdrfilm", "ldrfilm" or "mfilm" */
     const char *film_filename;/* the film's filename, or NULL */
-    const char *film_extension;/* its fileFormat's extension: ".exr", ".pfm", ".hdr" or ".png" */
+    const char *film_extension;/* its fileFormat's extension: ".exr", ".pfm", ".hdr", ".png" or
+                                  ".m" (mfilm: a text matrix) */
     const char *integrator;   /* "path", "direct", "normals", ... */
     int shapes, emitters, subsurface_shapes;
     int triangles;            /* a description's: -1 when some shape reads a mesh file */
@@ -216,7 +217,7 @@ void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);
 const op_image *op_renderer_image(const op_renderer *r);
 
 /* The image format path is written in: its extension (".exr", ".png", ".pfm", ".hdr",
- * case-insensitive), or the film's own for a name without one (/dev/stdout, a FIFO); NULL for
+ * ".m" (mfilm's text matrix), case-insensitive), or the film's own for a name without one (/dev/stdout, a FIFO); NULL for
  * another extension. */
 const char *op_scene_image_format(const op_scene *scene, const char *path);
 

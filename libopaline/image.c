@@ -783,6 +783,88 @@ op_status op_image_write_pfm(const char *path, const op_image *img, op_error *er
     return op_output_commit(out, err);
 }
 
+int op_matrix_variable_valid(const char *name)
+{
+    size_t n = strlen(name);
+    if (n == 0 || n > 63 || !((name[0] >= 'a' && name[0] <= 'z') || (name[0] >= 'A' && name[0] <= 'Z')))
+        return 0;
+    for (size_t i = 1; i < n; i++) {
+        char c = name[i];
+        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+              c == '_'))
+            return 0;
+    }
+    return 1;
+}
+
+/* v with `digits` significant digits as format spells numbers, into buf (64 bytes). */
+static void matrix_number(float v, op_matrix_format format, int digits, char *buf)
+{
+    int mma = format == OP_MATRIX_MATHEMATICA;
+    if (isnan(v)) {
+        snprintf(buf, 64, "%s", mma ? "Indeterminate" : "NaN");
+        return;
+    }
+    if (isinf(v)) {
+        snprintf(buf, 64, "%s%s", v < 0 ? "-" : "", mma ? "Infinity" : "Inf");
+        return;
+    }
+    char num[48];
+    snprintf(num, sizeof num, "%.*g", digits, (double)v);
+    char *e = mma ? strchr(num, 'e') : NULL;
+    if (e)
+        snprintf(buf, 64, "%.*s*^%s", (int)(e - num), num, e + 1);
+    else
+        snprintf(buf, 64, "%s", num);
+}
+
+op_status op_image_write_matrix(const char *path, const op_image *img, op_matrix_format format,
+                                int digits, const char *variable, op_error *err)
+{
+    op_status st = check_image(path, img, err);
+    if (st != OP_OK)
+        return st;
+    if (digits < 1 || digits > 17 || !op_matrix_variable_valid(variable))
+        return op_error_set(err, OP_ERR_INPUT, "%s: a matrix needs 1 to 17 digits and a variable "
+                            "name of letters, digits and _ after a letter", path);
+    op_output *out;
+    if ((st = op_output_open(path, &out, err)) != OP_OK)
+        return st;
+    int mma = format == OP_MATRIX_MATHEMATICA, nch = img->channels;
+    char text[128];
+    for (int ch = 0; ch < nch; ch++) {
+        int n;
+        if (!mma)
+            n = ch == 0 ? snprintf(text, sizeof text, "%s = [", variable)
+                        : snprintf(text, sizeof text, "\n%s(:, :, %d) = [", variable, ch + 1);
+        else if (ch == 0)
+            n = snprintf(text, sizeof text, "%s = %s", variable, nch == 1 ? "{{" : "Transpose[{{{");
+        else
+            n = 0;
+        op_output_write(out, text, (size_t)n);
+        for (int y = 0; y < img->height; y++)
+            for (int x = 0; x < img->width; x++) {
+                char num[64];
+                matrix_number(img->pixels[((size_t)y * img->width + x) * nch + ch], format,
+                              digits, num);
+                const char *sep;
+                if (x + 1 < img->width)
+                    sep = ", ";
+                else if (!mma)
+                    sep = y + 1 < img->height ? ";\n\t" : "];\n";
+                else if (y + 1 < img->height)
+                    sep = "},\n\t{";
+                else if (ch + 1 < nch)
+                    sep = "}},\n\n\t{{";
+                else
+                    sep = nch == 1 ? "}};\n" : "}}}, {3,1,2}];\n";
+                n = snprintf(text, sizeof text, "%s%s", num, sep);
+                op_output_write(out, text, (size_t)n);
+            }
+    }
+    return op_output_commit(out, err);
+}
+
 /* Parses one whitespace-delimited token of a PFM header from buf[*pos..n). */
 static int pfm_token(const unsigned char *buf, size_t n, size_t *pos, char *tok, size_t cap)
 {

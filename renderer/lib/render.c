@@ -223,6 +223,8 @@ static void render_tile(void *user, int task, int thread)
     int h = film->height - y0 < job->tile ? film->height - y0 : job->tile;
     float *buf = job->scratch[thread];
     float inv = 1.0f / (float)job->spp;
+    int unfiltered = op_camera_unfiltered(&s->camera);
+    float measure = op_camera_weight(&s->camera);
     for (int y = 0; y < h; y++) {
         if (job->cancel && atomic_load(job->cancel))
             return;
@@ -235,7 +237,13 @@ static void render_tile(void *user, int task, int thread)
                                                            job->opt->seed, pixel, (uint32_t)k);
                 float u[2], dx, dy;
                 op_path_sample(&ps, OP_DIM_PIXEL, 2, u);
-                float weight = op_film_sample_offset(film, u[0], u[1], &dx, &dy);
+                float weight = 1.0f;
+                if (unfiltered) {
+                    dx = u[0] - 0.5f;
+                    dy = u[1] - 0.5f;
+                } else {
+                    weight = op_film_sample_offset(film, u[0], u[1], &dx, &dy);
+                }
                 float lens[2] = {0.5f, 0.5f};
                 if (op_camera_lens_dims(&s->camera))
                     op_path_sample(&ps, OP_DIM_LENS, 2, lens);
@@ -243,7 +251,7 @@ static void render_tile(void *user, int task, int thread)
                 float tmin, tmax, alpha;
                 op_camera_ray_lens(&s->camera, (float)fx + 0.5f + dx, (float)fy + 0.5f + dy,
                                    lens[0], lens[1], &org, &dir, &tmin, &tmax);
-                op_v3 L = op_li(&job->ctx, org, dir, tmin, tmax, &ps, &alpha);
+                op_v3 L = v3_scale(op_li(&job->ctx, org, dir, tmin, tmax, &ps, &alpha), measure);
                 if (!isfinite(L.x) || !isfinite(L.y) || !isfinite(L.z))
                     continue; /* a numerically broken path: dropped (counts as black) */
                 acc[0] += weight * L.x;

@@ -1,6 +1,8 @@
 /* camera.c - Mitsuba's sensors (see camera.h for their conventions). */
 #include "camera/camera.h"
 
+#include "camera/meter.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -146,12 +148,27 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
         cam->type = OP_CAMERA_ORTHOGRAPHIC;
     else if (strcmp(t, "radiancemeter") == 0)
         cam->type = OP_CAMERA_RADIANCEMETER;
+    else if (strcmp(t, "irradiancemeter") == 0)
+        cam->type = OP_CAMERA_IRRADIANCEMETER;
     else
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"%s\">: unsupported sensor "
-                            "type (perspective, thinlens, orthographic, radiancemeter)",
-                            sensor->file, sensor->line, t);
+                            "type (perspective, thinlens, orthographic, radiancemeter, "
+                            "irradiancemeter)", sensor->file, sensor->line, t);
     if (sensor)
         sensor->used = 1;
+    if (cam->type == OP_CAMERA_IRRADIANCEMETER) {
+        /* placed by its shape, which the scene builder names */
+        cam->shape = -1;
+        if (op_node_has(sensor, "toWorld"))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"irradiancemeter\">: "
+                                "no toWorld (the meter lies on the shape it is a child of)",
+                                sensor->file, sensor->line);
+        cam->axis_x = v3(1.0f, 0.0f, 0.0f);
+        cam->axis_y = v3(0.0f, 1.0f, 0.0f);
+        cam->axis_z = v3(0.0f, 0.0f, 1.0f);
+        cam->far_clip = INFINITY;
+        return OP_OK;
+    }
     if (cam->type == OP_CAMERA_PERSPECTIVE || cam->type == OP_CAMERA_THINLENS) {
         double tx, ty;
         GET_OR_FAIL(op_camera_read_fov(sensor, full_width, full_height, &tx, &ty, err));
@@ -204,7 +221,17 @@ op_status op_camera_build(op_node *sensor, int full_width, int full_height, op_c
 
 int op_camera_lens_dims(const op_camera *cam)
 {
-    return cam->type == OP_CAMERA_THINLENS ? 2 : 0;
+    return cam->type == OP_CAMERA_THINLENS || cam->type == OP_CAMERA_IRRADIANCEMETER ? 2 : 0;
+}
+
+float op_camera_weight(const op_camera *cam)
+{
+    return cam->type == OP_CAMERA_IRRADIANCEMETER ? OP_METER_WEIGHT : 1.0f;
+}
+
+int op_camera_unfiltered(const op_camera *cam)
+{
+    return cam->type == OP_CAMERA_IRRADIANCEMETER;
 }
 
 /* Shirley and Chiu's concentric map of [0, 1)^2 onto the unit disk. */
@@ -232,6 +259,11 @@ void op_camera_ray_lens(const op_camera *cam, float fx, float fy, float lens_u, 
     float sx = 2.0f * fx / (float)cam->full_width - 1.0f;  /* +1 at the right edge */
     float sy = 2.0f * fy / (float)cam->full_height - 1.0f; /* +1 at the bottom edge */
     switch (cam->type) {
+    case OP_CAMERA_IRRADIANCEMETER:
+        op_meter_ray(cam->surface, fx / (float)cam->full_width, fy / (float)cam->full_height,
+                     lens_u, lens_v, org, dir, tmin);
+        *tmax = cam->far_clip;
+        return;
     case OP_CAMERA_RADIANCEMETER:
         *org = cam->origin;
         *dir = cam->axis_z;

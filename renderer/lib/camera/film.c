@@ -171,17 +171,22 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
     out->gamma = -1.0;
     out->pixel_format = OP_PIXFMT_RGBA;
     out->extension = ".exr";
+    out->matrix = OP_MATRIX_MATLAB;
+    out->digits = 4;
+    snprintf(out->variable, sizeof out->variable, "%s", "data");
     op_node *filter = NULL;
     if (film) {
         film->used = 1;
-        if (strcmp(film->type, "hdrfilm") != 0 && strcmp(film->type, "ldrfilm") != 0)
+        if (strcmp(film->type, "hdrfilm") != 0 && strcmp(film->type, "ldrfilm") != 0 &&
+            strcmp(film->type, "mfilm") != 0)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"%s\">: unknown film "
-                                "(hdrfilm, ldrfilm)", film->file, film->line, film->type);
+                                "(hdrfilm, ldrfilm, mfilm)", film->file, film->line, film->type);
         out->ldr = strcmp(film->type, "ldrfilm") == 0;
-        out->extension = out->ldr ? ".png" : ".exr";
-        long long w, h, cx, cy, cw, ch;
-        GET_OR_FAIL(op_node_int(film, "width", 768, &w, err));
-        GET_OR_FAIL(op_node_int(film, "height", 576, &h, err));
+        out->mfilm = strcmp(film->type, "mfilm") == 0;
+        out->extension = out->ldr ? ".png" : out->mfilm ? ".m" : ".exr";
+        long long w, h, cx, cy, cw, ch, side = out->mfilm ? 1 : 0;
+        GET_OR_FAIL(op_node_int(film, "width", side ? side : 768, &w, err));
+        GET_OR_FAIL(op_node_int(film, "height", side ? side : 576, &h, err));
         if (w < 1 || h < 1 || w > OP_IMAGE_MAX_SIDE || h > OP_IMAGE_MAX_SIDE)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: size %lldx%lld is not in "
                                 "1..%d", film->file, film->line, w, h, OP_IMAGE_MAX_SIDE);
@@ -202,7 +207,8 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
         GET_OR_FAIL(op_node_string(film, "filename", NULL, &fn, err));
         if (fn)
             snprintf(out->filename, sizeof out->filename, "%s", fn);
-        GET_OR_FAIL(op_node_string(film, "pixelFormat", out->ldr ? "rgb" : "rgba", &pf, err));
+        GET_OR_FAIL(op_node_string(film, "pixelFormat",
+                                   out->ldr ? "rgb" : out->mfilm ? "luminance" : "rgba", &pf, err));
         if (strcmp(pf, "rgb") == 0)
             out->pixel_format = OP_PIXFMT_RGB;
         else if (strcmp(pf, "rgba") == 0)
@@ -212,7 +218,28 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
         else
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: pixelFormat \"%s\" is not rgb, "
                                 "rgba or luminance", film->file, film->line, pf);
-        if (!out->ldr) {
+        if (out->mfilm) {
+            const char *ff, *var;
+            long long digits;
+            GET_OR_FAIL(op_node_string(film, "fileFormat", "matlab", &ff, err));
+            if (strcasecmp(ff, "mathematica") == 0)
+                out->matrix = OP_MATRIX_MATHEMATICA;
+            else if (strcasecmp(ff, "matlab") != 0)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"mfilm\">: fileFormat "
+                                    "\"%s\" is not matlab or mathematica (numpy is not written)",
+                                    film->file, film->line, ff);
+            GET_OR_FAIL(op_node_int(film, "digits", 4, &digits, err));
+            if (digits < 1 || digits > 17)
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"mfilm\">: digits %lld "
+                                    "is not in 1..17", film->file, film->line, digits);
+            out->digits = (int)digits;
+            GET_OR_FAIL(op_node_string(film, "variable", "data", &var, err));
+            if (!op_matrix_variable_valid(var))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"mfilm\">: variable "
+                                    "\"%s\" is not a name of letters, digits and _ after a "
+                                    "letter (at most 63)", film->file, film->line, var);
+            snprintf(out->variable, sizeof out->variable, "%s", var);
+        } else if (!out->ldr) {
             GET_OR_FAIL(op_node_string(film, "componentFormat", "float16", &cf, err));
             if (strcmp(cf, "float16") == 0)
                 out->half_float = 1;
@@ -272,7 +299,12 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
         out->width = out->full_width;
         out->height = out->full_height;
     }
-    return build_filter(filter, out, err);
+    GET_OR_FAIL(build_filter(filter, out, err));
+    if (out->mfilm && !filter) { /* Mitsuba's mfilm: a box filter unless it names one */
+        out->filter = OP_FILTER_BOX;
+        out->filter_radius = 0.5f;
+    }
+    return OP_OK;
 }
 
 /* Reinhard et al.'s photographic operator as Mitsuba 0.6's ldrfilm applies it: the image's
@@ -368,7 +400,7 @@ static int has_ext(const char *path, const char *ext)
 
 const char *op_film_image_format(const op_film *film, const char *path)
 {
-    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr"};
+    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr", ".m"};
     for (size_t i = 0; i < sizeof formats / sizeof formats[0]; i++)
         if (has_ext(path, formats[i]))
             return formats[i];
@@ -383,10 +415,10 @@ op_status op_film_write_image(const op_film *film, const op_image *img, const ch
         return op_error_set(err, OP_ERR_INPUT, "%s: no RGBA image to write", path);
     const char *ext = op_film_image_format(film, path);
     if (!ext)
-        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm or "
-                            ".hdr)", path);
+        return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm, "
+                            ".hdr or .m)", path);
     int is_exr = !strcmp(ext, ".exr"), is_png = !strcmp(ext, ".png"), is_pfm = !strcmp(ext, ".pfm");
-    int is_hdr = !strcmp(ext, ".hdr");
+    int is_hdr = !strcmp(ext, ".hdr"), is_matrix = !strcmp(ext, ".m");
     int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
     if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
         oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */
@@ -431,6 +463,8 @@ op_status op_film_write_image(const op_film *film, const op_image *img, const ch
         st = op_image_write_pfm(path, &out, err);
     else if (is_hdr)
         st = op_image_write_hdr(path, &out, err);
+    else if (is_matrix)
+        st = op_image_write_matrix(path, &out, film->matrix, film->digits, film->variable, err);
     else
         st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
     op_image_free(&out);

@@ -1,4 +1,4 @@
-/* film.h - the film (hdrfilm / ldrfilm: size, crop window, output settings), its
+/* film.h - the film (hdrfilm / ldrfilm / mfilm: size, crop window, output settings), its
  * reconstruction filter, and developing its image into an image file (tone mapping, pixel
  * format, the file format by name). The filter is applied by filter importance sampling:
  * each sample's position within its pixel is drawn from the filter's own distribution (for
@@ -7,6 +7,7 @@
 #ifndef OP_FILM_H
 #define OP_FILM_H
 
+#include "opaline_image.h"
 #include "scene/scene_desc.h"
 
 typedef enum op_filter_type {
@@ -42,6 +43,10 @@ typedef struct op_film {
     double exposure;            /* ldrfilm: stops (tonemapMethod gamma) */
     int reinhard;               /* ldrfilm: tonemapMethod reinhard */
     double key, burn;           /* ldrfilm: Reinhard's key (0.18) and burn (0) */
+    int mfilm;                  /* mfilm: a measurement written as a text matrix (".m") */
+    op_matrix_format matrix;    /* a ".m" output's format: mfilm's fileFormat (else MATLAB) */
+    int digits;                 /* a ".m" output's significant digits (mfilm's digits, 4) */
+    char variable[64];          /* a ".m" output's variable (mfilm's variable, "data") */
     op_filter_type filter;
     float filter_radius;        /* box 0.5, tent 1 (or radius), gaussian 4 * stddev,
                                    mitchell/catmullrom 2 (or radius), lanczos lobes */
@@ -49,7 +54,8 @@ typedef struct op_film {
     op_filter_table table;      /* OP_FILTER_TABLE's */
 } op_film;
 
-/* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter). */
+/* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter; an mfilm is 1 x 1 with a box
+ * filter and luminance pixels unless it says otherwise). */
 op_status op_film_build(op_node *film, op_film *out, op_error *err);
 /* Sets the crop window (Mitsuba's cropOffsetX/Y, cropWidth/Height: the pixels rendered, a
  * rectangle of the full_width x full_height film, top-left origin). A window not inside the
@@ -61,8 +67,9 @@ op_status op_film_set_crop(op_film *film, long long x, long long y, long long w,
  * f(dx) f(dy) / (pdf * integral of f squared), whose mean over samples is 1). */
 float op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
 
-/* The image format of an output path (".exr", ".png", ".pfm" or ".hdr"): by its extension,
- * else the film's when the file name has no dot; NULL for an unknown extension. */
+/* The image format of an output path (".exr", ".png", ".pfm", ".hdr" or ".m", a text matrix):
+ * by its extension, else the film's when the file name has no dot; NULL for an unknown
+ * extension. */
 const char *op_film_image_format(const op_film *film, const char *path);
 /* Develops the RGBA image under the film's settings and writes it to path in its format
  * (op_film_image_format): hdrfilm's pixelFormat and componentFormat; ldrfilm's tonemapMethod

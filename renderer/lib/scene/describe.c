@@ -112,7 +112,8 @@ int op_describe_may_instance(const op_node *node)
         return 0;
     for (int i = 0; i < node->nchildren; i++)
         if (strcmp(node->children[i]->tag, "emitter") == 0 ||
-            strcmp(node->children[i]->tag, "subsurface") == 0)
+            strcmp(node->children[i]->tag, "subsurface") == 0 ||
+            strcmp(node->children[i]->tag, "sensor") == 0)
             return 0;
     return 1;
 }
@@ -333,6 +334,7 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
     int sphere_counted = 0;
     root->used = 1;
     op_node *sensor = NULL, *integrator = NULL, *film = NULL, *sampler = NULL;
+    int on_shape = 0; /* the sensor is a shape's child */
     for (int i = 0; i < root->nchildren; i++) {
         op_node *c = root->children[i];
         if (strcmp(c->tag, "sensor") == 0) {
@@ -342,8 +344,26 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
             sensor = c;
         } else if (strcmp(c->tag, "integrator") == 0) {
             integrator = c;
+        } else if (strcmp(c->tag, "shape") == 0) {
+            for (int k = 0; k < c->nchildren; k++) {
+                op_node *m = c->children[k];
+                if (strcmp(m->tag, "sensor") != 0)
+                    continue;
+                if (sensor)
+                    return op_error_set(err, OP_ERR_INPUT, "%s:%d: a second <sensor> (only one "
+                                        "is supported)", m->file, m->line);
+                if (!m->type || strcmp(m->type, "irradiancemeter") != 0)
+                    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"%s\"> inside "
+                                        "<shape>: only an irradiancemeter lies on a shape",
+                                        m->file, m->line, m->type ? m->type : "");
+                sensor = m;
+                on_shape = 1;
+            }
         }
     }
+    if (sensor && !on_shape && sensor->type && strcmp(sensor->type, "irradiancemeter") == 0)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"irradiancemeter\"> must be "
+                            "the child of the <shape> it measures", sensor->file, sensor->line);
     if (sensor)
         for (int i = 0; i < sensor->nchildren; i++) {
             op_node *c = sensor->children[i];
@@ -358,7 +378,7 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
     GET_OR_FAIL(op_film_build(film, &d->film, err));
     GET_OR_FAIL(op_sampler_build(sampler, &d->sampler, err));
     GET_OR_FAIL(op_camera_build(sensor, d->film.full_width, d->film.full_height, &d->camera, err));
-    if (sensor)
+    if (sensor && d->camera.type != OP_CAMERA_IRRADIANCEMETER)
         GET_OR_FAIL(op_limit_position(&d->limits, sensor, "the camera's position",
                                       d->camera.origin, err));
     GET_OR_FAIL(op_integrator_read(integrator, &d->integrator, err));
@@ -398,6 +418,7 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
     }
     /* the pre-pass finds what the camera sees through a pinhole's rays (sss/prepass.c) */
     if (d->subsurface_shapes && (d->camera.type == OP_CAMERA_ORTHOGRAPHIC ||
+                                 d->camera.type == OP_CAMERA_IRRADIANCEMETER ||
                                  (d->camera.type == OP_CAMERA_THINLENS && d->camera.aperture > 0)))
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor type=\"%s\">: translucent shapes "
                             "(<subsurface>) are rendered through pinhole sensors only "
@@ -427,7 +448,7 @@ void op_describe_info(const op_scene_description *d, op_scene_info *info)
     info->full_width = d->film.full_width;
     info->full_height = d->film.full_height;
     info->spp = d->sampler.spp;
-    info->film_type = d->film.ldr ? "ldrfilm" : "hdrfilm";
+    info->film_type = d->film.ldr ? "ldrfilm" : d->film.mfilm ? "mfilm" : "hdrfilm";
     info->film_filename = d->film.filename[0] ? d->film.filename : NULL;
     info->film_extension = d->film.extension;
     info->integrator = names[d->integrator.type];

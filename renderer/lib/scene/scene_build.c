@@ -356,7 +356,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
     snprintf(sh->label, sizeof sh->label, "%s:%d", node->file, node->line);
     GET_OR_FAIL(build_mesh(b, node, sh, err));
     s->nshapes++; /* owns its mesh from here on */
-    op_node *bsdf = NULL, *em = NULL, *sss = NULL;
+    op_node *bsdf = NULL, *em = NULL, *sss = NULL, *meter = NULL;
     int interior = -1, exterior = -1;
     for (int i = 0; i < node->nchildren; i++) {
         op_node *c = node->children[i];
@@ -375,11 +375,14 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
             em = c;
         else if (strcmp(c->tag, "subsurface") == 0 && !sss)
             sss = c;
+        else if (strcmp(c->tag, "sensor") == 0 && !meter) /* the irradiancemeter (describe.c) */
+            meter = c;
         else
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s> %sis not supported inside <shape>",
                                 c->file, c->line, c->tag,
                                 (strcmp(c->tag, "bsdf") == 0 || strcmp(c->tag, "emitter") == 0 ||
-                                 strcmp(c->tag, "subsurface") == 0) ? "a second time " : "");
+                                 strcmp(c->tag, "subsurface") == 0 ||
+                                 strcmp(c->tag, "sensor") == 0) ? "a second time " : "");
     }
     int bi = -1, ei = -1, si = -1;
     int transition = interior >= 0 || exterior >= 0;
@@ -389,9 +392,24 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape>: a <subsurface> shape cannot also "
                             "be a medium's boundary (give the medium, or the subsurface)",
                             node->file, node->line);
+    if (meter) {
+        if (bsdf && strcmp(bsdf->type, "null") == 0)
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <shape>: an irradiancemeter's shape "
+                                "cannot be index-matched (<bsdf type=\"null\">)", node->file,
+                                node->line);
+        s->camera.shape = index;
+        if (op_node_child(meter, "medium", 0)) {
+            if (op_node_child(meter, "medium", 1))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: more than one <medium>",
+                                    meter->file, meter->line);
+            GET_OR_FAIL(add_medium(b, op_node_child(meter, "medium", 0), &s->camera_medium, err));
+        }
+        if (exterior >= 0) /* the meter looks out of its shape's front, into its exterior */
+            s->camera_medium = exterior;
+    }
     /* a medium's boundary without a bsdf: index-matched in Mitsuba 0.6, diffuse in Mitsuba 3 */
     if ((bsdf && strcmp(bsdf->type, "null") == 0) ||
-        (!bsdf && !em && transition && node->dialect == OP_DIALECT_MITSUBA_0)) {
+        (!bsdf && !em && !meter && transition && node->dialect == OP_DIALECT_MITSUBA_0)) {
         if (bsdf)
             op_node_mark_used(bsdf);
         bsdf = NULL;
@@ -449,10 +467,16 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
              description refused what is not supported); unreferenced objects are reported
              as unused */
     }
-    /* shapes no longer move: point area emitters at their meshes */
+    /* shapes no longer move: point area emitters and the irradiancemeter at their meshes */
     for (int i = 0; i < s->nemitters; i++)
         if (s->emitters[i].type == OP_EM_AREA)
             s->emitters[i].mesh = &s->shapes[s->emitters[i].shape].mesh;
+    if (s->camera.type == OP_CAMERA_IRRADIANCEMETER) {
+        if (s->camera.shape < 0) /* the description finds it in a shape the build builds */
+            return op_error_set(err, OP_ERR_INTERNAL, "%s: the irradiancemeter's shape was not "
+                                "built", s->path);
+        s->camera.surface = &s->shapes[s->camera.shape].mesh;
+    }
     for (int i = 0; i < s->nshapes; i++)
         if (s->shapes[i].sss < 0 && op_bsdf_passable(&s->bsdfs[s->shapes[i].bsdf]))
             s->has_passable = 1;
