@@ -557,8 +557,11 @@ static op_v3 rough_dielectric(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     }
     float den = hl; /* |ih + e oh|, without its cancellation */
     *pdf = (1.0f - f) * pm * e * e * fabsf(oh) / (den * den);
+    /* the value's Fresnel term from both cosines (the density keeps the sampler's choice) */
+    float ft = wi.z > 0.0f ? op_fresnel_dielectric_pair(fabsf(ih), fabsf(oh), b->eta)
+                           : op_fresnel_dielectric_pair(fabsf(oh), fabsf(ih), b->eta);
     return v3_scale(b->transmittance,
-                    (1.0f - f) * d * g * fabsf(ih * oh) / (ci * den * den));
+                    (1.0f - ft) * d * g * fabsf(ih * oh) / (ci * den * den));
 }
 
 /* A direction drawn for rough_dielectric: a normal for wi (seen from its own side), then
