@@ -321,6 +321,14 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         b->type = OP_BSDF_PRINCIPLED;
         return op_principled_build(node, tex, &b->pr, err);
     }
+    if (strcmp(node->type, "phong") == 0) {
+        b->type = OP_BSDF_PHONG;
+        return op_phong_build(node, tex, &b->phong, err);
+    }
+    if (strcmp(node->type, "ward") == 0) {
+        b->type = OP_BSDF_WARD;
+        return op_ward_build(node, tex, &b->ward, err);
+    }
     if (strcmp(node->type, "diffuse") == 0) {
         b->type = OP_BSDF_DIFFUSE;
         return read_textured(node, "reflectance", "diffuseReflectance", 0.5, tex, &b->reflectance,
@@ -404,7 +412,7 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
                         "(diffuse, roughdiffuse, dielectric, roughdielectric, conductor, "
                         "roughconductor, plastic, roughplastic, coating, principled, "
-                        "principledthin, twosided, mask, bumpmap, normalmap)",
+                        "principledthin, phong, ward, twosided, mask, bumpmap, normalmap)",
                         node->file, node->line, node->type);
 }
 
@@ -418,6 +426,16 @@ const op_bsdf *op_bsdf_at(const op_bsdf *b, float u, float v, op_bsdf *scratch)
     if (b->type == OP_BSDF_PRINCIPLED && b->pr.textured) {
         memcpy(scratch, b, head);
         op_principled_at(&b->pr, u, v, &scratch->pr);
+        return scratch;
+    }
+    if (b->type == OP_BSDF_PHONG && op_phong_textured(&b->phong)) {
+        memcpy(scratch, b, head);
+        op_phong_at(&b->phong, u, v, &scratch->phong);
+        return scratch;
+    }
+    if (b->type == OP_BSDF_WARD && op_ward_textured(&b->ward)) {
+        memcpy(scratch, b, head);
+        op_ward_at(&b->ward, u, v, &scratch->ward);
         return scratch;
     }
     if (b->refl_tex.type == OP_TEX_NONE && b->spec_tex.type == OP_TEX_NONE &&
@@ -462,6 +480,8 @@ int op_bsdf_is_anisotropic(const op_bsdf *b)
         return b->mf.alpha_u != b->mf.alpha_v || !same_texture(&b->alpha_tex[0], &b->alpha_tex[1]);
     case OP_BSDF_PRINCIPLED:
         return b->pr.v[OP_PR_ANISOTROPIC] != 0.0f || b->pr.tex[OP_PR_ANISOTROPIC].type != OP_TEX_NONE;
+    case OP_BSDF_WARD:
+        return op_ward_is_anisotropic(&b->ward);
     default:
         return 0;
     }
@@ -571,8 +591,11 @@ static op_v3 rough_dielectric(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     }
     float den = hl; /* |ih + e oh|, without its cancellation */
     *pdf = (1.0f - f) * pm * e * e * fabsf(oh) / (den * den);
+    /* the value's Fresnel term from both cosines (the density keeps the sampler's choice) */
+    float ft = wi.z > 0.0f ? op_fresnel_dielectric_pair(fabsf(ih), fabsf(oh), b->eta)
+                           : op_fresnel_dielectric_pair(fabsf(oh), fabsf(ih), b->eta);
     return v3_scale(b->transmittance,
-                    (1.0f - f) * d * g * fabsf(ih * oh) / (ci * den * den));
+                    (1.0f - ft) * d * g * fabsf(ih * oh) / (ci * den * den));
 }
 
 /* A direction drawn for rough_dielectric: a normal for wi (seen from its own side), then
@@ -718,6 +741,10 @@ op_v3 op_bsdf_eval(const op_bsdf *b, op_v3 wi, op_v3 wo, float *pdf)
     case OP_BSDF_ROUGHDIFFUSE:
         *pdf = wo.z * OP_INV_PI;
         return oren_nayar(b, wi, wo);
+    case OP_BSDF_PHONG:
+        return op_phong_eval(&b->phong, wi, wo, pdf);
+    case OP_BSDF_WARD:
+        return op_ward_eval(&b->ward, wi, wo, pdf);
     case OP_BSDF_THROUGH:
         *pdf = wo.z * OP_INV_PI;
         return v3_scale(v3_mul(b->reflectance, op_bsdf_through_at(b->through, wo.z)),
@@ -800,6 +827,15 @@ int op_bsdf_sample_dir(const op_bsdf *b, op_v3 wi, float u1, float u2, float u3,
         if (wi.z <= 0.0f)
             return 0;
         s->wo = op_sample_cosine(u1, u2);
+        if (!weigh_sample(b, wi, s))
+            return 0;
+        break;
+    case OP_BSDF_PHONG:
+    case OP_BSDF_WARD:
+        if (wi.z <= 0.0f)
+            return 0;
+        s->wo = b->type == OP_BSDF_PHONG ? op_phong_sample(&b->phong, wi, u1, u2, u3)
+                                         : op_ward_sample(&b->ward, wi, u1, u2, u3);
         if (!weigh_sample(b, wi, s))
             return 0;
         break;
@@ -923,6 +959,10 @@ op_v3 op_bsdf_albedo(const op_bsdf *b)
         return b->reflectance;
     case OP_BSDF_PRINCIPLED:
         return b->pr.base_color;
+    case OP_BSDF_PHONG:
+        return b->phong.dg.diffuse;
+    case OP_BSDF_WARD:
+        return b->ward.dg.diffuse;
     default:
         return b->specular;
     }
@@ -1011,7 +1051,8 @@ op_status op_bsdf_boundary(const op_bsdf *b, op_bsdf *sheen, op_bsdf_through *tr
 {
     static const char *names[] = {"diffuse", "dielectric", "conductor", "plastic", "roughplastic",
                                   "roughdielectric", "coating", "sheen", "through",
-                                  "roughconductor", "roughdiffuse", "principled"};
+                                  "roughconductor", "roughdiffuse", "principled", "phong",
+                                  "ward"};
     int rough = b->type == OP_BSDF_ROUGHPLASTIC || b->type == OP_BSDF_ROUGHDIELECTRIC;
     if (!(rough || b->type == OP_BSDF_DIELECTRIC || b->type == OP_BSDF_PLASTIC ||
           b->type == OP_BSDF_COATING) || b->masked || b->twosided)

@@ -2,7 +2,7 @@
  * (Oren-Nayar), dielectric, roughdielectric (Walter et al. 2007), conductor, roughconductor
  * (named conductors: conductor_table.h), plastic, roughplastic (GGX); the rough ones over the
  * microfacet distributions of microfacet.h; Mitsuba 3's principled and principledthin
- * (principled.h). Reflecting models may be two-sided, and Mitsuba's
+ * (principled.h); Mitsuba 0.6's phong (phong.h) and ward (ward.h). Reflecting models may be two-sided, and Mitsuba's
  * `mask` (cut-out opacity) goes around any of them. The boundary of a translucent shape
  * (op_bsdf_boundary) is the reflection of a dielectric, roughdielectric, plastic, roughplastic
  * or coating whose transmitted part is the subsurface transport (docs/subsurface-rendering.md).
@@ -24,6 +24,8 @@
 #include "bsdf/texture.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/principled.h"
+#include "bsdf/phong.h"
+#include "bsdf/ward.h"
 #include "bsdf/bump.h"
 
 typedef enum op_bsdf_type {
@@ -41,7 +43,9 @@ typedef enum op_bsdf_type {
                         that crosses it, op_bsdf_through) */
     OP_BSDF_ROUGHCONDUCTOR,
     OP_BSDF_ROUGHDIFFUSE, /* Oren-Nayar */
-    OP_BSDF_PRINCIPLED    /* Mitsuba 3's principled and principledthin (principled.h) */
+    OP_BSDF_PRINCIPLED,   /* Mitsuba 3's principled and principledthin (principled.h) */
+    OP_BSDF_PHONG,        /* Mitsuba 0.6's modified Phong (phong.h) */
+    OP_BSDF_WARD          /* Mitsuba 0.6's Ward and its variants (ward.h) */
 } op_bsdf_type;
 
 /* What a translucent shape's boundary lets through, per direction: t[k] is the fraction of
@@ -96,6 +100,8 @@ typedef struct op_bsdf {
                               transmittance = specularTransmittance) */
     op_bump bump;          /* wrapped in a bumpmap or normalmap: the tilt of its shading frame,
                               which the hit's frame gets (geometry/isect.c) */
+    op_phong phong;        /* OP_BSDF_PHONG: its weights, exponent and their textures */
+    op_ward ward;          /* OP_BSDF_WARD: its weights, roughnesses and their textures */
     op_principled pr;      /* OP_BSDF_PRINCIPLED: its weights and their textures (last:
                               op_bsdf_at copies it only for this type) */
 } op_bsdf;

@@ -18,3 +18,10 @@ float op_fresnel_dielectric(float cos_i, float eta, float *cos_t)
     *cos_t = ct;
     return 0.5f * (rs * rs + rp * rp);
 }
+
+float op_fresnel_dielectric_pair(float cos_out, float cos_in, float eta)
+{
+    float rs = (cos_out - eta * cos_in) / (cos_out + eta * cos_in);
+    float rp = (eta * cos_out - cos_in) / (eta * cos_out + cos_in);
+    return 0.5f * (rs * rs + rp * rp);
+}

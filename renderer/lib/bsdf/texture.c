@@ -402,3 +402,39 @@ void op_texture_lum_grad(const op_texture *t, float u, float v, float *du, float
     *du = gx * w * t->uscale;
     *dv = gy * h * t->vscale;
 }
+
+void op_texture_stats(const op_texture *t, op_v3 *max, op_v3 *mean)
+{
+    if (t->type == OP_TEX_CHECKERBOARD) {
+        *max = v3(fmaxf(t->color0.x, t->color1.x), fmaxf(t->color0.y, t->color1.y),
+                  fmaxf(t->color0.z, t->color1.z));
+        *mean = v3_scale(v3_add(t->color0, t->color1), 0.5f);
+        return;
+    }
+    if (t->type != OP_TEX_BITMAP) {
+        *max = *mean = t->color0;
+        return;
+    }
+    size_t n = (size_t)t->img->width * (size_t)t->img->height;
+    double hi[3] = {0, 0, 0}, sum[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double x = t->img->pixels[3 * i + (size_t)k];
+            hi[k] = x > hi[k] ? x : hi[k];
+            sum[k] += x;
+        }
+    *max = v3((float)hi[0], (float)hi[1], (float)hi[2]);
+    *mean = n ? v3((float)(sum[0] / (double)n), (float)(sum[1] / (double)n),
+                   (float)(sum[2] / (double)n))
+              : v3s(0.0f);
+}
+
+op_node *op_texture_child(const op_node *n, const char *name)
+{
+    for (int i = 0; i < n->nchildren; i++) {
+        const char *cn = op_node_child_name(n, i);
+        if (strcmp(n->children[i]->tag, "texture") == 0 && cn && strcmp(cn, name) == 0)
+            return n->children[i];
+    }
+    return NULL;
+}

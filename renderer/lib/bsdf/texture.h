@@ -72,6 +72,12 @@ op_status op_texture_build_unbounded(op_node *node, op_tex_cache *cache, op_text
                                      op_error *err);
 /* The value at surface coordinates (u, v) (before uscale/uoffset). */
 op_v3 op_texture_eval(const op_texture *t, float u, float v);
+/* The per-channel maximum and mean of t's values over its image or cells (what Mitsuba 0.6's
+ * getMaximum and getAverage report: a bitmap's texels, a checkerboard's two colours). */
+void op_texture_stats(const op_texture *t, op_v3 *max, op_v3 *mean);
+/* The <texture> child of n that its parent names name (a name attribute or a <ref>'s), or
+ * NULL. */
+op_node *op_texture_child(const op_node *n, const char *name);
 /* The gradient (*du, *dv) of the luminance of t along the surface coordinates (u, v): analytic
  * for bilinear lookups (the derivative of the interpolation between the four texels), 0 for
  * nearest lookups and the piecewise-constant textures. */
