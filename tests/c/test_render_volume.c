@@ -6,7 +6,7 @@
  *   invisible, behind an index-matched and behind a dielectric boundary;
  * - a half-space of isotropic scattering medium (index 1) against Chandrasekhar's H-function,
  *   under a uniform sky and under a directional light at normal incidence;
- * - the path integrator ignores media (Mitsuba's path), and unsupported media are refused.
+ * - the path integrator ignores media (Mitsuba's path), and incomplete media are refused.
  * Estimates are per-pixel means over a film whose pixels all see the same ray (radiancemeter),
  * compared within 4.5 standard errors (plus 0.3 % for the geometry's float offsets). */
 #include <math.h>
@@ -251,7 +251,7 @@ static void test_path_ignores_media_and_refusals(void **state)
     snprintf(body, sizeof body, "%s%s", slab, sky);
     const double one[3] = {1.0, 1.0, 1.0};
     expect_render("path through a medium", scene_text("path", "0,0,-1", "0,0,1", 4, 4, body), one);
-    /* a heterogeneous medium is refused, naming its line */
+    /* a heterogeneous medium without its density volume is refused, naming its line */
     snprintf(body, sizeof body,
              "<shape type=\"sphere\"><medium type=\"heterogeneous\" name=\"interior\"/></shape>");
     op_scene *s = NULL;
@@ -262,7 +262,8 @@ static void test_path_ignores_media_and_refusals(void **state)
                                  NULL, 0, &s, &err);
     assert_int_equal(st, OP_ERR_INPUT);
     printf("refused: %s\n", err.message);
-    assert_non_null(strstr(err.message, ".xml:1: <medium type=\"heterogeneous\">"));
+    assert_non_null(strstr(err.message, ".xml:1: <medium type=\"heterogeneous\" "
+                                         "name=\"interior\">: no density volume"));
 }
 
 int main(void)
