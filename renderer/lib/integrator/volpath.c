@@ -17,9 +17,11 @@ static int medium_after(const op_scene *s, const op_isect *it, op_v3 w, int cur)
 }
 
 /* Transmittance of the shadow segment org + t dir, t in (0, tmax), starting in medium med: the
- * media's along it times what the passable surfaces it crosses let through (index-matched and
- * thin boundaries among them); 0 when an opaque surface lies on it. */
-static op_v3 transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax, int med)
+ * media's along it (heterogeneous ones estimated with rng) times what the passable surfaces it
+ * crosses let through (index-matched and thin boundaries among them); 0 when an opaque surface
+ * lies on it. */
+static op_v3 transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax, int med,
+                           op_rng *rng)
 {
     op_v3 T = v3s(1.0f);
     op_v3 end = v3_add(org, v3_scale(dir, isinf(tmax) ? 0.0f : tmax));
@@ -28,7 +30,8 @@ static op_v3 transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax, 
         op_ray_hit hit;
         int found = walk_intersect(s, &w, &hit);
         if (med >= 0)
-            T = v3_mul(T, op_pmedium_transmittance(&s->media[med], found ? hit.t : w.tmax));
+            T = v3_mul(T, op_pmedium_transmittance(&s->media[med], w.org, dir,
+                                                   found ? hit.t : w.tmax, rng));
         if (!found || v3_is_black(T))
             return T;
         const op_bsdf *pb = shape_passable(s, hit.shape);
@@ -106,7 +109,7 @@ static op_v3 sample_direct(const op_scene *s, const vertex *v, op_v3 wi, int dep
         }
         op_v3 sd;
         float tmax = shadow_ray(v->p, org, ls.wi, ls.dist, &sd);
-        op_v3 tr = transmittance(s, org, sd, tmax, med);
+        op_v3 tr = transmittance(s, org, sd, tmax, med, &ps->rng);
         if (v3_is_black(tr))
             continue;
         float w = ls.pdf > 0.0f ? op_mis(ls.pdf, pdf) : 1.0f;
@@ -147,8 +150,9 @@ op_v3 op_volpath_li(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float t
             float u, t;
             op_v3 f, pdf;
             op_path_sample(ps, OP_DIM(depth, OP_DIM_MEDIUM, passes), 1, &u);
-            scattered = op_pmedium_sample_distance(&s->media[med], hero, found ? hit.t : w.tmax,
-                                                   u, &t, &f, &pdf);
+            scattered = op_pmedium_sample_distance(&s->media[med], hero, w.org, w.dir,
+                                                   found ? hit.t : w.tmax, u, &ps->rng, &t, &f,
+                                                   &pdf);
             float ph = v3_get(pdf, hero);
             if (!(ph > 0.0f))
                 break;

@@ -211,6 +211,36 @@ static op_status find_textures(op_scene_description *d, op_node *node, op_error 
     return OP_OK;
 }
 
+/* The grid volumes (.vol files) anywhere under node, in the media of shapes and the sensor:
+ * recorded once each, loaded as floats (a uint8 grid's file is a quarter of that). */
+static op_status find_volumes(op_scene_description *d, op_node *node, op_error *err)
+{
+    for (int i = 0; i < node->nchildren; i++) {
+        op_node *c = node->children[i];
+        if (strcmp(c->tag, "volume") == 0 && c->type && strcmp(c->type, "gridvolume") == 0) {
+            const char *fn;
+            GET_OR_FAIL(op_node_string(c, "filename", NULL, &fn, err));
+            if (!fn || !fn[0])
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <volume type=\"gridvolume\"> "
+                                    "needs a <string name=\"filename\">", c->file, c->line);
+            char *path = op_node_resolve(c, fn);
+            if (!path)
+                return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+            uint64_t size = 0;
+            int added = 0;
+            op_status st = find_file(d, c, path, &size, &added, err);
+            free(path);
+            GET_OR_FAIL(st);
+            if (added)
+                d->load_bytes += (long long)size * 4;
+        } else if (strcmp(c->tag, "shape") == 0 || strcmp(c->tag, "sensor") == 0 ||
+                   strcmp(c->tag, "medium") == 0) {
+            GET_OR_FAIL(find_volumes(d, c, err));
+        }
+    }
+    return OP_OK;
+}
+
 /* The triangles of a mesh file as far as its header tells: a serialized mesh's count (*exact
  * then set); a PLY's faces (at least twice its vertices, as a closed mesh of quads has); an
  * OBJ's, or a file's whose header is refused (the build says why), from its size. */
@@ -416,6 +446,7 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
                                 c->file, c->line, c->tag, c->type ? c->type : "");
         }
     }
+    GET_OR_FAIL(find_volumes(d, root, err));
     /* the pre-pass finds what the camera sees through a pinhole's rays (sss/prepass.c) */
     if (d->subsurface_shapes && (d->camera.type == OP_CAMERA_ORTHOGRAPHIC ||
                                  d->camera.type == OP_CAMERA_IRRADIANCEMETER ||

@@ -6,8 +6,10 @@
 #include "medium/medium.h"
 #include "scene/scene_desc.h"
 
-/* Reads a <medium type="homogeneous"> into m (coefficients per scene unit). Any other type, a
- * bad coefficient or phase function is an OP_ERR_INPUT naming the node's file:line. */
+/* Reads a <medium type="homogeneous"> or "heterogeneous"> (with its <volume>s) into m
+ * (coefficients per scene unit; op_pmedium_free frees it). Any other type, a bad coefficient,
+ * volume or phase function is an OP_ERR_INPUT naming the node's file:line (a bad .vol file:
+ * the file). On failure m holds nothing to free. */
 op_status op_medium_read(op_node *node, op_pmedium *m, op_error *err);
 
 #endif

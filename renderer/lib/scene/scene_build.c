@@ -90,11 +90,11 @@ static op_status add_medium(builder *b, op_node *node, int *index, op_error *err
     if (!op_array_grow((void **)&s->media, &b->cap_media, s->nmedia, sizeof *s->media))
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
     GET_OR_FAIL(op_medium_read(node, &s->media[s->nmedia], err));
+    *index = s->nmedia++; /* owned by the scene from here */
     op_strmap_entry *e = op_strmap_add(&b->medium_index, key);
     if (!e)
         return op_error_set(err, OP_ERR_NOMEM, "out of memory");
-    e->index = s->nmedia;
-    *index = s->nmedia++;
+    e->index = *index;
     return OP_OK;
 }
 
@@ -575,6 +575,8 @@ void op_scene_release(op_scene *s)
         op_emitter_free(&s->emitters[i]);
     free(s->emitters);
     free(s->sss);
+    for (int i = 0; i < s->nmedia; i++)
+        op_pmedium_free(&s->media[i]);
     free(s->media);
     free(s->sss_plan);
     for (int i = 0; i < s->nmaterials; i++) {

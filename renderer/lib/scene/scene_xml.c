@@ -435,7 +435,7 @@ static elem_class classify(const char *name)
 {
     static const char *objects[] = {"shape",      "bsdf",   "emitter", "sensor",  "film",
                                     "sampler",    "rfilter", "integrator", "texture",
-                                    "subsurface", "medium", "phase",   NULL};
+                                    "subsurface", "medium", "phase",   "volume", NULL};
     static const char *values[] = {"float", "integer", "boolean", "string",    "point",
                                    "vector", "rgb",    "srgb",    "spectrum", "blackbody", NULL};
     static const char *ops[] = {"translate", "rotate", "scale", "matrix", "lookat", "lookAt", NULL};
