@@ -441,7 +441,8 @@ op_status op_describe(op_node *root, const char *path, const op_scene_limits *li
             }
         } else if (strcmp(c->tag, "bsdf") != 0 && strcmp(c->tag, "texture") != 0 &&
                    strcmp(c->tag, "subsurface") != 0 && strcmp(c->tag, "sensor") != 0 &&
-                   strcmp(c->tag, "integrator") != 0 && strcmp(c->tag, "medium") != 0) {
+                   strcmp(c->tag, "integrator") != 0 && strcmp(c->tag, "medium") != 0 &&
+                   strcmp(c->tag, "phase") != 0) {
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <%s type=\"%s\"> is not supported",
                                 c->file, c->line, c->tag, c->type ? c->type : "");
         }
