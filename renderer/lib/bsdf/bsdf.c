@@ -80,21 +80,18 @@ static op_status read_reflectance(op_node *n, const char *name, const char *alia
     return OP_OK;
 }
 
-/* The texture child of n given under name (or alias when name has none), or NULL. */
+/* The texture child of n given under name (or alias when name has none), or NULL; *given: the
+ * name it was found under. */
 static op_node *texture_child(const op_node *n, const char *name, const char *alias,
                               const char **given)
 {
-    for (int pass = 0; pass < 2; pass++) {
-        const char *want = pass == 0 ? name : alias;
-        for (int i = 0; want && i < n->nchildren; i++) {
-            const char *cn = op_node_child_name(n, i);
-            if (strcmp(n->children[i]->tag, "texture") == 0 && cn && strcmp(cn, want) == 0) {
-                *given = want;
-                return n->children[i];
-            }
-        }
+    op_node *t = op_texture_child(n, name);
+    *given = name;
+    if (!t && alias) {
+        t = op_texture_child(n, alias);
+        *given = alias;
     }
-    return NULL;
+    return t;
 }
 
 /* A reflectance that may be a texture: a <texture> child named name (or alias) fills tex, else

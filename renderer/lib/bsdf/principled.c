@@ -33,24 +33,13 @@ static const char *const rates_thin[] = {"specularReflectanceSamplingRate",
                                          "diffuseReflectanceSamplingRate",
                                          "diffuseTransmittanceSamplingRate"};
 
-/* The <texture> child of n named name, or NULL. */
-static op_node *texture_child(const op_node *n, const char *name)
-{
-    for (int i = 0; i < n->nchildren; i++) {
-        const char *cn = op_node_child_name(n, i);
-        if (strcmp(n->children[i]->tag, "texture") == 0 && cn && strcmp(cn, name) == 0)
-            return n->children[i];
-    }
-    return NULL;
-}
-
 /* Weight k as a constant (clamped to [0, max] with a warning) or a texture; *given: whether
  * the file sets it to a texture or to a non-zero number (Mitsuba's test for a lobe). */
 static op_status read_weight(op_node *n, op_pr_param k, op_tex_cache *cache, op_principled *p,
                              int *given, op_error *err)
 {
     const char *name = weights[k].name;
-    op_node *t = texture_child(n, name);
+    op_node *t = op_texture_child(n, name);
     p->v[k] = weights[k].def;
     if (t) {
         if (op_node_has(n, name))
@@ -81,7 +70,7 @@ op_status op_principled_build(op_node *node, op_tex_cache *tex, op_principled *p
 {
     memset(p, 0, sizeof *p);
     p->thin = strcmp(node->type, "principledthin") == 0;
-    op_node *bt = texture_child(node, "baseColor");
+    op_node *bt = op_texture_child(node, "baseColor");
     double grey[3] = {0.5, 0.5, 0.5}, c[3];
     if (bt) {
         if (op_node_has(node, "baseColor"))
