@@ -6,39 +6,8 @@
 
 #include "camera/sampler.h"
 #include "integrator/path_parts.h"
+#include "integrator/shadow.h"
 #include "integrator/volpath.h"
-
-/* Transmittance of the segment org + t dir, t in (0, tmax): 0 when an opaque surface lies on
- * it, else the product of what the passable surfaces it crosses let through (exact, no
- * sampling). */
-static op_v3 shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax)
-{
-    if (!s->has_passable)
-        return op_accel_occluded(s->accel, org, dir, 0.0f, tmax) ? v3s(0.0f) : v3s(1.0f);
-    op_v3 T = v3s(1.0f);
-    op_v3 end = v3_add(org, v3_scale(dir, isinf(tmax) ? 0.0f : tmax));
-    ray_walk w = walk_start(org, dir, 0.0f, tmax);
-    for (;;) {
-        op_ray_hit hit;
-        if (!walk_intersect(s, &w, &hit))
-            return T;
-        const op_bsdf *pb = shape_passable(s, hit.shape);
-        if (!pb)
-            return v3s(0.0f);
-        T = v3_mul(T, passage_at_hit(s, pb, &hit, w.org, dir).through);
-        if (v3_is_black(T))
-            return T;
-        op_v3 p = v3_add(w.org, v3_scale(dir, hit.t));
-        if (!walk_past(&w, p, v3_norm(hit.ng), hit.t))
-            return v3s(0.0f);
-        if (!isinf(tmax)) {
-            /* measured from the fixed end, so offsets do not accumulate */
-            w.tmax = v3_dot(v3_sub(end, w.org), dir);
-            if (w.tmax <= 0.0f)
-                return T;
-        }
-    }
-}
 
 /* The white Lambertian used for irradiance estimates. */
 static const op_bsdf white_bsdf = {.type = OP_BSDF_DIFFUSE, .reflectance = {1.0f, 1.0f, 1.0f}};
@@ -75,7 +44,7 @@ static op_v3 sample_direct(const op_scene *s, const op_isect *it, const op_bsdf 
         op_v3 org = op_offset_origin(it->p, it->ng, ls.wi);
         op_v3 sd;
         float tmax = shadow_ray(it->p, org, ls.wi, ls.dist, &sd);
-        op_v3 tr = shadow_transmittance(s, org, sd, tmax);
+        op_v3 tr = op_shadow_transmittance(s, org, sd, tmax, NULL);
         if (v3_is_black(tr))
             continue;
         float w = ls.pdf > 0.0f ? op_mis((float)n_light * ls.pdf, (float)n_bsdf * bsdf_pdf) : 1.0f;

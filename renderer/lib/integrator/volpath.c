@@ -2,56 +2,11 @@
 #include "integrator/volpath.h"
 
 #include "integrator/path_parts.h"
+#include "integrator/shadow.h"
 
 /* The most path vertices (scattering events and bounces) one path may have: a guard against a
  * path trapped in a closed non-absorbing medium, where Russian roulette never stops it. */
 #define OP_MAX_VERTICES 65536
-
-/* The medium a ray leaving surface point it in direction w is in, given cur before. */
-static int medium_after(const op_scene *s, const op_isect *it, op_v3 w, int cur)
-{
-    const op_shape_rec *sh = &s->shapes[it->shape];
-    if (sh->interior < 0 && sh->exterior < 0)
-        return cur;
-    return v3_dot(w, it->ng) < 0.0f ? sh->interior : sh->exterior;
-}
-
-/* Transmittance of the shadow segment org + t dir, t in (0, tmax), starting in medium med: the
- * media's along it (heterogeneous ones estimated with rng) times what the passable surfaces it
- * crosses let through (index-matched and thin boundaries among them); 0 when an opaque surface
- * lies on it. */
-static op_v3 transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tmax, int med,
-                           op_rng *rng)
-{
-    op_v3 T = v3s(1.0f);
-    op_v3 end = v3_add(org, v3_scale(dir, isinf(tmax) ? 0.0f : tmax));
-    ray_walk w = walk_start(org, dir, 0.0f, tmax);
-    for (;;) {
-        op_ray_hit hit;
-        int found = walk_intersect(s, &w, &hit);
-        if (med >= 0)
-            T = v3_mul(T, op_pmedium_transmittance(&s->media[med], w.org, dir,
-                                                   found ? hit.t : w.tmax, rng));
-        if (!found || v3_is_black(T))
-            return T;
-        const op_bsdf *pb = shape_passable(s, hit.shape);
-        if (!pb)
-            return v3s(0.0f);
-        op_isect it;
-        op_isect_from_hit(s, &hit, w.org, dir, &it);
-        T = v3_mul(T, passage_at(pb, &it, dir).through);
-        if (v3_is_black(T))
-            return T;
-        med = medium_after(s, &it, dir, med);
-        if (!walk_past(&w, it.p, it.ng, hit.t))
-            return v3s(0.0f);
-        if (!isinf(tmax)) {
-            w.tmax = v3_dot(v3_sub(end, w.org), dir);
-            if (w.tmax <= 0.0f)
-                return T;
-        }
-    }
-}
 
 /* A path vertex: a surface point (bsdf != NULL, it filled) or a scattering point in medium
  * `med` (bsdf NULL, p and the medium's phase function). */
@@ -105,11 +60,12 @@ static op_v3 sample_direct(const op_scene *s, const vertex *v, op_v3 wi, int dep
         int med = v->med;
         if (v->bsdf) {
             org = op_offset_origin(v->it->p, v->it->ng, ls.wi);
-            med = medium_after(s, v->it, ls.wi, v->med);
+            med = op_medium_after(s, v->it, ls.wi, v->med);
         }
         op_v3 sd;
         float tmax = shadow_ray(v->p, org, ls.wi, ls.dist, &sd);
-        op_v3 tr = transmittance(s, org, sd, tmax, med, &ps->rng);
+        const op_shadow_media media = {med, &ps->rng};
+        op_v3 tr = op_shadow_transmittance(s, org, sd, tmax, &media);
         if (v3_is_black(tr))
             continue;
         float w = ls.pdf > 0.0f ? op_mis(ls.pdf, pdf) : 1.0f;
@@ -192,7 +148,7 @@ op_v3 op_volpath_li(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float t
                 op_bsdf_passage pa = passage_at(pb, &it, w.dir);
                 if (passage_passes(&pa, ps)) {
                     beta = v3_mul(beta, pa.pass);
-                    med = medium_after(s, &it, w.dir, med);
+                    med = op_medium_after(s, &it, w.dir, med);
                     passes++;
                     if (v3_is_black(beta) || !walk_past(&w, it.p, it.ng, hit.t))
                         break;
@@ -228,7 +184,7 @@ op_v3 op_volpath_li(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float t
             beta = v3_mul(beta, v3_scale(bs.weight, op_isect_shadowing(v.it, wo)));
             prev_pdf = bs.pdf;
             prev_delta = bs.delta;
-            med = medium_after(s, v.it, wo, med);
+            med = op_medium_after(s, v.it, wo, med);
             w = walk_start(op_offset_origin(v.it->p, v.it->ng, wo), wo, 0.0f, INFINITY);
         }
         if (v3_is_black(beta) || !isfinite(v3_max(beta)))
