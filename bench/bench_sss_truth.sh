@@ -19,8 +19,6 @@ BUILD=$(cd "${1:-$SRC/build}" && pwd)
 THREADS=${2:-2}
 MODE=${3:-quick}
 SHARED=${OPALINE_SHARED_DIR:-$SRC/../shared}
-# a worktree under wt/ has shared/ two levels up
-[ -d "$SHARED" ] || [ -n "${OPALINE_SHARED_DIR:-}" ] || SHARED=$SRC/../../shared
 extra=()
 [ -d "$SHARED/meshes" ] && extra+=(--meshes "$(cd "$SHARED/meshes" && pwd)")
 [ -n "${MEDIA:-}" ] && extra+=(--media "$MEDIA")
