@@ -530,7 +530,7 @@ static op_status transform_op(xml_ctx *c, xmlNode *e, op_matrix4 *m)
         *m = op_matrix4_scale(v[0], v[1], v[2]);
     } else if (strcmp(tag, "rotate") == 0) {
         static const char *const ok[] = {"x", "y", "z", "angle", "value", NULL};
-        double axis[3], angle;
+        double axis[3], angle = 0.0;
         int any;
         if ((st = check_attrs(c, e, ok)) != OP_OK || (st = attr_xyz(c, e, 0.0, axis, &any)) != OP_OK)
             return st;
