@@ -22,8 +22,9 @@ static void remove_scratch(void)
     if (current[0])
         unlink(current);
     for (int i = 0; i < nfolder_files; i++) {
-        snprintf(folder_path, sizeof folder_path, "%s/%s", folder, folder_files[i]);
-        unlink(folder_path);
+        int n = snprintf(folder_path, sizeof folder_path, "%s/%s", folder, folder_files[i]);
+        if (n > 0 && n < (int)sizeof folder_path)
+            unlink(folder_path);
     }
     if (folder[0])
         rmdir(folder);
