@@ -76,6 +76,12 @@ typedef struct op_define {
  * defaults). Errors are OP_ERR_INPUT with "file:line: element: what is wrong". */
 op_status op_desc_parse(const char *path, const op_define *defines, int ndefines,
                         const op_scene_limits *limits, op_node **root, op_error *err);
+/* op_desc_parse with search folders: the files the scene names are looked for, after its own
+ * folder, the working directory and its <path> folders, in folders[0..nfolders) in order. A
+ * folder that is not a directory is OP_ERR_INPUT naming it. */
+op_status op_desc_parse_in(const char *path, const char *const *folders, int nfolders,
+                           const op_define *defines, int ndefines, const op_scene_limits *limits,
+                           op_node **root, op_error *err);
 
 /* strtod for numbers in scene text: 1 and *out when s starts with a finite number (a denormal
  * or one that underflows to zero is accepted as strtod rounds it), *end after it; 0 otherwise. */
