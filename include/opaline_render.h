@@ -90,6 +90,18 @@ void op_scene_description_free(op_scene_description *d);
  * OP_ERR_INPUT or OP_ERR_FORMAT naming file:line; err may be NULL. */
 op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
                                 const op_scene_limits *limits, op_scene **out, op_error *err);
+/* op_scene_describe and op_scene_load_limited with search folders (Mitsuba's -a): a file the
+ * scene names (mesh, image, include, spectrum) by a relative name is looked for beside the file
+ * naming it, in the scene's folder, the working directory, the scene's <path> folders (the last
+ * one first), then in folders[0..nfolders) in order. A folder that does not exist or is not a
+ * directory is OP_ERR_INPUT naming it; folders may be NULL when nfolders is 0. */
+op_status op_scene_describe_in(const char *path, const char *const *folders, int nfolders,
+                               const op_scene_define *defines, int ndefines,
+                               const op_scene_limits *limits, op_scene_description **out,
+                               op_error *err);
+op_status op_scene_load_in(const char *path, const char *const *folders, int nfolders,
+                           const op_scene_define *defines, int ndefines,
+                           const op_scene_limits *limits, op_scene **out, op_error *err);
 /* op_scene_load_limited with the default limits. */
 op_status op_scene_load(const char *path, const op_scene_define *defines, int ndefines,
                         op_scene **out, op_error *err);

@@ -117,10 +117,11 @@ static int load(run *r, op_error *err)
     int list = o->mode == OP_MODE_LIST_INPUTS;
     int keyed = o->mode == OP_MODE_ESTIMATE || o->mode == OP_MODE_MERGE_TILES || o->raw_exr;
     op_status st = list || o->mode == OP_MODE_ESTIMATE || o->mode == OP_MODE_MERGE_TILES
-                       ? op_scene_describe(o->scene_path, o->defines, o->ndefines, &o->limits,
-                                           &r->described, err)
-                       : op_scene_load_limited(o->scene_path, o->defines, o->ndefines,
-                                               &o->limits, &r->scene, err);
+                       ? op_scene_describe_in(o->scene_path, o->folders, o->nfolders,
+                                              o->defines, o->ndefines, &o->limits,
+                                              &r->described, err)
+                       : op_scene_load_in(o->scene_path, o->folders, o->nfolders, o->defines,
+                                          o->ndefines, &o->limits, &r->scene, err);
     if (st == OP_OK && o->has_crop)
         st = r->described ? op_scene_description_set_crop(r->described, o->crop[0], o->crop[1],
                                                           o->crop[2], o->crop[3], err)

@@ -16,6 +16,9 @@ static void usage(FILE *f)
             "  -t N           worker threads (default: all cores)\n"
             "  -s N           samples per pixel (overrides the scene's sampler)\n"
             "  -D name=value  overrides <default name=...>; repeatable\n"
+            "  -a FOLDER[:FOLDER...]  also look for the files the scene names in these\n"
+            "                 folders, after its own folder, the current folder and its\n"
+            "                 <path> folders; repeatable. A missing folder: exit 2\n"
             "  --tile-size N  render in NxN tiles (default 32; the image does not change)\n"
             "  --check        load the scene (meshes, materials, images) and validate only\n"
             "  --estimate     describe the scene (no mesh, material or image loaded), then\n"
@@ -85,13 +88,44 @@ static int parse_crop(const char *s, int v[4])
 
 static int takes_value(const char *a)
 {
-    static const char *const with_value[] = {"-o", "-t", "-s", "-D", "--limit", "--partial",
+    static const char *const with_value[] = {"-o", "-t", "-s", "-D", "-a", "--limit", "--partial",
                                              "--crop", "--merge-tiles", "--sss-cache",
                                              "--tile-size", "--find-material", "--scene-dir"};
     for (size_t i = 0; i < sizeof with_value / sizeof *with_value; i++)
         if (strcmp(a, with_value[i]) == 0)
             return 1;
     return 0;
+}
+
+/* Takes -a's value v (folders separated by ':') into o. Returns 0 when it is bad (said). */
+static int take_folders(op_cli_options *o, const char *v)
+{
+    if (o->nfolder_args == OP_CLI_MAX_FOLDERS) {
+        op_log(OP_LOG_ERROR, "-a %s: at most %d search folders", v, OP_CLI_MAX_FOLDERS);
+        return 0;
+    }
+    char *copy = strdup(v);
+    if (!copy) {
+        op_log(OP_LOG_ERROR, "out of memory");
+        return 0;
+    }
+    o->folder_args[o->nfolder_args++] = copy;
+    for (char *f = copy, *end;; f = end + 1) {
+        end = strchr(f, ':');
+        if (end)
+            *end = '\0';
+        if (!*f) {
+            op_log(OP_LOG_ERROR, "-a %s: an empty folder name", v);
+            return 0;
+        }
+        if (o->nfolders == OP_CLI_MAX_FOLDERS) {
+            op_log(OP_LOG_ERROR, "-a %s: at most %d search folders", v, OP_CLI_MAX_FOLDERS);
+            return 0;
+        }
+        o->folders[o->nfolders++] = f;
+        if (!end)
+            return 1;
+    }
 }
 
 /* Takes the option a (its value v when it has one) into o. Returns 0 when it is bad (said). */
@@ -134,6 +168,8 @@ static int take(op_cli_options *o, const char *a, const char *v, int *check, int
         o->defines[o->ndefines].name = copy;
         o->defines[o->ndefines].value = copy + (eq - v) + 1;
         o->ndefines++;
+    } else if (strcmp(a, "-a") == 0) {
+        return take_folders(o, v);
     } else if (strcmp(a, "--limit") == 0) {
         op_error lerr = {0};
         if (op_scene_limits_set(&o->limits, v, &lerr) != OP_OK) {
@@ -209,6 +245,8 @@ static const char *choose_mode(op_cli_options *o, int check, int estimate, int l
         o->mode = o->material ? OP_MODE_FIND_MATERIAL : OP_MODE_PRESET_FOLDERS;
         if (o->material && folders)
             return "--find-material and --preset-folders: one at a time";
+        if (o->nfolders > 0)
+            return "-a goes with a scene, not with --find-material or --preset-folders";
         return o->scene_path ? "--find-material and --preset-folders take no scene "
                                "(--scene-dir DIR names its folder)"
                              : NULL;
@@ -270,4 +308,7 @@ void op_cli_options_free(op_cli_options *o)
     for (int k = 0; k < o->ndefines; k++)
         free((char *)o->defines[k].name);
     o->ndefines = 0;
+    for (int k = 0; k < o->nfolder_args; k++)
+        free(o->folder_args[k]);
+    o->nfolder_args = o->nfolders = 0;
 }

@@ -6,7 +6,7 @@
 
 #include "opaline_render.h"
 
-enum { OP_CLI_MAX_OUTPUTS = 16, OP_CLI_MAX_DEFINES = 256 };
+enum { OP_CLI_MAX_OUTPUTS = 16, OP_CLI_MAX_DEFINES = 256, OP_CLI_MAX_FOLDERS = 64 };
 
 typedef enum op_cli_mode {
     OP_MODE_RENDER,         /* render into the outputs and/or the tile stream */
@@ -27,6 +27,10 @@ typedef struct op_cli_options {
     int verbosity;               /* -q counts down, -v up */
     op_scene_define defines[OP_CLI_MAX_DEFINES]; /* names and values owned (one copy each) */
     int ndefines;
+    const char *folders[OP_CLI_MAX_FOLDERS]; /* -a: search folders, in order */
+    int nfolders;
+    char *folder_args[OP_CLI_MAX_FOLDERS];   /* the -a values they point into (owned) */
+    int nfolder_args;
     op_scene_limits limits;
     int has_crop, crop[4];       /* --crop X,Y,W,H */
     const char *sss_cache;

@@ -15,6 +15,14 @@ op_status op_scene_describe(const char *path, const op_scene_define *defines, in
                             const op_scene_limits *limits, op_scene_description **out,
                             op_error *err)
 {
+    return op_scene_describe_in(path, NULL, 0, defines, ndefines, limits, out, err);
+}
+
+op_status op_scene_describe_in(const char *path, const char *const *folders, int nfolders,
+                               const op_scene_define *defines, int ndefines,
+                               const op_scene_limits *limits, op_scene_description **out,
+                               op_error *err)
+{
     /* the describer passes nested statuses through err, so it always gets one */
     op_error scratch = {0};
     if (!err)
@@ -34,7 +42,7 @@ op_status op_scene_describe(const char *path, const op_scene_define *defines, in
         defs[i].value = defines[i].value;
     }
     op_node *root = NULL;
-    op_status st = op_desc_parse(path, defs, ndefines, limits, &root, err);
+    op_status st = op_desc_parse_in(path, folders, nfolders, defs, ndefines, limits, &root, err);
     free(defs);
     if (st)
         return st;
@@ -68,12 +76,20 @@ void op_scene_description_get_info(const op_scene_description *d, op_scene_info 
 op_status op_scene_load_limited(const char *path, const op_scene_define *defines, int ndefines,
                                 const op_scene_limits *limits, op_scene **out, op_error *err)
 {
+    return op_scene_load_in(path, NULL, 0, defines, ndefines, limits, out, err);
+}
+
+op_status op_scene_load_in(const char *path, const char *const *folders, int nfolders,
+                           const op_scene_define *defines, int ndefines,
+                           const op_scene_limits *limits, op_scene **out, op_error *err)
+{
     op_error scratch = {0};
     if (!err)
         err = &scratch;
     *out = NULL;
     op_scene_description *d;
-    op_status st = op_scene_describe(path, defines, ndefines, limits, &d, err);
+    op_status st =
+        op_scene_describe_in(path, folders, nfolders, defines, ndefines, limits, &d, err);
     if (st)
         return st;
     op_scene *s = calloc(1, sizeof *s);

@@ -645,23 +645,23 @@ static void unused_report(void **state)
     op_node *root;
     OP_ASSERT_OK(parse_text(xml, NULL, 0, &root, &err, path), err);
     /* Nothing consumed: the three top-level objects are unused (the shared bsdf is inside). */
-    assert_int_equal(op_desc_report_unused(root), 3);
+    assert_int_equal(op_desc_report_unused(root, NULL), 3);
     op_node *s1 = root->children[0], *s2 = root->children[1];
     op_node_mark_used(s1);
     op_node_mark_used(s2);
     const char *fn;
     OP_ASSERT_OK(op_node_string(s1, "filename", NULL, &fn, &err), err);
     /* unused1, radius, the (unconsumed) bsdf counted once although shared, lonely texture. */
-    assert_int_equal(op_desc_report_unused(root), 4);
+    assert_int_equal(op_desc_report_unused(root, NULL), 4);
     op_node *bsdf = op_node_child(s1, "bsdf", 0);
     op_node_mark_used(bsdf);
     double r;
     OP_ASSERT_OK(op_node_float(s2, "radius", 1, &r, &err), err);
     /* unused1, x of the bsdf, lonely texture. */
-    assert_int_equal(op_desc_report_unused(root), 3);
+    assert_int_equal(op_desc_report_unused(root, NULL), 3);
     /* op_node_has does not mark used. */
     assert_true(op_node_has(s1, "unused1"));
-    assert_int_equal(op_desc_report_unused(root), 3);
+    assert_int_equal(op_desc_report_unused(root, NULL), 3);
     op_desc_free(root);
 }
 

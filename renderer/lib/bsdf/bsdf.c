@@ -284,6 +284,15 @@ static op_status build_mask(op_node *node, op_tex_cache *tex, op_bsdf *b, op_err
     return OP_OK;
 }
 
+/* The types op_bsdf_build renders. */
+static const char *const bsdf_types[] = {
+    "diffuse",      "roughdiffuse", "dielectric", "roughdielectric", "thindielectric",
+    "conductor",    "roughconductor", "plastic",  "roughplastic",    "coating",
+    "principled",   "principledthin", "phong",    "ward",            "twosided",
+    "mask",         "bumpmap",      "normalmap",  NULL};
+
+int op_bsdf_type_known(const char *type) { return op_name_listed(bsdf_types, type); }
+
 op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err)
 {
     op_bsdf_default(b);
@@ -406,11 +415,10 @@ op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *
         b->eta = (float)(int_ior / ext_ior);
         return OP_OK;
     }
-    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type "
-                        "(diffuse, roughdiffuse, dielectric, roughdielectric, conductor, "
-                        "roughconductor, plastic, roughplastic, coating, principled, "
-                        "principledthin, phong, ward, twosided, mask, bumpmap, normalmap)",
-                        node->file, node->line, node->type);
+    char names[512];
+    return op_error_set(err, OP_ERR_INPUT, "%s:%d: <bsdf type=\"%s\">: unknown BSDF type (%s)",
+                        node->file, node->line, node->type,
+                        op_names_join(bsdf_types, names, sizeof names));
 }
 
 _Static_assert(offsetof(op_bsdf, pr) + sizeof(op_principled) == sizeof(op_bsdf),

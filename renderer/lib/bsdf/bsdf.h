@@ -118,6 +118,8 @@ typedef struct op_bsdf_sample {
  * and opacities are clamped to [0, 1] with a warning. The diffuse reflectance (diffuse, plastic,
  * roughplastic) may be a nested or referenced <texture>, whose image is read through tex. */
 op_status op_bsdf_build(op_node *node, op_tex_cache *tex, op_bsdf *b, op_error *err);
+/* 1 when op_bsdf_build renders <bsdf type="type">, else 0. */
+int op_bsdf_type_known(const char *type);
 /* The boundary of a translucent shape from a dielectric, roughdielectric, plastic,
  * roughplastic or coating b (any other type: OP_ERR_INPUT, the message naming the type): its
  * reflection lobe *sheen (a plastic's diffuse base is replaced by the subsurface transport) and

@@ -207,6 +207,11 @@ static op_status build_bitmap(op_node *node, op_tex_cache *cache, op_texture *t,
     return OP_OK;
 }
 
+/* The types the texture builders render (rawconstant: Mitsuba 3's only). */
+static const char *const texture_types[] = {"bitmap", "checkerboard", "rawconstant", NULL};
+
+int op_texture_type_known(const char *type) { return op_name_listed(texture_types, type); }
+
 /* op_texture_build, checkerboard colours allowed in [0, cmax]. */
 static op_status texture_build(op_node *node, op_tex_cache *cache, double cmax, op_texture *t,
                                op_error *err)
@@ -270,8 +275,10 @@ static op_status texture_build(op_node *node, op_tex_cache *cache, double cmax, 
         t->type = OP_TEX_CONSTANT;
         return OP_OK;
     }
+    char names[128];
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <texture type=\"%s\">: unknown texture type "
-                        "(bitmap, checkerboard, rawconstant)", node->file, node->line, node->type);
+                        "(%s)", node->file, node->line, node->type,
+                        op_names_join(texture_types, names, sizeof names));
 }
 
 op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err)

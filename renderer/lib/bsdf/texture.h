@@ -57,6 +57,8 @@ const op_image *op_tex_cache_image(const op_tex_cache *c, int i);
 /* Builds t from a <texture> node (marking it and its parameters used), reading the image of a
  * bitmap through cache. Errors name the scene file, line and the image file. */
 op_status op_texture_build(op_node *node, op_tex_cache *cache, op_texture *t, op_error *err);
+/* 1 when the texture builders render <texture type="type">, else 0. */
+int op_texture_type_known(const char *type);
 /* op_texture_build for values that are not reflectances (a principled BSDF's index of
  * refraction or diffuse transmission): checkerboard colours may exceed 1. */
 /* op_texture_build for a texture read as one value (a roughness, a principled weight), its

@@ -202,6 +202,13 @@ static int unit_axes(const op_matrix4 *xf, op_frame *f)
     return 1;
 }
 
+/* The types op_emitter_build renders. */
+static const char *const emitter_types[] = {"point",  "spot", "area",       "directional",
+                                            "constant", "envmap", "sky", "collimated",
+                                            "projector", NULL};
+
+int op_emitter_type_known(const char *type) { return op_name_listed(emitter_types, type); }
+
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
                            op_tex_cache *textures, long long max_pixels, op_emitter *e,
                            op_error *err)
@@ -366,10 +373,10 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
                                    node->line);
         return env_place(node, &xf, scale, e, err);
     }
+    char names[256];
     return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"%s\">: unknown emitter type "
-                        "(point, spot, area, directional, constant, envmap, sky, collimated, "
-                        "projector)",
-                        node->file, node->line, t);
+                        "(%s)", node->file, node->line, t,
+                        op_names_join(emitter_types, names, sizeof names));
 }
 
 void op_emitter_free(op_emitter *e)

@@ -69,6 +69,8 @@ typedef struct op_light_sample {
 op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
                            op_tex_cache *textures, long long max_pixels, op_emitter *e,
                            op_error *err);
+/* 1 when op_emitter_build renders <emitter type="type">, else 0. */
+int op_emitter_type_known(const char *type);
 void op_emitter_free(op_emitter *e);
 int op_emitter_is_env(const op_emitter *e);
 

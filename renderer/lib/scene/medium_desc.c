@@ -8,6 +8,13 @@
 
 #include "opaline.h"
 
+/* The types read_phase and op_medium_read render. */
+static const char *const phase_types[] = {"isotropic", "hg", NULL};
+static const char *const medium_types[] = {"homogeneous", "heterogeneous", NULL};
+
+int op_phase_type_known(const char *type) { return op_name_listed(phase_types, type); }
+int op_medium_type_known(const char *type) { return op_name_listed(medium_types, type); }
+
 /* Reads the <phase> nested in medium node n (none: isotropic). */
 static op_status read_phase(op_node *n, op_phase *p, op_error *err)
 {
@@ -22,10 +29,11 @@ static op_status read_phase(op_node *n, op_phase *p, op_error *err)
                             n->line);
     if (strcmp(ph->type, "isotropic") == 0)
         return OP_OK;
+    char names[64];
     if (strcmp(ph->type, "hg") != 0)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <phase type=\"%s\">: unknown phase "
-                            "function (opaline reads isotropic and hg)", ph->file, ph->line,
-                            ph->type);
+                            "function (opaline reads %s)", ph->file, ph->line, ph->type,
+                            op_names_join(phase_types, names, sizeof names));
     double g;
     GET_OR_FAIL(op_node_float(ph, "g", 0.8, &g, err));
     if (!(g > -1.0 && g < 1.0))
@@ -281,10 +289,12 @@ op_status op_medium_read(op_node *node, op_pmedium *m, op_error *err)
         st = read_homogeneous(node, m, err);
     else if (strcmp(node->type, "heterogeneous") == 0)
         st = read_heterogeneous(node, m, err);
-    else
+    else {
+        char names[64];
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <medium type=\"%s\"> is not supported "
-                            "(opaline renders homogeneous and heterogeneous media)", node->file,
-                            node->line, node->type);
+                            "(opaline renders %s media)", node->file, node->line, node->type,
+                            op_names_join(medium_types, names, sizeof names));
+    }
     if (st != OP_OK)
         op_pmedium_free(m);
     return st;

@@ -11,5 +11,9 @@
  * volume or phase function is an OP_ERR_INPUT naming the node's file:line (a bad .vol file:
  * the file). On failure m holds nothing to free. */
 op_status op_medium_read(op_node *node, op_pmedium *m, op_error *err);
+/* 1 when opaline renders <medium type="type"> (op_medium_read), else 0. */
+int op_medium_type_known(const char *type);
+/* 1 when opaline renders <phase type="type"> (a medium's phase function), else 0. */
+int op_phase_type_known(const char *type);
 
 #endif

@@ -530,6 +530,22 @@ static op_status build_all(builder *b, op_node *root, op_error *err)
     return st;
 }
 
+/* Whether the builders render an object of element tag and this type: theirs to say. */
+static int type_known(const char *tag, const char *type)
+{
+    if (strcmp(tag, "bsdf") == 0)
+        return op_bsdf_type_known(type);
+    if (strcmp(tag, "texture") == 0)
+        return op_texture_type_known(type);
+    if (strcmp(tag, "emitter") == 0)
+        return op_emitter_type_known(type);
+    if (strcmp(tag, "medium") == 0)
+        return op_medium_type_known(type);
+    if (strcmp(tag, "phase") == 0)
+        return op_phase_type_known(type);
+    return 1; /* other elements: their types are not checked here */
+}
+
 op_status op_scene_build(const op_scene_description *d, op_scene *s, op_error *err)
 {
     builder b;
@@ -557,7 +573,7 @@ op_status op_scene_build(const op_scene_description *d, op_scene *s, op_error *e
     op_strmap_free(&b.medium_index);
     op_mesh_cache_free(b.meshes);
     if (st == OP_OK)
-        op_desc_report_unused(d->root);
+        op_desc_report_unused(d->root, type_known);
     return st;
 }
 

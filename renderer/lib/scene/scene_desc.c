@@ -540,14 +540,17 @@ op_status op_node_transform(op_node *n, const char *name, op_matrix4 *out, op_er
 
 /* ---------------------------------------------------------------- unused report */
 
-static int report_node(op_node *n)
+static int report_node(op_node *n, op_type_known_fn known)
 {
     desc_node *d = (desc_node *)n;
     char desc[256];
     d->mark = 2;
     if (!n->used) {
-        op_log(OP_LOG_WARN, "%s:%d: %s: unused object", n->file ? n->file : "?", n->line,
-               op_node_describe(n, desc, sizeof desc));
+        int unknown = known && n->type && !known(n->tag, n->type);
+        op_log(OP_LOG_WARN, "%s:%d: %s: unused object%s%s%s", n->file ? n->file : "?", n->line,
+               op_node_describe(n, desc, sizeof desc),
+               unknown ? ", of a type opaline does not render (unknown " : "",
+               unknown ? n->tag : "", unknown ? " type)" : "");
         return 1;
     }
     int count = 0;
@@ -560,18 +563,39 @@ static int report_node(op_node *n)
         }
     for (int i = 0; i < n->nchildren; i++)
         if (n->children[i] && ((desc_node *)n->children[i])->mark == 0)
-            count += report_node(n->children[i]);
+            count += report_node(n->children[i], known);
     return count;
 }
 
-int op_desc_report_unused(const op_node *root)
+int op_desc_report_unused(const op_node *root, op_type_known_fn known)
 {
     /* The marks are scratch space: the tree is logically unchanged. */
     op_desc_tree *t = (op_desc_tree *)root;
     clear_marks(t);
-    int count = report_node(&t->root.n);
+    int count = report_node(&t->root.n, known);
     clear_marks(t);
     return count;
+}
+
+int op_name_listed(const char *const *names, const char *name)
+{
+    for (int i = 0; names[i]; i++)
+        if (strcmp(names[i], name) == 0)
+            return 1;
+    return 0;
+}
+
+const char *op_names_join(const char *const *names, char *buf, size_t n)
+{
+    size_t k = 0;
+    buf[0] = '\0';
+    for (int i = 0; names[i] && k < n; i++) {
+        int w = snprintf(buf + k, n - k, "%s%s", i ? ", " : "", names[i]);
+        if (w < 0)
+            break;
+        k += (size_t)w;
+    }
+    return buf;
 }
 
 static uint64_t hash_bytes(const char *s, size_t len)

@@ -76,6 +76,12 @@ typedef struct op_define {
  * defaults). Errors are OP_ERR_INPUT with "file:line: element: what is wrong". */
 op_status op_desc_parse(const char *path, const op_define *defines, int ndefines,
                         const op_scene_limits *limits, op_node **root, op_error *err);
+/* op_desc_parse with search folders: the files the scene names are looked for, after its own
+ * folder, the working directory and its <path> folders, in folders[0..nfolders) in order. A
+ * folder that is not a directory is OP_ERR_INPUT naming it. */
+op_status op_desc_parse_in(const char *path, const char *const *folders, int nfolders,
+                           const op_define *defines, int ndefines, const op_scene_limits *limits,
+                           op_node **root, op_error *err);
 
 /* strtod for numbers in scene text: 1 and *out when s starts with a finite number (a denormal
  * or one that underflows to zero is accepted as strtod rounds it), *end after it; 0 otherwise. */
@@ -132,9 +138,18 @@ op_prop *op_node_prop(const op_node *n, const char *name);
 /* The name of p as its file spells it. */
 const char *op_prop_name(const op_prop *p);
 
-/* Logs a warning "file:line: <tag type=...>: unused parameter 'x'" (or unused object) for
- * everything not marked used; returns the count. */
-int op_desc_report_unused(const op_node *root);
+/* 1 when the builders render objects of element tag with this type, else 0. */
+typedef int (*op_type_known_fn)(const char *tag, const char *type);
+
+/* Logs a warning "file:line: <tag type=...>: unused parameter 'x'" (or unused object, adding
+ * when known, if not NULL, says its type is not one opaline renders) for everything not marked
+ * used; returns the count. */
+int op_desc_report_unused(const op_node *root, op_type_known_fn known);
+
+/* 1 when name is one of names (NULL-terminated), else 0. */
+int op_name_listed(const char *const *names, const char *name);
+/* names (NULL-terminated) joined by ", " into buf (n bytes, truncated); returns buf. */
+const char *op_names_join(const char *const *names, char *buf, size_t n);
 
 /* For the scene builder's functions that return op_status: returns the failed call's status
  * (as recorded in err; OP_ERR_INPUT when err is NULL) unless call returned OP_OK. */

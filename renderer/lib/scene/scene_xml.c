@@ -24,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <libxml/parser.h>
@@ -1175,6 +1176,35 @@ static op_status resolve(xml_ctx *c)
 op_status op_desc_parse(const char *path, const op_define *defines, int ndefines,
                         const op_scene_limits *limits, op_node **root, op_error *err)
 {
+    return op_desc_parse_in(path, NULL, 0, defines, ndefines, limits, root, err);
+}
+
+/* Adds the search folders, each checked to be a directory, after any <path> folder: a <path>
+ * is prepended as it is read, so these go in first, last one first. */
+static op_status add_search_folders(xml_ctx *c, const char *const *folders, int nfolders)
+{
+    if (nfolders < 0 || (nfolders > 0 && !folders))
+        return op_error_set(c->err, OP_ERR_INPUT, "bad search folder list");
+    for (int i = nfolders - 1; i >= 0; i--) {
+        struct stat sb;
+        if (!folders[i] || !*folders[i])
+            return op_error_set(c->err, OP_ERR_INPUT, "empty search folder name");
+        if (stat(folders[i], &sb) != 0)
+            return op_error_set(c->err, OP_ERR_INPUT, "search folder %s: %s", folders[i],
+                                strerror(errno));
+        if (!S_ISDIR(sb.st_mode))
+            return op_error_set(c->err, OP_ERR_INPUT, "search folder %s: not a folder",
+                                folders[i]);
+        if (op_desc_tree_add_folder(c->tree, folders[i]) != 0)
+            return nomem(c);
+    }
+    return OP_OK;
+}
+
+op_status op_desc_parse_in(const char *path, const char *const *folders, int nfolders,
+                           const op_define *defines, int ndefines, const op_scene_limits *limits,
+                           op_node **root, op_error *err)
+{
     *root = NULL;
     xmlInitParser(); /* idempotent; see libxml2's threading notes */
     op_scene_limits defaults;
@@ -1185,7 +1215,7 @@ op_status op_desc_parse(const char *path, const op_define *defines, int ndefines
     c.lim = limits ? limits : &defaults;
     c.file = path;
     c.tree = op_desc_tree_new();
-    op_status st = c.tree ? OP_OK : nomem(&c);
+    op_status st = c.tree ? add_search_folders(&c, folders, nfolders) : nomem(&c);
     for (int i = 0; i < ndefines && st == OP_OK; i++) {
         if (!defines[i].name || !*defines[i].name || !defines[i].value)
             st = op_error_set(err, OP_ERR_INPUT, "bad parameter definition (-D name=value)");
