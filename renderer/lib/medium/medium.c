@@ -48,30 +48,50 @@ static op_v3 sigma_t_at(const op_pmedium *m, op_v3 p)
     return v3(fmaxf(s.x, 0.0f), fmaxf(s.y, 0.0f), fmaxf(s.z, 0.0f));
 }
 
-/* Ratio tracking: each tentative collision at rate majorant multiplies the estimate by the
- * null fraction 1 - sigma_t / majorant of each channel; Russian roulette once it is small. */
+/* The majorant over a piece of the walk whose extinction grid values are at most bound: never
+ * above the medium's own. */
+static float local_majorant(const op_pmedium *m, float bound)
+{
+    if (!(m->scale >= 0.0f))
+        return m->majorant;
+    return fminf(m->majorant, fmaxf(m->scale * bound, 0.0f));
+}
+
+/* Ratio tracking: each tentative collision at the rate of the local majorant (restarting at
+ * every brick) multiplies the estimate by the null fraction 1 - sigma_t / majorant of each
+ * channel; Russian roulette once it is small. */
 static op_v3 ratio_tracking(const op_pmedium *m, op_v3 org, op_v3 dir, float d, op_rng *rng)
 {
-    float t, t1;
+    float t0, t1, a, b, bound;
     op_v3 T = v3s(1.0f);
-    if (!tracked_span(m, org, dir, d, &t, &t1))
+    if (!tracked_span(m, org, dir, d, &t0, &t1))
         return T;
-    float inv = 1.0f / m->majorant;
-    for (int k = 0; k < OP_MAX_COLLISIONS; k++) {
-        t -= log1pf(-op_rng_float(rng)) * inv;
-        if (!(t < t1))
-            return T;
-        op_v3 st = sigma_t_at(m, v3_add(org, v3_scale(dir, t)));
-        T = v3_mul(T, v3(fmaxf(1.0f - st.x * inv, 0.0f), fmaxf(1.0f - st.y * inv, 0.0f),
-                         fmaxf(1.0f - st.z * inv, 0.0f)));
-        float big = v3_max(T);
-        if (big < 0.1f) {
-            if (!(big > 0.0f) || op_rng_float(rng) < 0.5f)
+    op_volume_walk w;
+    op_volume_walk_start(&w, m->extinction, org, dir, t0, t1);
+    int k = 0;
+    while (op_volume_walk_next(&w, &a, &b, &bound)) {
+        float maj = local_majorant(m, bound);
+        if (!(maj > 0.0f))
+            continue;
+        float inv = 1.0f / maj, t = a;
+        for (;;) {
+            if (++k > OP_MAX_COLLISIONS)
                 return v3s(0.0f);
-            T = v3_scale(T, 2.0f);
+            t -= log1pf(-op_rng_float(rng)) * inv;
+            if (!(t < b))
+                break;
+            op_v3 st = sigma_t_at(m, v3_add(org, v3_scale(dir, t)));
+            T = v3_mul(T, v3(fmaxf(1.0f - st.x * inv, 0.0f), fmaxf(1.0f - st.y * inv, 0.0f),
+                             fmaxf(1.0f - st.z * inv, 0.0f)));
+            float big = v3_max(T);
+            if (big < 0.1f) {
+                if (!(big > 0.0f) || op_rng_float(rng) < 0.5f)
+                    return v3s(0.0f);
+                T = v3_scale(T, 2.0f);
+            }
         }
     }
-    return v3s(0.0f);
+    return T;
 }
 
 op_v3 op_pmedium_transmittance(const op_pmedium *m, op_v3 org, op_v3 dir, float d, op_rng *rng)
@@ -94,39 +114,52 @@ static int homogeneous_sample(const op_pmedium *m, int c, float tmax, float u, f
     return scattered;
 }
 
-/* Delta tracking against the majorant by channel c: a tentative collision at x is real with
- * probability sigma_t,c(x) / majorant, else null. The majorant's exponential factors are the
- * same for every channel and cancel, so per channel a real collision weighs sigma_s (f) and
- * sigma_t (pdf), a null one sigma_n = majorant - sigma_t (both), all over channel c's. */
+/* Delta tracking against the local majorant (restarting at every brick) by channel c: a
+ * tentative collision at x is real with probability sigma_t,c(x) / majorant, else null. The
+ * majorant's exponential factors are the same for every channel and cancel, so per channel a
+ * real collision weighs sigma_s (f) and sigma_t (pdf), a null one sigma_n = majorant - sigma_t
+ * (both), all over channel c's. */
 static int delta_tracking(const op_pmedium *m, int c, op_v3 org, op_v3 dir, float tmax, float u,
                           op_rng *rng, float *t, op_v3 *f, op_v3 *pdf)
 {
-    float t0, t1;
+    float t0, t1, a, b, bound;
     *t = tmax;
     *f = *pdf = v3s(1.0f);
     if (!tracked_span(m, org, dir, tmax, &t0, &t1))
         return 0;
-    float maj = m->majorant, inv = 1.0f / maj, x = t0;
-    for (int k = 0; k < OP_MAX_COLLISIONS; k++) {
-        x -= log1pf(-(k == 0 ? u : op_rng_float(rng))) * inv;
-        if (!(x < t1))
-            return 0;
-        op_v3 p = v3_add(org, v3_scale(dir, x));
-        op_v3 st = sigma_t_at(m, p);
-        float sc = v3_get(st, c);
-        if (op_rng_float(rng) * maj < sc) {
-            op_v3 al = op_volume_eval(m->albedo, p);
-            *f = v3_mul(*f, v3_scale(v3_mul(st, al), 1.0f / sc));
-            *pdf = v3_mul(*pdf, v3_scale(st, 1.0f / sc));
-            *t = x;
-            return 1;
+    op_volume_walk w;
+    op_volume_walk_start(&w, m->extinction, org, dir, t0, t1);
+    int k = 0;
+    while (op_volume_walk_next(&w, &a, &b, &bound)) {
+        float maj = local_majorant(m, bound);
+        if (!(maj > 0.0f))
+            continue;
+        float inv = 1.0f / maj, x = a;
+        for (;;) {
+            if (++k > OP_MAX_COLLISIONS) {
+                *f = *pdf = v3s(0.0f);
+                return 0;
+            }
+            x -= log1pf(-(k == 1 ? u : op_rng_float(rng))) * inv;
+            if (!(x < b))
+                break;
+            op_v3 p = v3_add(org, v3_scale(dir, x));
+            op_v3 st = sigma_t_at(m, p);
+            float sc = v3_get(st, c);
+            if (op_rng_float(rng) * maj < sc) {
+                op_v3 al = op_volume_eval(m->albedo, p);
+                *f = v3_mul(*f, v3_scale(v3_mul(st, al), 1.0f / sc));
+                *pdf = v3_mul(*pdf, v3_scale(st, 1.0f / sc));
+                *t = x;
+                return 1;
+            }
+            op_v3 sn =
+                v3(fmaxf(maj - st.x, 0.0f), fmaxf(maj - st.y, 0.0f), fmaxf(maj - st.z, 0.0f));
+            op_v3 wn = v3_scale(sn, 1.0f / v3_get(sn, c));
+            *f = v3_mul(*f, wn);
+            *pdf = v3_mul(*pdf, wn);
         }
-        op_v3 sn = v3(fmaxf(maj - st.x, 0.0f), fmaxf(maj - st.y, 0.0f), fmaxf(maj - st.z, 0.0f));
-        op_v3 w = v3_scale(sn, 1.0f / v3_get(sn, c));
-        *f = v3_mul(*f, w);
-        *pdf = v3_mul(*pdf, w);
     }
-    *f = *pdf = v3s(0.0f);
     return 0;
 }
 

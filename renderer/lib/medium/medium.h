@@ -4,10 +4,10 @@
  * Distances are drawn by one channel's extinction (the path's "hero" channel); the sampling
  * density of every channel is returned so that the integrator can weight a path by the
  * densities averaged over the channels (spectral MIS, as Mitsuba 3's volpathmis and pbrt-v4
- * do), which keeps chromatic media from blowing up. Heterogeneous media are tracked against
- * one majorant (the largest extinction anywhere, all channels): distances by delta tracking,
- * transmittance by ratio tracking, both unbiased; they draw all but the first number from the
- * caller's random stream. */
+ * do), which keeps chromatic media from blowing up. Heterogeneous media are tracked brick by
+ * brick (volume_grid.h) against each brick's majorant (its largest extinction, all channels;
+ * empty bricks skipped): distances by delta tracking, transmittance by ratio tracking, both
+ * unbiased; they draw all but the first number from the caller's random stream. */
 #ifndef OP_MEDIUM_H
 #define OP_MEDIUM_H
 
@@ -21,7 +21,8 @@ typedef struct op_pmedium {
     op_phase phase;
     op_volume *extinction, *albedo; /* heterogeneous (both set, owned): sigma_t = scale *
                                      * extinction, sigma_s = albedo * sigma_t; else NULL */
-    float scale, majorant;          /* heterogeneous: majorant >= every channel's sigma_t */
+    float scale, majorant;          /* heterogeneous: majorant >= every channel's sigma_t
+                                     * (bricks' majorants are capped by it) */
     char label[160];                /* "file:line" of its <medium>, for messages */
 } op_pmedium;
 

@@ -11,6 +11,8 @@
 struct op_volume {
     float *data; /* nx * ny * nz * channels values; NULL for a constant */
     int nx, ny, nz, channels;
+    float *brick; /* nb[0] * nb[1] * nb[2] brick bounds (volume_grid.h), x fastest */
+    int nb[3];
     op_v3 value; /* a constant's value */
     op_v3 lo, hi;
     double bbox_min[3], bbox_max[3];
@@ -88,6 +90,50 @@ static op_status read_values(op_volume *v, const unsigned char *p, int encoding,
     return OP_OK;
 }
 
+/* The largest value of any channel over voxels lo..hi (inclusive, in range) of v. */
+static float block_max(const op_volume *v, const int lo[3], const int hi[3])
+{
+    float m = -INFINITY;
+    for (int z = lo[2]; z <= hi[2]; z++)
+        for (int y = lo[1]; y <= hi[1]; y++) {
+            size_t row = ((size_t)z * (size_t)v->ny + (size_t)y) * (size_t)v->nx;
+            const float *p = v->data + (row + (size_t)lo[0]) * (size_t)v->channels;
+            const float *e = v->data + (row + (size_t)hi[0] + 1) * (size_t)v->channels;
+            for (; p < e; p++)
+                m = fmaxf(m, *p);
+        }
+    return m;
+}
+
+/* Fills v->brick from the values. */
+static op_status build_bricks(op_volume *v, const char *name, op_error *err)
+{
+    int n[3] = {v->nx, v->ny, v->nz};
+    size_t count = 1;
+    for (int a = 0; a < 3; a++) {
+        v->nb[a] = (n[a] + OP_VOLUME_BRICK - 1) / OP_VOLUME_BRICK;
+        count *= (size_t)v->nb[a];
+    }
+    v->brick = malloc(count * sizeof *v->brick);
+    if (!v->brick)
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory for %zu grid bricks", name,
+                            count);
+    float *out = v->brick;
+    int b[3], lo[3], hi[3];
+    for (b[2] = 0; b[2] < v->nb[2]; b[2]++)
+        for (b[1] = 0; b[1] < v->nb[1]; b[1]++)
+            for (b[0] = 0; b[0] < v->nb[0]; b[0]++) {
+                for (int a = 0; a < 3; a++) {
+                    lo[a] = b[a] * OP_VOLUME_BRICK - 2;
+                    hi[a] = (b[a] + 1) * OP_VOLUME_BRICK + 1;
+                    lo[a] = lo[a] < 0 ? 0 : lo[a];
+                    hi[a] = hi[a] >= n[a] ? n[a] - 1 : hi[a];
+                }
+                *out++ = block_max(v, lo, hi);
+            }
+    return OP_OK;
+}
+
 static op_status parse(op_volume *v, const unsigned char *p, size_t size, const char *name,
                        op_error *err)
 {
@@ -148,7 +194,8 @@ static op_status parse(op_volume *v, const unsigned char *p, size_t size, const 
     v->ny = res[1];
     v->nz = res[2];
     v->channels = channels;
-    return read_values(v, p + VOL_HEADER, encoding, n * (size_t)channels, name, err);
+    op_status st = read_values(v, p + VOL_HEADER, encoding, n * (size_t)channels, name, err);
+    return st == OP_OK ? build_bricks(v, name, err) : st;
 }
 
 op_status op_volume_parse(const void *data, size_t size, const char *name, op_volume **out,
@@ -184,6 +231,7 @@ void op_volume_free(op_volume *v)
     if (!v)
         return;
     free(v->data);
+    free(v->brick);
     free(v);
 }
 
@@ -229,10 +277,9 @@ static op_v3 to_unit(const op_volume *v, op_v3 p)
     return v3(q[0], q[1], q[2]);
 }
 
-int op_volume_ray_span(const op_volume *v, op_v3 org, op_v3 dir, float *t0, float *t1)
+/* The part [*t0, *t1] of the ray org + t dir, t >= 0, inside v's unit cube (empty: *t0 > *t1). */
+static void cube_span(const op_volume *v, op_v3 org, op_v3 dir, float *t0, float *t1)
 {
-    if (!v->bounded)
-        return 0;
     op_v3 o = to_unit(v, org);
     float d[3];
     for (int r = 0; r < 3; r++)
@@ -250,6 +297,13 @@ int op_volume_ray_span(const op_volume *v, op_v3 org, op_v3 dir, float *t0, floa
     }
     *t0 = lo;
     *t1 = hi;
+}
+
+int op_volume_ray_span(const op_volume *v, op_v3 org, op_v3 dir, float *t0, float *t1)
+{
+    if (!v->bounded)
+        return 0;
+    cube_span(v, org, dir, t0, t1);
     return 1;
 }
 
@@ -307,4 +361,104 @@ op_v3 op_volume_eval(const op_volume *v, op_v3 p)
             (c00 * (1 - f[1]) + c10 * f[1]) * (1 - f[2]) + (c01 * (1 - f[1]) + c11 * f[1]) * f[2];
     }
     return v->channels == 1 ? v3s(out[0]) : v3(out[0], out[1], out[2]);
+}
+
+void op_volume_walk_start(op_volume_walk *w, const op_volume *v, op_v3 org, op_v3 dir, float t0,
+                          float t1)
+{
+    w->v = v;
+    w->t = t0;
+    w->span_end = t1;
+    w->stage = 2;
+    w->grid_start = w->grid_end = t0;
+    if (!v->brick)
+        return;
+    float c0, c1;
+    cube_span(v, org, dir, &c0, &c1);
+    c0 = fmaxf(c0, t0);
+    c1 = fminf(c1, t1);
+    if (!(c0 < c1))
+        return;
+    w->stage = 0;
+    w->grid_start = c0;
+    w->grid_end = c1;
+    op_v3 o = to_unit(v, org);
+    float oo[3] = {o.x, o.y, o.z};
+    int n[3] = {v->nx, v->ny, v->nz};
+    for (int a = 0; a < 3; a++) {
+        float d = v->m[a][0] * dir.x + v->m[a][1] * dir.y + v->m[a][2] * dir.z;
+        float s = (float)(v->layout == OP_VOLUME_VERTICES ? n[a] - 1 : n[a]) / OP_VOLUME_BRICK;
+        w->so[a] = oo[a] * s;
+        w->sd[a] = d * s;
+        w->step[a] = w->sd[a] > 0.0f ? 1 : (w->sd[a] < 0.0f ? -1 : 0);
+        float g = floorf(w->so[a] + c0 * w->sd[a]);
+        g = fminf(fmaxf(g, 0.0f), (float)(v->nb[a] - 1)); /* (fmaxf drops a NaN) */
+        w->idx[a] = (int)g;
+    }
+}
+
+/* Where the ray leaves the current brick. */
+static float brick_exit(const op_volume_walk *w, int *axis)
+{
+    float best = INFINITY;
+    *axis = 0;
+    for (int a = 0; a < 3; a++) {
+        if (!w->step[a])
+            continue;
+        float face = (float)(w->idx[a] + (w->step[a] > 0));
+        float t = (face - w->so[a]) / w->sd[a];
+        if (t < best) {
+            best = t;
+            *axis = a;
+        }
+    }
+    return best;
+}
+
+int op_volume_walk_next(op_volume_walk *w, float *a, float *b, float *bound)
+{
+    const op_volume *v = w->v;
+    float whole = fmaxf(v3_max(v->hi), 0.0f);
+    while (w->stage < 3) {
+        if (w->stage == 0) { /* before the cube */
+            w->stage = 1;
+            if (w->t < w->grid_start) {
+                *a = w->t;
+                *b = w->t = w->grid_start;
+                *bound = whole;
+                return 1;
+            }
+            continue;
+        }
+        if (w->stage == 1) { /* one brick */
+            int axis;
+            float exit = brick_exit(w, &axis), start = w->t;
+            float stop = fminf(fmaxf(exit, start), w->grid_end);
+            size_t i =
+                ((size_t)w->idx[2] * (size_t)v->nb[1] + (size_t)w->idx[1]) * (size_t)v->nb[0] +
+                (size_t)w->idx[0];
+            float here = v->brick[i];
+            w->idx[axis] += w->step[axis];
+            if (!(stop < w->grid_end) || w->idx[axis] < 0 || w->idx[axis] >= v->nb[axis]) {
+                stop = w->grid_end;
+                w->stage = 2;
+            }
+            w->t = stop;
+            if (start < stop) {
+                *a = start;
+                *b = stop;
+                *bound = here;
+                return 1;
+            }
+            continue;
+        }
+        w->stage = 3; /* after the cube */
+        if (w->t < w->span_end) {
+            *a = w->t;
+            *b = w->span_end;
+            *bound = whole;
+            return 1;
+        }
+    }
+    return 0;
 }

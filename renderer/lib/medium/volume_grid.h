@@ -63,4 +63,30 @@ int op_volume_ray_span(const op_volume *v, op_v3 org, op_v3 dir, float *t0, floa
 /* v at world point p (a 1-channel grid's value in all three channels). */
 op_v3 op_volume_eval(const op_volume *v, op_v3 p);
 
+/* A grid's bricks are blocks of OP_VOLUME_BRICK^3 voxels, each with the largest value of any
+ * channel over its voxels and a margin of two around them (more than the neighbours that
+ * trilinear lookups inside the brick blend in, in either layout). */
+#define OP_VOLUME_BRICK 8
+
+/* A walk along a ray through the bricks it crosses (3-D DDA), in order of t. */
+typedef struct op_volume_walk {
+    const op_volume *v;
+    float t;          /* where the walk is */
+    float grid_start; /* where the ray enters the grid's cube */
+    float grid_end;   /* where it leaves it */
+    float span_end;   /* the end of the whole span */
+    int stage;        /* 0: before the cube, 1: bricks, 2: after the cube, 3: done */
+    int idx[3], step[3];
+    float so[3], sd[3]; /* the ray in brick-grid units: so + t sd */
+} op_volume_walk;
+
+/* Starts a walk over the span [t0, t1) of the ray org + t dir (dir need not be unit; t1 may be
+ * infinite). */
+void op_volume_walk_start(op_volume_walk *w, const op_volume *v, op_v3 org, op_v3 dir, float t0,
+                          float t1);
+/* The next piece [*a, *b) of the span (pieces come in order and cover it) with *bound >= every
+ * channel of v at every point of it; 0 once the span is covered. Parts outside the grid's cube, and
+ * constant volumes, get the largest value v has anywhere. */
+int op_volume_walk_next(op_volume_walk *w, float *a, float *b, float *bound);
+
 #endif
