@@ -7,6 +7,9 @@
  *   irradiance is pi L (r / d)^2 cos theta exactly (the inverse-square cosine law of a source of
  *   intensity pi r^2 L); the same sphere behind the meter reads 0, and with flipNormals the
  *   meter reads it again (the meter looks out of its shape's front).
+ * - irradiancemeter on a rectangle with a film of 4 x 2 pixels: each pixel is a patch of the
+ *   rectangle (Mitsuba's rectangle maps position samples linearly onto it), so under an emitting
+ *   strip close below the left quarter only the left column of pixels reads pi L.
  * - radiancemeter: the radiance of the area emitter it looks at, exactly, in both of its
  *   placements (toWorld, Mitsuba 3's origin and direction).
  * - mfilm: the text matrix of its image (MATLAB's and Mathematica's layouts), and a file that
@@ -89,6 +92,33 @@ static void test_inverse_square_cosine(void **state)
     if (fabs(flipped - expect) > 4.0 * sigma)
         fail_msg("sphere behind a flipped meter: %.5f, expected %.5f +- 4 x %.5f", flipped,
                  expect, sigma);
+}
+
+static void test_rectangle_patches(void **state)
+{
+    (void)state;
+    /* the meter: the square [-1, 1]^2 at z = 0, looking down (-z); the emitter: the strip
+     * x in [-1, -0.5], 1e-3 below, emitting up, radiance 1 */
+    const char *text =
+        "<scene version=\"0.6.0\"><integrator type=\"path\"><integer name=\"maxDepth\" "
+        "value=\"1\"/></integrator><shape type=\"rectangle\"><boolean name=\"flipNormals\" "
+        "value=\"true\"/><sensor type=\"irradiancemeter\"><film type=\"mfilm\"><integer "
+        "name=\"width\" value=\"4\"/><integer name=\"height\" value=\"2\"/></film></sensor>"
+        "</shape><shape type=\"rectangle\"><transform name=\"toWorld\"><scale x=\"0.25\"/>"
+        "<translate x=\"-0.75\" z=\"-0.001\"/></transform><emitter type=\"area\"><rgb "
+        "name=\"radiance\" value=\"1\"/></emitter></shape></scene>";
+    op_image img = op_test_render_image(op_test_write_temp("scene.xml", text), 4096, 2, 0);
+    assert_int_equal(img.width, 4);
+    assert_int_equal(img.height, 2);
+    for (int y = 0; y < 2; y++)
+        for (int x = 0; x < 4; x++) {
+            double v = img.pixels[4 * (y * 4 + x)], expect = x == 0 ? M_PI : 0.0;
+            print_message("pixel (%d, %d): %.4f\n", x, y, v);
+            /* the edge: a grazing ray from near the strip's edge still hits it (1e-3 below) */
+            if (fabs(v - expect) > 0.02 * M_PI)
+                fail_msg("pixel (%d, %d): %.4f, expected %.4f", x, y, v, expect);
+        }
+    op_image_free(&img);
 }
 
 static void test_radiancemeter_area_light(void **state)
@@ -253,6 +283,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sky),
         cmocka_unit_test(test_inverse_square_cosine),
+        cmocka_unit_test(test_rectangle_patches),
         cmocka_unit_test(test_radiancemeter_area_light),
         cmocka_unit_test(test_mfilm_text),
         cmocka_unit_test(test_refused),

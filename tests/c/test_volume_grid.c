@@ -2,6 +2,8 @@
  * - a float32 and a uint8 grid read back value for value, at Mitsuba 3's cell centres and at
  *   Mitsuba 0.6's vertices, interpolated trilinearly between them, clamped (3) or 0 (0.6)
  *   outside, with their per-channel minima and maxima;
+ * - Mitsuba 3's other lookups: nearest cells, grids repeated or mirrored beyond their cube, and
+ *   the brick bounds of a repeated grid covering what a face's lookups blend in;
  * - every kind of bad file (wrong magic, version, encoding, channel count, sizes; truncated
  *   header or values, sizes whose product overflows, non-finite values) is an OP_ERR_INPUT that
  *   names the file and the fault. */
@@ -12,6 +14,11 @@
 
 #include "medium/volume_grid.h"
 #include "test_support.h"
+
+static op_v3 eval_x(const op_volume *v, double x)
+{
+    return op_volume_eval(v, v3((float)x, 0.5f, 0.5f));
+}
 
 /* A .vol file's bytes: header of (encoding, res, channels, bbox) then nvals values (float32 or
  * uint8 per encoding; vals as floats). Returns its size. */
@@ -173,12 +180,86 @@ static void test_bad_files(void **state)
     assert_non_null(strstr(err.message, missing));
 }
 
+/* A row of 4 cells holding 1, 2, 3, 4 (and 1 x 1 across), looked up along x: nearest cells,
+ * then repeated and mirrored beyond the cube, trilinear and nearest. */
+static void test_filters_and_wraps(void **state)
+{
+    (void)state;
+    unsigned char buf[256];
+    const float vals[4] = {1, 2, 3, 4};
+    size_t n = make_vol(buf, 3, 1, 4, 1, 1, 1, unit_box, vals, 4);
+    const char *path;
+    op_volume *v = NULL;
+    op_error err = {0};
+    OP_ASSERT_OK(read_bytes(buf, n, &path, &v, &err), err);
+    /* clamped trilinear (the default): cell centres at 0.125 + k / 4 */
+    near(eval_x(v, 0.25), 1.5, 1.5, 1.5);
+    near(eval_x(v, -3.0), 1, 1, 1);
+    near(eval_x(v, 7.0), 4, 4, 4);
+    op_volume_set_lookup(v, OP_VOLUME_NEAREST, OP_VOLUME_CLAMP);
+    near(eval_x(v, 0.01), 1, 1, 1);
+    near(eval_x(v, 0.249), 1, 1, 1);
+    near(eval_x(v, 0.251), 2, 2, 2);
+    near(eval_x(v, 0.99), 4, 4, 4);
+    near(eval_x(v, 1.7), 4, 4, 4);
+    op_volume_set_lookup(v, OP_VOLUME_NEAREST, OP_VOLUME_REPEAT);
+    near(eval_x(v, 1.1), 1, 1, 1);
+    near(eval_x(v, -0.1), 4, 4, 4);
+    near(eval_x(v, -1.6), 2, 2, 2);
+    op_volume_set_lookup(v, OP_VOLUME_NEAREST, OP_VOLUME_MIRROR);
+    near(eval_x(v, 1.1), 4, 4, 4);
+    near(eval_x(v, 1.3), 3, 3, 3);
+    near(eval_x(v, -0.1), 1, 1, 1);
+    near(eval_x(v, -0.3), 2, 2, 2);
+    near(eval_x(v, 2.1), 1, 1, 1);
+    op_volume_set_lookup(v, OP_VOLUME_TRILINEAR, OP_VOLUME_REPEAT);
+    near(eval_x(v, 0.0), 2.5, 2.5, 2.5); /* halfway between the last cell and the first */
+    near(eval_x(v, 1.0), 2.5, 2.5, 2.5);
+    near(eval_x(v, 1.25), 1.5, 1.5, 1.5);
+    op_volume_set_lookup(v, OP_VOLUME_TRILINEAR, OP_VOLUME_MIRROR);
+    near(eval_x(v, 0.0), 1, 1, 1);
+    near(eval_x(v, 1.0), 4, 4, 4);
+    near(eval_x(v, 1.25), 3.5, 3.5, 3.5);
+    op_volume_free(v);
+}
+
+/* A 16-cell row, 0 but for a hot last cell: repeated and trilinear, lookups at the first face blend
+ * it in, so the first brick's bound covers it (clamped, the first brick's bound is 0). */
+static void test_repeat_brick_bounds(void **state)
+{
+    (void)state;
+    unsigned char buf[256];
+    float vals[16] = {0};
+    vals[15] = 8;
+    size_t n = make_vol(buf, 3, 1, 16, 1, 1, 1, unit_box, vals, 16);
+    const char *path;
+    op_volume *v = NULL;
+    op_error err = {0};
+    for (int wrap = 0; wrap < 2; wrap++) {
+        OP_ASSERT_OK(read_bytes(buf, n, &path, &v, &err), err);
+        op_volume_set_lookup(v, OP_VOLUME_TRILINEAR, wrap ? OP_VOLUME_REPEAT : OP_VOLUME_CLAMP);
+        op_volume_walk w;
+        op_volume_walk_start(&w, v, v3(0.0f, 0.5f, 0.5f), v3(1, 0, 0), 0.0f, 0.2f);
+        float a, b, bound, worst = 0;
+        while (op_volume_walk_next(&w, &a, &b, &bound))
+            worst = fmaxf(worst, bound);
+        double got = op_volume_eval(v, v3(0.001f, 0.5f, 0.5f)).x;
+        printf("wrap %d: value at the first face %.4f, bound over the first brick %.4f\n", wrap,
+               got, worst);
+        assert_true(worst >= got);
+        assert_true(wrap ? got > 3.5 : got == 0.0);
+        op_volume_free(v);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_float_grid),
         cmocka_unit_test(test_uint8_grid),
         cmocka_unit_test(test_bad_files),
+        cmocka_unit_test(test_filters_and_wraps),
+        cmocka_unit_test(test_repeat_brick_bounds),
     };
     return op_test_exit_status(cmocka_run_group_tests(tests, NULL, NULL));
 }

@@ -260,8 +260,8 @@ void op_camera_ray_lens(const op_camera *cam, float fx, float fy, float lens_u, 
     float sy = 2.0f * fy / (float)cam->full_height - 1.0f; /* +1 at the bottom edge */
     switch (cam->type) {
     case OP_CAMERA_IRRADIANCEMETER:
-        op_meter_ray(cam->surface, fx / (float)cam->full_width, fy / (float)cam->full_height,
-                     lens_u, lens_v, org, dir, tmin);
+        op_meter_ray(cam->surface, cam->surface_rectangle, fx / (float)cam->full_width,
+                     fy / (float)cam->full_height, lens_u, lens_v, org, dir, tmin);
         *tmax = cam->far_clip;
         return;
     case OP_CAMERA_RADIANCEMETER:

@@ -32,6 +32,7 @@ typedef struct op_camera {
     int shape;                    /* irradiancemeter: the index of the shape it is a child of */
     const op_trimesh *surface;    /* irradiancemeter: that shape's world-space mesh (the
                                      scene's), set once the scene's shapes are built */
+    int surface_rectangle;        /* irradiancemeter: the shape is a rectangle (camera/meter.h) */
 } op_camera;
 
 /* Reads a <sensor> (an irradiancemeter's is the child of its shape, whose index the scene

@@ -4,7 +4,9 @@
  * geometric normal points to (the front, which flipNormals turns over); a ray's radiance times
  * OP_METER_WEIGHT estimates that irradiance, so a meter under a uniform radiance L reads pi L.
  * A film of more than one pixel splits the unit square of position samples into its pixels,
- * each the mean over its part of the surface, as Mitsuba does. */
+ * each the mean over its part of the surface, as Mitsuba does: on a rectangle the square maps
+ * linearly onto it (pixels are patches of the rectangle), on other shapes through the choice of
+ * triangle by area. */
 #ifndef OP_METER_H
 #define OP_METER_H
 
@@ -14,10 +16,12 @@
 #define OP_METER_WEIGHT 3.14159265358979323846f
 
 /* The ray from the point of mesh (world space, finished) that the position sample (su, sv) in
- * [0, 1)^2 picks (su the triangle by area and, rescaled, with sv its barycentrics) in the
- * cosine-weighted direction of (du, dv) about the triangle's front normal; *tmin skips the
- * surface itself (Mitsuba's ray epsilon, relative to the point's magnitude). */
-void op_meter_ray(const op_trimesh *mesh, float su, float sv, float du, float dv, op_v3 *org,
-                  op_v3 *dir, float *tmin);
+ * [0, 1)^2 picks in the cosine-weighted direction of (du, dv) about the triangle's front normal;
+ * *tmin skips the surface itself (Mitsuba's ray epsilon, relative to the point's magnitude). The
+ * point: for a rectangle (mesh as op_shape_rectangle makes it, then transformed), the local point
+ * (2 su - 1, 2 sv - 1); else su picks the triangle by area and, rescaled, with sv its
+ * barycentrics. */
+void op_meter_ray(const op_trimesh *mesh, int rectangle, float su, float sv, float du, float dv,
+                  op_v3 *org, op_v3 *dir, float *tmin);
 
 #endif

@@ -18,6 +18,8 @@ struct op_volume {
     double bbox_min[3], bbox_max[3];
     float m[3][4]; /* world -> unit cube, affine rows */
     op_volume_layout layout;
+    op_volume_filter filter;
+    op_volume_wrap wrap;
     int bounded;
 };
 
@@ -269,6 +271,33 @@ int op_volume_place(op_volume *v, const op_matrix4 *world_to_unit, op_volume_lay
     return 1;
 }
 
+void op_volume_set_lookup(op_volume *v, op_volume_filter filter, op_volume_wrap wrap)
+{
+    v->filter = filter;
+    v->wrap = wrap;
+    if (!v->brick || filter != OP_VOLUME_TRILINEAR || wrap != OP_VOLUME_REPEAT)
+        return;
+    /* Trilinear lookups at a face blend in the opposite face's cells: bricks at a face are
+     * bounded by those too. */
+    int n[3] = {v->nx, v->ny, v->nz};
+    for (int a = 0; a < 3; a++)
+        for (int side = 0; side < 2; side++) {
+            int lo[3] = {0, 0, 0}, hi[3] = {n[0] - 1, n[1] - 1, n[2] - 1};
+            lo[a] = hi[a] = side ? 0 : n[a] - 1; /* the face opposite to `side` */
+            float face = block_max(v, lo, hi);
+            int b[3];
+            for (b[2] = 0; b[2] < v->nb[2]; b[2]++)
+                for (b[1] = 0; b[1] < v->nb[1]; b[1]++)
+                    for (b[0] = 0; b[0] < v->nb[0]; b[0]++) {
+                        if (b[a] != (side ? v->nb[a] - 1 : 0))
+                            continue;
+                        float *bound = &v->brick[((size_t)b[2] * (size_t)v->nb[1] + (size_t)b[1]) *
+                                                     (size_t)v->nb[0] + (size_t)b[0]];
+                        *bound = fmaxf(*bound, face);
+                    }
+        }
+}
+
 static op_v3 to_unit(const op_volume *v, op_v3 p)
 {
     float q[3];
@@ -319,6 +348,24 @@ static int clampi(int i, int n)
     return i < 0 ? 0 : (i >= n ? n - 1 : i);
 }
 
+/* Cell index i (any integer) of an axis of n cells under v's wrap mode. */
+static int wrap_index(const op_volume *v, int i, int n)
+{
+    if (v->wrap == OP_VOLUME_CLAMP)
+        return clampi(i, n);
+    int m = v->wrap == OP_VOLUME_REPEAT ? n : 2 * n, r = i % m;
+    r += r < 0 ? m : 0;
+    return r < n ? r : m - 1 - r;
+}
+
+/* The cell coordinate of unit coordinate u on an axis of n cells, kept within a range whose
+ * floor is a representable int (a NaN goes to its low end). */
+static float cell_coordinate(float u, int n)
+{
+    const float far = 0x1p24f;
+    return fminf(fmaxf(u * (float)n, -far), far);
+}
+
 op_v3 op_volume_eval(const op_volume *v, op_v3 p)
 {
     op_v3 u = to_unit(v, p);
@@ -330,6 +377,14 @@ op_v3 op_volume_eval(const op_volume *v, op_v3 p)
         return v->value;
     int n[3] = {v->nx, v->ny, v->nz}, i0[3], i1[3];
     float f[3], uu[3] = {u.x, u.y, u.z};
+    if (v->layout == OP_VOLUME_CELLS && v->filter == OP_VOLUME_NEAREST) {
+        for (int a = 0; a < 3; a++)
+            i0[a] = wrap_index(v, (int)floorf(cell_coordinate(uu[a], n[a])), n[a]);
+        op_v3 r = v3s(at(v, i0[0], i0[1], i0[2], 0));
+        if (v->channels == 3)
+            r = v3(r.x, at(v, i0[0], i0[1], i0[2], 1), at(v, i0[0], i0[1], i0[2], 2));
+        return r;
+    }
     for (int a = 0; a < 3; a++) {
         if (v->layout == OP_VOLUME_VERTICES) {
             float g = uu[a] * (float)(n[a] - 1);
@@ -339,12 +394,13 @@ op_v3 op_volume_eval(const op_volume *v, op_v3 p)
             i1[a] = i0[a] + 1;
             f[a] = g - (float)i0[a];
         } else {
-            float g = uu[a] * (float)n[a] - 0.5f;
-            g = fminf(fmaxf(g, -1.0f), (float)n[a]); /* (fmaxf drops a NaN) */
+            float g = cell_coordinate(uu[a], n[a]) - 0.5f;
+            if (v->wrap == OP_VOLUME_CLAMP)
+                g = fminf(fmaxf(g, -1.0f), (float)n[a]);
             float fl = floorf(g);
             f[a] = g - fl;
-            i0[a] = clampi((int)fl, n[a]);
-            i1[a] = clampi((int)fl + 1, n[a]);
+            i0[a] = wrap_index(v, (int)fl, n[a]);
+            i1[a] = wrap_index(v, (int)fl + 1, n[a]);
         }
     }
     float out[3];

@@ -25,6 +25,18 @@ typedef enum op_volume_layout {
 
 typedef struct op_volume op_volume;
 
+/* How a grid in the cell layout is looked up (Mitsuba 3's filter_type and wrap_mode); the vertex
+ * layout is always trilinear and 0 beyond its last cells. */
+typedef enum op_volume_filter {
+    OP_VOLUME_TRILINEAR, /* blends the 8 cells around the point */
+    OP_VOLUME_NEAREST    /* the value of the cell the point lies in */
+} op_volume_filter;
+typedef enum op_volume_wrap {
+    OP_VOLUME_CLAMP,  /* beyond a face: the cells at that face */
+    OP_VOLUME_REPEAT, /* the grid tiles space */
+    OP_VOLUME_MIRROR  /* the grid tiles space, every other copy mirrored */
+} op_volume_wrap;
+
 /* The largest magnitude a grid value may have (docs/limits.md): interpolating and scaling it
  * stay finite. */
 #define OP_VOLUME_MAX_VALUE 1e30
@@ -56,6 +68,8 @@ op_v3 op_volume_max(const op_volume *v);
  * Returns 0 when world_to_unit is not finite. */
 int op_volume_place(op_volume *v, const op_matrix4 *world_to_unit, op_volume_layout layout,
                     int bounded);
+/* Sets how v is looked up in the cell layout (unplaced: trilinear, clamped). */
+void op_volume_set_lookup(op_volume *v, op_volume_filter filter, op_volume_wrap wrap);
 /* Whether v is bounded; then *t0, *t1 (t0 <= t1) is the part of the ray org + t dir, t >= 0,
  * inside its cube (empty: returns 1 with *t0 > *t1). */
 int op_volume_ray_span(const op_volume *v, op_v3 org, op_v3 dir, float *t0, float *t1);
@@ -65,7 +79,8 @@ op_v3 op_volume_eval(const op_volume *v, op_v3 p);
 
 /* A grid's bricks are blocks of OP_VOLUME_BRICK^3 voxels, each with the largest value of any
  * channel over its voxels and a margin of two around them (more than the neighbours that
- * trilinear lookups inside the brick blend in, in either layout). */
+ * trilinear lookups inside the brick blend in, in either layout). A grid that wraps other than by
+ * clamping is bounded, by its largest value, only where its cube is. */
 #define OP_VOLUME_BRICK 8
 
 /* A walk along a ray through the bricks it crosses (3-D DDA), in order of t. */

@@ -153,6 +153,8 @@ static op_status read_volume_node(op_node *vn, int bounded, op_volume **out, op_
         bounded = bounded && m3;
     } else if (strcmp(vn->type, "gridvolume") == 0) {
         const char *file, *filter, *wrap;
+        op_volume_filter filter_mode = OP_VOLUME_TRILINEAR;
+        op_volume_wrap wrap_mode = OP_VOLUME_CLAMP;
         GET_OR_FAIL(op_node_string(vn, "filename", NULL, &file, err));
         if (!file)
             return op_node_error(vn, err, OP_ERR_INPUT, "no filename");
@@ -163,10 +165,22 @@ static op_status read_volume_node(op_node *vn, int bounded, op_volume **out, op_
             GET_OR_FAIL(op_node_bool(vn, "accel", 1, &accel, err));
             GET_OR_FAIL(op_node_string(vn, "filterType", "trilinear", &filter, err));
             GET_OR_FAIL(op_node_string(vn, "wrapMode", "clamp", &wrap, err));
-            if (strcmp(filter, "trilinear") != 0 || strcmp(wrap, "clamp") != 0)
-                return op_node_error(vn, err, OP_ERR_INPUT, "filter_type \"%s\", wrap_mode "
-                                     "\"%s\": opaline looks grids up trilinear and clamped",
-                                     filter, wrap);
+            if (strcmp(filter, "trilinear") == 0)
+                filter_mode = OP_VOLUME_TRILINEAR;
+            else if (strcmp(filter, "nearest") == 0)
+                filter_mode = OP_VOLUME_NEAREST;
+            else
+                return op_node_error(vn, err, OP_ERR_INPUT, "filter_type \"%s\": not "
+                                     "\"trilinear\" or \"nearest\"", filter);
+            if (strcmp(wrap, "clamp") == 0)
+                wrap_mode = OP_VOLUME_CLAMP;
+            else if (strcmp(wrap, "repeat") == 0)
+                wrap_mode = OP_VOLUME_REPEAT;
+            else if (strcmp(wrap, "mirror") == 0)
+                wrap_mode = OP_VOLUME_MIRROR;
+            else
+                return op_node_error(vn, err, OP_ERR_INPUT, "wrap_mode \"%s\": not \"clamp\", "
+                                     "\"repeat\" or \"mirror\"", wrap);
         } else {
             int send;
             GET_OR_FAIL(op_node_bool(vn, "sendData", 0, &send, err)); /* network transfer only */
@@ -178,6 +192,7 @@ static op_status read_volume_node(op_node *vn, int bounded, op_volume **out, op_
         free(path);
         if (st != OP_OK)
             return st;
+        op_volume_set_lookup(v, filter_mode, wrap_mode);
         bounded = bounded || !m3;
     } else {
         return op_node_error(vn, err, OP_ERR_INPUT, "unknown volume type (opaline reads "

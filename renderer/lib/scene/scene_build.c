@@ -398,6 +398,7 @@ static op_status add_shape(builder *b, op_node *node, op_error *err)
                                 "cannot be index-matched (<bsdf type=\"null\">)", node->file,
                                 node->line);
         s->camera.shape = index;
+        s->camera.surface_rectangle = strcmp(node->type, "rectangle") == 0;
         if (op_node_child(meter, "medium", 0)) {
             if (op_node_child(meter, "medium", 1))
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sensor>: more than one <medium>",
