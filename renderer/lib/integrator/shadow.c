@@ -28,7 +28,7 @@ op_v3 op_shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tma
         op_ray_hit hit;
         int found = walk_intersect(s, &w, &hit);
         if (med >= 0)
-            T = v3_mul(T, op_pmedium_transmittance(&s->media[med], w.org, dir,
+            T = v3_mul(T, op_pmedium_transmittance(&s->media[med], w.org, w.dir,
                                                    found ? hit.t : w.tmax, media->rng));
         if (!found || v3_is_black(T))
             return T;
@@ -36,19 +36,23 @@ op_v3 op_shadow_transmittance(const op_scene *s, op_v3 org, op_v3 dir, float tma
         if (!pb)
             return v3s(0.0f);
         op_isect it;
-        op_isect_from_hit(s, &hit, w.org, dir, &it);
-        T = v3_mul(T, passage_at(pb, &it, dir).through);
+        op_isect_from_hit(s, &hit, w.org, w.dir, &it);
+        T = v3_mul(T, passage_at(pb, &it, w.dir).through);
         if (v3_is_black(T))
             return T;
         if (media)
-            med = op_medium_after(s, &it, dir, med);
+            med = op_medium_after(s, &it, w.dir, med);
         if (!walk_past(&w, it.p, it.ng, hit.t))
             return v3s(0.0f);
         if (!isinf(tmax)) {
-            /* measured from the fixed end, so offsets do not accumulate */
-            w.tmax = v3_dot(v3_sub(end, w.org), dir);
-            if (w.tmax <= 0.0f)
+            /* aimed again at the fixed end from the origin moved off the surface: along the old
+             * direction the ray would pass beside the end, and meet the light before it */
+            op_v3 d = v3_sub(end, w.org);
+            float len = v3_len(d);
+            if (!(len > 0.0f) || v3_dot(d, w.dir) <= 0.0f)
                 return T;
+            w.dir = v3_scale(d, 1.0f / len);
+            w.tmax = len;
         }
     }
 }
