@@ -44,6 +44,26 @@ enum {
     RUNS = 16,      /* independent renders per incident pixel */
 };
 
+/* Unpolarized Fresnel reflectance from index 1 into n at incidence cosine c. */
+static double fresnel(double c, double n)
+{
+    double s2 = (1 - c * c) / (n * n), ct = sqrt(1 - s2);
+    double rs = (c - n * ct) / (c + n * ct), rp = (ct - n * c) / (ct + n * c);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+/* T(n): the fraction of diffuse light from air that enters index n (midpoint rule). */
+static double transmittance(double n)
+{
+    const int steps = 100000;
+    double sum = 0;
+    for (int i = 0; i < steps; i++) {
+        double mu = (i + 0.5) / steps;
+        sum += 2 * mu * (1 - fresnel(mu, n));
+    }
+    return sum / steps;
+}
+
 /* Writes a .vol grid (Mitsuba's format, float32, 3 channels) of GRID x GRID x 1 voxels whose
  * voxel (i, j) holds f(medium of pixel (i - GRID / 2, j - GRID / 2), channel). */
 static const char *write_grid(const char *name, const op_layout *l, int albedo)
@@ -70,7 +90,8 @@ static const char *write_grid(const char *name, const op_layout *l, int albedo)
 }
 
 /* The scene with the light over pixel (xi, yi) and the meter over the KERNEL^2 pixels around it. */
-static const char *scene(const char *sigma_t, const char *albedo, int xi, int yi, int spp)
+static const char *scene(const char *sigma_t, const char *albedo, double eta, int xi, int yi,
+                         int spp)
 {
     static char text[8192];
     const char *grid_fmt =
@@ -81,12 +102,16 @@ static const char *scene(const char *sigma_t, const char *albedo, int xi, int yi
     char grids[2][1024];
     snprintf(grids[0], sizeof grids[0], grid_fmt, "sigma_t", sigma_t, GRID, GRID);
     snprintf(grids[1], sizeof grids[1], grid_fmt, "albedo", albedo, GRID, GRID);
+    char boundary[256] = "<bsdf type=\"null\"/>";
+    if (eta != 1.0)
+        snprintf(boundary, sizeof boundary, "<bsdf type=\"dielectric\"><float name=\"int_ior\" "
+                 "value=\"%g\"/><float name=\"ext_ior\" value=\"1\"/></bsdf>", eta);
     int n = snprintf(
         text, sizeof text,
         "<scene version=\"3.0.0\"><integrator type=\"volpath\"><integer name=\"max_depth\" "
         "value=\"-1\"/></integrator>"
         "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"%g\" y=\"%g\" z=\"20\"/>"
-        "<translate z=\"-20\"/></transform><bsdf type=\"null\"/>"
+        "<translate z=\"-20\"/></transform>%s"
         "<medium type=\"heterogeneous\" name=\"interior\">%s%s<phase type=\"isotropic\"/>"
         "</medium></shape>"
         "<shape type=\"rectangle\"><boolean name=\"flip_normals\" value=\"true\"/>"
@@ -100,51 +125,85 @@ static const char *scene(const char *sigma_t, const char *albedo, int xi, int yi
         "name=\"sample_count\" value=\"%d\"/></sampler><film type=\"hdrfilm\"><integer "
         "name=\"width\" value=\"%d\"/><integer name=\"height\" value=\"%d\"/><rfilter "
         "type=\"box\"/></film></sensor></shape></scene>",
-        GRID / 2.0, GRID / 2.0, grids[0], grids[1], xi, yi, KERNEL / 2.0, xi, yi, spp, KERNEL,
+        GRID / 2.0, GRID / 2.0, boundary, grids[0], grids[1], xi, yi, KERNEL / 2.0, xi, yi, spp, KERNEL,
         KERNEL);
     assert_true(n > 0 && n < (int)sizeof text);
     return text;
 }
 
-/* Compares the render of incident pixel (xi, yi) (a pixel of the tile) with row yi * TILE + xi
- * of the generator's dataset d; adds each entry's squared z-score to *z2 (and counts them in *n)
- * and returns the largest |z|. */
-static double compare_row(const op_layout *l, const op_dataset *d, const char *sigma_t,
-                          const char *albedo, int xi, int yi, int spp, double *z2, int *n)
+/* The group of exit offset (dx, dy) from incident pixel (xi, yi): each entry its own
+ * (per_entry), else the ring (|d| 1 or 2 in the max norm) and whether the exit pixel's medium is
+ * the incident one's; -1 for x_i itself. */
+static int group_of(const op_layout *l, int per_entry, int xi, int yi, int dx, int dy)
 {
-    static double sum[3][KERNEL * KERNEL], sq[3][KERNEL * KERNEL];
-    memset(sum, 0, sizeof sum);
-    memset(sq, 0, sizeof sq);
-    const char *path = op_test_write_temp("loop.xml", scene(sigma_t, albedo, xi, yi, spp));
+    if (dx == 0 && dy == 0)
+        return -1;
+    if (per_entry)
+        return (dy + KERNEL / 2) * KERNEL + dx + KERNEL / 2;
+    int ring = abs(dx) > abs(dy) ? abs(dx) : abs(dy);
+    return 2 * (ring - 1) + (op_layout_at(l, xi, yi) != op_layout_at(l, xi + dx, yi + dy));
+}
+
+enum { GROUPS = KERNEL * KERNEL };
+
+/* Compares the render of incident pixel (xi, yi) (a pixel of the tile) under a boundary of index
+ * eta with row yi * TILE + xi of the generator's dataset d, summed over groups (group_of); adds
+ * each group's squared z-score to *z2 (and counts them in *n) and returns the largest |z|. The
+ * reading of a meter pixel is pi T(eta) Rd: the light's irradiance is pi, of which T(eta)
+ * enters. */
+static double compare_row(const op_layout *l, const op_dataset *d, const char *sigma_t,
+                          const char *albedo, double eta, int per_entry, int xi, int yi, int spp,
+                          double *z2, int *n)
+{
+    double sum[3][GROUPS] = {{0}}, sq[3][GROUPS] = {{0}}, gen[3][GROUPS] = {{0}},
+           gen_var[3][GROUPS] = {{0}};
+    int used[GROUPS] = {0};
+    const char *path = op_test_write_temp("loop.xml", scene(sigma_t, albedo, eta, xi, yi, spp));
+    double norm = M_PI * transmittance(eta);
     for (int r = 0; r < RUNS; r++) {
         op_image img = op_test_render_image(path, spp, 2, (uint64_t)r + 1);
         assert_int_equal(img.width, KERNEL);
         assert_int_equal(img.height, KERNEL);
-        for (int p = 0; p < KERNEL * KERNEL; p++)
-            for (int c = 0; c < 3; c++) {
-                double v = img.pixels[(size_t)img.channels * (size_t)p + (size_t)c] / M_PI;
-                sum[c][p] += v;
-                sq[c][p] += v * v;
+        for (int c = 0; c < 3; c++) {
+            double run[GROUPS] = {0};
+            for (int p = 0; p < KERNEL * KERNEL; p++) {
+                int g = group_of(l, per_entry, xi, yi, p % KERNEL - KERNEL / 2,
+                                 p / KERNEL - KERNEL / 2);
+                if (g >= 0)
+                    run[g] += img.pixels[(size_t)img.channels * (size_t)p + (size_t)c] / norm;
             }
+            for (int g = 0; g < GROUPS; g++) {
+                sum[c][g] += run[g];
+                sq[c][g] += run[g] * run[g];
+            }
+        }
         op_image_free(&img);
     }
     size_t row = (size_t)yi * TILE + (size_t)xi;
-    double worst = 0;
     for (int c = 0; c < 3; c++)
         for (int p = 0; p < KERNEL * KERNEL; p++) {
-            int dx = p % KERNEL - KERNEL / 2, dy = p / KERNEL - KERNEL / 2;
-            if (dx == 0 && dy == 0)
+            int g = group_of(l, per_entry, xi, yi, p % KERNEL - KERNEL / 2,
+                             p / KERNEL - KERNEL / 2);
+            if (g < 0)
                 continue;
-            double mean = sum[c][p] / RUNS;
-            double var = fmax(sq[c][p] / RUNS - mean * mean, 0.0) * RUNS / (RUNS - 1);
-            double se_r = sqrt(var / RUNS);
             size_t e = row * KERNEL * KERNEL + (size_t)p; /* the same (dy, dx) layout */
-            double g = d->rd[c][e], se_g = d->se[c][e];
-            double z = (mean - g) / sqrt(se_r * se_r + se_g * se_g);
-            print_message("x_i (%d, %d) %s, exit (%+d, %+d) %s, channel %d: volpath %.5f +- "
-                          "%.5f, generator %.5f +- %.5f, z %+.2f\n", xi, yi,
-                          l->media[op_layout_at(l, xi, yi)]->name, dx, dy,
-                          l->media[op_layout_at(l, xi + dx, yi + dy)]->name, c, mean, se_r, g,
+            gen[c][g] += d->rd[c][e];
+            /* (entries of a row are anticorrelated: summing variances overestimates) */
+            gen_var[c][g] += (double)d->se[c][e] * d->se[c][e];
+            used[g] = 1;
+        }
+    double worst = 0;
+    for (int c = 0; c < 3; c++)
+        for (int g = 0; g < GROUPS; g++) {
+            if (!used[g])
+                continue;
+            double mean = sum[c][g] / RUNS;
+            double var = fmax(sq[c][g] / RUNS - mean * mean, 0.0) * RUNS / (RUNS - 1);
+            double se_r = sqrt(var / RUNS), se_g = sqrt(gen_var[c][g]);
+            double z = (mean - gen[c][g]) / sqrt(se_r * se_r + se_g * se_g);
+            print_message("eta %g, x_i (%d, %d) %s, group %2d, channel %d: volpath %.5f +- %.5f, "
+                          "generator %.5f +- %.5f, z %+.2f\n", eta, xi, yi,
+                          l->media[op_layout_at(l, xi, yi)]->name, g, c, mean, se_r, gen[c][g],
                           se_g, z);
             *z2 += z * z;
             (*n)++;
@@ -153,38 +212,55 @@ static double compare_row(const op_layout *l, const op_dataset *d, const char *s
     return worst;
 }
 
-static void test_chessboard_loop(void **state)
+/* The chessboard at one index eta, both ways, from a Skin1 pixel and a Ketchup pixel. */
+static void loop_at(double eta, int per_entry, uint64_t photons, int spp)
 {
-    (void)state;
     const op_medium *a = op_medium_lookup("skin1"), *b = op_medium_lookup("ketchup");
     op_layout l;
     op_error err = {0};
     OP_ASSERT_OK(op_layout_chessboard(&l, TILE, TILE, 0.1 * TILE, 0.1 * TILE, 2, a, b, &err),
                  err);
-    l.eta = 1.0;
+    l.eta = eta;
     /* the generator: rows 0 .. 2 (pixels (0, 0) in Skin1 and (2, 0) in Ketchup) */
     op_dataset d;
     OP_ASSERT_OK(op_dataset_alloc_block(&d, TILE, TILE, KERNEL, 1, 3, &err), err);
-    op_mc_options o = {.photons = 200000, .seed = 11, .threads = 2};
+    op_mc_options o = {.photons = photons, .seed = 11, .threads = 2};
     op_mc_stats stats;
     OP_ASSERT_OK(op_mc_generate(&l, &o, &d, &stats, &err), err);
     const char *sigma_t = write_grid("sigma_t.vol", &l, 0), *albedo = write_grid("albedo.vol", &l, 1);
     double z2 = 0, worst = 0;
     int n = 0;
-    worst = fmax(worst, compare_row(&l, &d, sigma_t, albedo, 0, 0, 256, &z2, &n));
-    worst = fmax(worst, compare_row(&l, &d, sigma_t, albedo, 2, 0, 256, &z2, &n));
-    print_message("%d entries: mean z^2 %.3f, largest |z| %.2f\n", n, z2 / n, worst);
+    worst = fmax(worst, compare_row(&l, &d, sigma_t, albedo, eta, per_entry, 0, 0, spp, &z2, &n));
+    worst = fmax(worst, compare_row(&l, &d, sigma_t, albedo, eta, per_entry, 2, 0, spp, &z2, &n));
+    print_message("eta %g: %d comparisons, mean z^2 %.3f, largest |z| %.2f\n", eta, n, z2 / n,
+                  worst);
     op_dataset_free(&d);
     op_layout_free(&l);
     if (!(z2 / n < 1.8) || !(worst < 5.5))
-        fail_msg("volpath and the generator disagree: mean z^2 %.3f (at most 1.8), largest |z| "
-                 "%.2f (at most 5.5)", z2 / n, worst);
+        fail_msg("eta %g: volpath and the generator disagree: mean z^2 %.3f (at most 1.8), "
+                 "largest |z| %.2f (at most 5.5)", eta, z2 / n, worst);
+}
+
+/* Index-matched: every entry of the two rows but x_i's own. */
+static void test_chessboard_index_matched(void **state)
+{
+    (void)state;
+    loop_at(1.0, 1, 200000, 256);
+}
+
+/* Behind a smooth dielectric of index 1.3 (the light reaches the meter's paths only by leaving
+ * the sample towards it: noisier), summed per ring and medium. */
+static void test_chessboard_dielectric(void **state)
+{
+    (void)state;
+    loop_at(1.3, 0, 200000, 1024);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_chessboard_loop),
+        cmocka_unit_test(test_chessboard_index_matched),
+        cmocka_unit_test(test_chessboard_dielectric),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
