@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # opaline-render -a FOLDER[:FOLDER...] (docs/rendering.md; docs/scene-format.md, "Files and
 # paths"): a file the scene names by a relative name is found in the search folders after the
-# scene's own folder, the working directory and its <path> folders, the folders in the order
-# given (one -a with ':' or -a repeated); a search folder that is missing, not a folder or
+# scene's own folder and its <path> folders and before the working directory (Mitsuba's order),
+# the folders in the order given (one -a with ':' or -a repeated); a search folder that is missing, not a folder or
 # empty is refused with exit 2 naming it; -a takes a scene.
 set -uo pipefail
 source "$(dirname "$0")/e2e_support.sh"
@@ -45,15 +45,20 @@ grep -q "only.obj" "$T/err" || fail "the error does not name only.obj"
 "$R" -q -a "$T/a2" -o "$T/work/r.pfm" "$T/scene/scene.xml" 2>"$T/err" || fail "render -a exited $?"
 [ -s "$T/work/r.pfm" ] || fail "no image rendered"
 
-# The order: the folders as given; the scene's folder, the working directory and <path> first.
+# The order: the folders as given; the scene's folder and <path> first, the working directory last.
 cp "$T/a2/only.obj" "$T/a1/only.obj"
 [ "$(inputs -a "$T/a1:$T/a2" "$T/scene/scene.xml")" = "$T/a1/only.obj" ] || fail "order a1:a2"
 [ "$(inputs -a "$T/a2" -a "$T/a1" "$T/scene/scene.xml")" = "$T/a2/only.obj" ] || fail "order a2 a1"
 cp "$T/a2/only.obj" "$T/p/only.obj"
 [ "$(inputs -a "$T/a1" "$T/scene/with_path.xml")" = "$T/p/only.obj" ] || fail "<path> before -a"
 cp "$T/a2/only.obj" "$T/work/only.obj"
-[ "$(inputs -a "$T/a1" "$T/scene/scene.xml")" = "$T/work/only.obj" ] ||
-  fail "the working directory before -a"
+[ "$(inputs -a "$T/a1" "$T/scene/scene.xml")" = "$T/a1/only.obj" ] ||
+  fail "-a after the working directory"
+rm "$T/a1/only.obj"
+[ "$(inputs -a "$T/a2" "$T/scene/scene.xml")" = "$T/a2/only.obj" ] || fail "-a a2 after the working directory"
+rm "$T/a2/only.obj" "$T/p/only.obj"
+[ "$(inputs "$T/scene/scene.xml")" = "$T/work/only.obj" ] || fail "the working directory not searched"
+cp "$T/work/only.obj" "$T/a2/only.obj"
 cp "$T/a2/only.obj" "$T/scene/only.obj"
 [ "$(inputs -a "$T/a1" "$T/scene/scene.xml")" = "$T/scene/only.obj" ] ||
   fail "the scene's folder before -a"

@@ -357,18 +357,19 @@ char *op_desc_tree_resolve(const op_desc_tree *t, const char *file, const char *
     if (rel[0] == '/')
         return strdup(rel);
     const char *main_file = t->root.n.file;
-    const char *dirs[3]; /* candidates; NULL: the working directory */
-    size_t lens[3];
+    const char *dirs[2]; /* the scene's folders, before the search folders */
+    size_t lens[2];
     int nc = 0;
     dirs[nc] = file, lens[nc] = folder_len(file), nc++;
     if (main_file && (folder_len(main_file) != lens[0] ||
                       (file && strncmp(main_file, file, lens[0]) != 0)))
         dirs[nc] = main_file, lens[nc] = folder_len(main_file), nc++;
-    dirs[nc] = NULL, lens[nc] = 0, nc++;
     char *first = NULL;
-    for (int i = 0; i < nc + t->nfolders; i++) {
-        const char *dir = i < nc ? dirs[i] : t->folders[i - nc];
-        size_t dl = i < nc ? lens[i] : strlen(dir);
+    /* the working directory last, as Mitsuba 0.6's and 3's resolvers hold it */
+    for (int i = 0; i <= nc + t->nfolders; i++) {
+        int cwd = i == nc + t->nfolders;
+        const char *dir = cwd ? "" : i < nc ? dirs[i] : t->folders[i - nc];
+        size_t dl = cwd ? 0 : i < nc ? lens[i] : strlen(dir);
         char *cand = dl > 0 ? join(dir, dl, rel) : strdup(rel);
         if (!cand) {
             free(first);
