@@ -112,7 +112,8 @@ typedef int (*op_folder_fn)(void *user, const char *folder);
 /* Walks the folders a material preset name (<subsurface material="NAME">) is looked up in, in
  * the order searched: scene_dir ("" for the current folder; NULL leaves the scene's folder
  * out), each folder of OPALINE_PRESETS_PATH, the installed presets (share/opaline/presets above
- * the running program's bin folder), then the build tree's presets. Folders need not exist.
+ * the running program's bin folder), then, for a renderer that is not installed (that folder
+ * does not exist), the build tree's presets. Folders need not exist.
  * Fails only when out of memory. */
 op_status op_preset_folders(const char *scene_dir, op_folder_fn each, void *user,
                             op_error *err);

@@ -65,6 +65,19 @@ for missing in "$T/nothing.opm" "$T/mine"/; do
   [ $rc -eq 3 ] && [ ! -s "$T/out" ] || fail "$missing exited $rc, printed $(cat "$T/out")"
 done
 
+# An installed renderer (PREFIX/share/opaline/presets beside PREFIX/bin) searches and names its
+# installed presets last, never the folder it was built in.
+mkdir -p "$T/inst/bin" "$T/inst/share/opaline/presets"
+cp "$R" "$T/inst/bin/opaline-render"
+"$T/inst/bin/opaline-render" --preset-folders >"$T/folders3" 2>"$T/err" ||
+  fail "installed --preset-folders exited $?"
+[ "$(tail -n 1 "$T/folders3")" = "$T/inst/share/opaline/presets" ] ||
+  fail "an installed renderer's last folder: $(cat "$T/folders3")"
+! grep -qxF "$build" "$T/folders3" || fail "an installed renderer names the build's presets"
+(cd "$T/empty" && "$T/inst/bin/opaline-render" --find-material NoSuchPreset >/dev/null 2>"$T/err")
+grep -q "not found (searched ., $T/inst/share/opaline/presets; set" "$T/err" ||
+  fail "an installed renderer's message: $(cat "$T/err")"
+
 # Bad arguments: exit 2.
 for args in "--find-material $P $T/scene/scene.xml" "--scene-dir $T/scene $T/scene/scene.xml" \
             "--find-material $P --preset-folders" "--find-material"; do

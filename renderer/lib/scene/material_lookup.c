@@ -11,7 +11,8 @@
 #include "scene/scene_path.h"
 
 /* The build tree's presets folder (the build sets it), searched last so that an uninstalled
- * build/bin/opaline-render finds the presets the build made. */
+ * build/bin/opaline-render finds the presets the build made; an installed renderer (its
+ * installed presets folder exists) never searches or names it. */
 #ifndef OPALINE_DEFAULT_PRESETS_DIR
 #define OPALINE_DEFAULT_PRESETS_DIR "presets"
 #endif
@@ -22,6 +23,12 @@ static int file_exists(const char *p)
 {
     struct stat st;
     return stat(p, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+static int dir_exists(const char *p)
+{
+    struct stat st;
+    return stat(p, &st) == 0 && S_ISDIR(st.st_mode);
 }
 
 /* Writes PREFIX/share/opaline/presets into out, PREFIX being the folder above the one of the
@@ -68,7 +75,8 @@ op_status op_preset_folders(const char *scene_dir, op_folder_fn each, void *user
     installed_presets_dir(installed, sizeof installed);
     if (installed[0] && each(user, installed))
         return OP_OK;
-    each(user, OPALINE_DEFAULT_PRESETS_DIR);
+    if (!installed[0] || !dir_exists(installed))
+        each(user, OPALINE_DEFAULT_PRESETS_DIR);
     return OP_OK;
 }
 
