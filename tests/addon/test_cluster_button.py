@@ -1,12 +1,16 @@
-"""Render on Cluster (Render panel, cluster.py): shown only when the preferences name
-opaline-cluster; exports the frames with the materials collected beside them, runs the real
-opaline-cluster submit against a fake sbatch (OPALINE_SBATCH: records its arguments, prints a
-job id) and reports the job id; the partition and extra sbatch arguments reach sbatch; a
-missing command is an error naming it. The real cluster is tested by tests/e2e/test_cluster.sh."""
+"""Render on Cluster (Render panel, cluster.py): exports the frames with the materials collected
+beside them, runs the real opaline-cluster submit against a fake sbatch (OPALINE_SBATCH: records
+its arguments, prints a job id) and reports the job id; the partition and extra sbatch arguments
+reach sbatch; a missing command is an error naming it. Without a cluster in the preferences the
+panel still offers rendering here in the background (submit --local with the opaline-cluster
+beside the renderer): the frame's image appears and Cluster Status reports it done. The real
+cluster is tested by tests/e2e/test_cluster.sh."""
 
 import glob
 import os
+import subprocess
 import sys
+import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -48,8 +52,6 @@ class TestClusterButton(unittest.TestCase):
     def test_submit(self):
         from opaline import cluster
         p = S.prefs()
-        p.cluster_command = ""
-        self.assertFalse(cluster.OPALINE_PT_render_cluster.poll(bpy.context))
         p.cluster_command = self.cluster
         p.cluster_partition = "render"
         p.cluster_sbatch_args = "--account=lab --time=1:00:00"
@@ -74,6 +76,34 @@ class TestClusterButton(unittest.TestCase):
         self.assertTrue(any("--job-name opaline-merge" in c and "--dependency afterok:4242" in c
                             for c in calls), calls)
         self.assertTrue(os.path.isfile(os.path.join(out, "opaline-cluster.json")))
+
+    def test_local(self):
+        from opaline import cluster
+        p = S.prefs()
+        p.cluster_command = ""
+        if cluster.local_program(bpy.context) != self.cluster:
+            self.skipTest("opaline-cluster is not beside the renderer the add-on finds")
+        self.assertTrue(cluster.OPALINE_PT_render_cluster.poll(bpy.context))
+        out = os.path.join(self.dir, "here")
+        open(self.log, "w").close()
+        r = bpy.ops.render.opaline_cluster(animation=False, folder=out, threads=1, local=True)
+        self.assertEqual(r, {'FINISHED'})
+        image = os.path.join(out, "scene_0001.exr")
+        deadline = time.time() + 240
+        while not os.path.isfile(image) and time.time() < deadline:
+            time.sleep(0.5)
+        log = os.path.join(out, "opaline-cluster-local.log")
+        self.assertTrue(os.path.isfile(image), open(log).read() if os.path.exists(log) else "")
+        self.assertEqual(open(self.log).read(), "", "sbatch was called for a local render")
+        deadline = time.time() + 60
+        while True:
+            sp = subprocess.run([self.cluster, "status", out], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+            if "done" in sp.stdout or time.time() > deadline:
+                break
+            time.sleep(0.5)
+        self.assertIn("done", sp.stdout)
+        self.assertEqual(bpy.ops.render.opaline_cluster_status(), {'FINISHED'})
 
     def test_missing_command(self):
         p = S.prefs()
