@@ -1,7 +1,8 @@
 """opaline: measured translucent materials in Blender.
 
 Pick a factored measured material preset per material, render with F12 through opaline-render,
-export scenes as opaline (Mitsuba 0.5-style) XML for batch rendering. See docs/blender-addon.md.
+export scenes as opaline (Mitsuba 0.5-style) XML for batch rendering. See docs/blender-addon.md
+(the preferences' Open the Guide opens this machine's copy; opaline has no web site to link).
 Works on Blender 3.4 (legacy add-on, bl_info) and 4.x (also as an extension:
 blender_manifest.toml).
 """
@@ -14,7 +15,6 @@ bl_info = {
     "location": "Render engine 'opaline'; Properties > Material > opaline subsurface; "
                 "Properties > Render > opaline; File > Export > opaline scene",
     "description": "Measured heterogeneous translucent materials: presets, export, F12 render",
-    "doc_url": "https://github.com/opaline/opaline/blob/main/docs/blender-addon.md",
     "category": "Render",
 }
 

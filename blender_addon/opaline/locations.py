@@ -44,6 +44,24 @@ def install_prefix():
     return None
 
 
+GUIDE = "blender-addon.md"
+
+
+def guide_path(renderer=None):
+    """The add-on's guide (docs/blender-addon.md) on this machine: the checkout's when the add-on
+    runs from one, else the installed one (PREFIX/share/doc/opaline) beside the add-on's prefix or
+    the renderer's (PREFIX/bin/opaline-render); None when there is none."""
+    candidates = []
+    root = source_root()
+    if root:
+        candidates.append(os.path.join(root, "docs", GUIDE))
+    prefixes = [install_prefix()]
+    if renderer:
+        prefixes.append(os.path.dirname(os.path.dirname(os.path.realpath(renderer))))
+    candidates += [os.path.join(p, "share", "doc", "opaline", GUIDE) for p in prefixes if p]
+    return next((c for c in candidates if os.path.isfile(c)), None)
+
+
 def renderer_dirs():
     """(where, folder) of each place opaline-render is looked for when no path is set, in order:
     $OPALINE_BIN_DIR, the source tree's build/bin (when the add-on runs from a checkout),

@@ -1,6 +1,8 @@
 """Add-on preferences (renderer path, extra preset folders, the cluster) and the opaline-render
 they choose (locations.py finds it)."""
 
+import pathlib
+
 import bpy
 from bpy.props import CollectionProperty, StringProperty
 
@@ -57,6 +59,13 @@ class OPALINE_AP_preferences(bpy.types.AddonPreferences):
             col = layout.column(align=True)
             for i, line in enumerate(renderer_missing_message(context).split("\n")):
                 col.label(text=line, icon='ERROR' if i == 0 else 'BLANK1')
+        guide = locations.guide_path(found)
+        if guide:
+            layout.operator("wm.url_open", text="Open the Guide",
+                            icon='HELP').url = pathlib.Path(guide).as_uri()
+        else:
+            layout.label(text="The guide (blender-addon.md) is installed with opaline, in "
+                              "share/doc/opaline", icon='HELP')
         box = layout.box()
         box.label(text="Extra preset folders (searched after OPALINE_PRESETS_PATH)")
         for i, f in enumerate(self.preset_folders):

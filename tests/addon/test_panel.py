@@ -5,6 +5,7 @@ items, its categories (from the recipes) and filter, the albedo preview nodes th
 manages, and the Material tab's Preview panel under opaline."""
 
 import os
+import pathlib
 import struct
 import sys
 import unittest
@@ -560,6 +561,38 @@ class TestPreviewPanel(Base):
         self.assertIn("Albedo map of TUCKER_T15_P7_Chessboard4x4.png", labels)
 
 
+class TestGuide(Base):
+    def test_preferences_open_the_local_guide(self):
+        """The preferences' Open the Guide opens this machine's docs/blender-addon.md (run from
+        a checkout: the repository's), not a web address that does not exist."""
+        from opaline import locations
+        guide = locations.guide_path()
+        self.assertIsNotNone(guide)
+        self.assertTrue(guide.endswith(os.path.join("docs", "blender-addon.md")))
+        self.assertTrue(os.path.isfile(guide))
+        rec = Rec()
+        urls = []
+
+        class Op:
+            def __setattr__(self, name, value):
+                urls.append(value)
+
+        rec.operator = lambda idname, **kw: (rec.log["ops"].append(idname), Op())[1]
+        prefs = S.prefs()
+
+        class Self:
+            layout = rec
+
+            def __getattr__(self, name):
+                return getattr(prefs, name)
+
+        type(prefs).draw(Self(), bpy.context)
+        self.assertIn("wm.url_open", rec.log["ops"])
+        self.assertIn(pathlib.Path(guide).as_uri(), urls)
+        from opaline import bl_info
+        self.assertNotIn("doc_url", bl_info)
+
+
 if __name__ == "__main__":
     S.run_tests(TestPanels, TestRenderSettings, TestNoUV, TestPresetChooser, TestPreviewNodes,
-                TestPresetCategories, TestPreviewPanel)
+                TestPresetCategories, TestPreviewPanel, TestGuide)
