@@ -48,6 +48,8 @@ class Rec:
 
     def prop(self, data, name, **kw):
         self.log["props"].append(name)
+        self.log.setdefault("texts", []).append(kw.get("text", data.bl_rna.properties[name].name
+                                                        if hasattr(data, "bl_rna") else name))
         return type(self)(self.log)
 
     def label(self, text="", **kw):
@@ -234,6 +236,10 @@ class TestRenderSettings(Base):
         ui.OPALINE_PT_render.draw(Self(), Ctx())
         for p in ("samples", "max_bounces", "irr_samples", "max_sss_points", "threads"):
             self.assertIn(p, rec.log["props"])
+        # labels that the split layout's default width shows whole (as Cycles' "Max Bounces")
+        for text in rec.log["texts"]:
+            if text != "Keep exported files":  # a checkbox: its label has the whole width
+                self.assertLessEqual(len(text), 13, text)
 
     def test_point_cap_default(self):
         """The Irradiance Point Cap's default (0) writes no maxPoints: the renderer's own
