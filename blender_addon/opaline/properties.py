@@ -117,11 +117,12 @@ class OPALINE_PG_scene(bpy.types.PropertyGroup):
                                 description="Subsurface pre-pass: most irradiance points laid "
                                             "per translucent object (0: the renderer's own "
                                             "default; else written as each <subsurface>'s "
-                                            "maxPoints). A measured material at its physical "
-                                            "size and the dipole lay only the points near the "
-                                            "view. Above it the points are coarser than the "
-                                            "material and the render warns: raise it (more "
-                                            "memory and pre-pass time)")
+                                            "maxPoints). Only the points near the view are "
+                                            "laid; where the view needs more, they are laid "
+                                            "coarser (the light is kept, the material's "
+                                            "detail blurs) and, where the image can show it, "
+                                            "the render warns: raise it (more memory and "
+                                            "pre-pass time)")
     threads: IntProperty(name="Threads", default=0, min=0,
                          description="Worker threads for opaline-render (0: all cores)")
     keep_temp: BoolProperty(name="Keep exported files", default=False,

@@ -61,6 +61,8 @@ typedef struct op_sss_plan_entry {
     int finest;   /* the points of its layout's finest level: one per material pixel, or at
                      the profile's spacing (a windowed dipole's levels add up to points) */
     int capped;   /* 1: coarsened to max_points (and warned) */
+    int coarse;   /* a measured material needing more than INT32_MAX points: its layout is
+                     area-uniform, 4^coarse times fewer points than one per material pixel */
 } op_sss_plan_entry;
 
 typedef struct op_shape_rec {

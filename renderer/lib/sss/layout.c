@@ -6,6 +6,10 @@
 #include <float.h>
 #include <limits.h>
 
+/* What the warnings of a shape given fewer irradiance points than it needs tell the user. */
+#define OP_SSS_RAISE_CAP "raise maxPoints (Blender: Render Properties > opaline > Irradiance " \
+                         "Point Cap)"
+
 /* The material frame of triangle t: tangents from its texture coordinates when it has usable
  * ones, else from the box projection (see docs/subsurface-rendering.md). */
 static int triangle_uv_frame(const op_trimesh *m, int t, op_v3 n, op_v3 *tu, op_v3 *tv)
@@ -201,11 +205,12 @@ op_status op_sss_plan(const op_scene *scene, long long max_total, op_sss_plan_en
                                        d->density);
             if (step > 0.0)
                 want = (double)centred_count(&sh->mesh, info->width, info->height, sx, sy, step);
-            if (want > INT32_MAX)
-                return op_error_set(err, OP_ERR_INPUT, "%s: <subsurface>: %.0f irradiance "
-                                    "points (one per material pixel at density %g) are more "
-                                    "than a shape can hold (%d)", sh->label, want, d->density,
-                                    INT32_MAX);
+            /* more than a layout can index: its finest layout is the first area-uniform level
+             * (4^l times fewer points) that can */
+            for (p->coarse = 0; want > INT32_MAX; p->coarse++) {
+                want = ceil(want / 4.0);
+                step = 0.0;
+            }
             p->points = p->finest = want < 1.0 ? 1 : step > 0.0 ? (int)want : (int)ceil(want);
             p->windowed = p->points > d->max_points;
         } else if (want > d->max_points && want <= INT32_MAX &&
@@ -218,8 +223,8 @@ op_status op_sss_plan(const op_scene *scene, long long max_total, op_sss_plan_en
             p->capped = want > d->max_points;
             if (p->capped)
                 op_log(OP_LOG_WARN, "%s: subsurface needs %.3g irradiance points at the "
-                       "profile's spacing; capped at %d (coarser than the material: raise "
-                       "maxPoints or lower scale)", sh->label, want, d->max_points);
+                       "profile's spacing; capped at %d (coarser than the profile): %s",
+                       sh->label, want, d->max_points, OP_SSS_RAISE_CAP);
             p->points = p->finest =
                 want < 1.0 ? 1 : want > d->max_points ? d->max_points : (int)ceil(want);
         }
@@ -751,14 +756,62 @@ static op_status spatial_order(sss_shape *ss, op_v3 lo, op_v3 hi, op_error *err)
     return OP_OK;
 }
 
+/* Reports a measured shape laid coarser than its material (ss->spacing apart): a warning, and
+ * ss->capped, where that is coarser than the smallest pixel footprint of the camera's hits on it
+ * (rows: gh rows; NULL: every point is needed), so that the image shows it; else a note. */
+static void coarse_note(const op_shape_rec *sh, sss_shape *ss, const cam_row *rows, int gh,
+                        float pix)
+{
+    float foot = FLT_MAX;
+    for (int r = 0; rows && r < gh; r++)
+        for (int k = 0; k < rows[r].n; k++)
+            if (rows[r].h[k].sss == sh->sss)
+                foot = fminf(foot, pix * rows[r].h[k].span);
+    ss->capped = !rows || ss->spacing > foot;
+    double need = ldexp((double)ss->plan->finest, 2 * ss->plan->coarse);
+    if (ss->capped)
+        op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %.3g irradiance points "
+               "(one per material pixel) than maxPoints; capped at %d (%.3g scene units apart, "
+               "coarser than the image's finest pixel on it, %.3g: the material's detail is "
+               "blurred): %s", sh->label, need, ss->n, ss->spacing, foot < FLT_MAX ? foot : 0.0f,
+               OP_SSS_RAISE_CAP);
+    else
+        op_log(OP_LOG_INFO, "%s: subsurface: the view needs more of its %.3g irradiance points "
+               "(one per material pixel) than maxPoints; laid %d, %.3g scene units apart, "
+               "within the image's finest pixel on it (%.3g)", sh->label, need, ss->n,
+               ss->spacing, foot);
+}
+
+/* At most the surface area of shape sss that the camera's hits see: per hit the solid angle
+ * between neighbouring corner rays, bounded below over the image plane (0 for a camera
+ * without an image plane), times dist^2 / |cos|. */
+static double seen_area(const op_scene *scene, const cam_row *rows, int gh, int sss)
+{
+    const op_camera *cm = &scene->camera;
+    if (!(cm->tan_x > 0.0f && cm->tan_y > 0.0f))
+        return 0.0;
+    double t2 = (double)cm->tan_x * cm->tan_x + (double)cm->tan_y * cm->tan_y;
+    double a = 2.0 * fmin(cm->tan_x / (double)cm->full_width,
+                          cm->tan_y / (double)cm->full_height) / (1.0 + t2);
+    double sum = 0.0;
+    for (int r = 0; r < gh; r++)
+        for (int k = 0; k < rows[r].n; k++)
+            if (rows[r].h[k].sss == sss) {
+                double span = rows[r].h[k].span;
+                sum += a * a * span * span * rows[r].h[k].cosine;
+            }
+    return sum;
+}
+
 /* Lays a windowed shape's points near the view (the camera's hits in rows: gh rows; pix the
  * angle between neighbouring rays): the dipole in levels around it (level_plan_build,
  * lay_levels), a measured material at its physical size at its pixel centres within reach
  * (lay_window), one on a stretched map as the points of its area-uniform layout within reach
  * (lay_levels with one region). Sets *laid to 1 when they are laid, 0 when the view needs more
  * than maxPoints (nothing usable is laid). */
-static op_status lay_near_view(const op_shape_rec *sh, sss_shape *ss, const cam_row *rows, int gh,
-                               float pix, double sx, double sy, int *laid, op_error *err)
+static op_status lay_near_view(const op_scene *scene, const op_shape_rec *sh, sss_shape *ss,
+                               const cam_row *rows, int gh, float pix, double sx, double sy,
+                               int *laid, op_error *err)
 {
     const op_trimesh *m = &sh->mesh;
     level_plan lp;
@@ -788,25 +841,55 @@ static op_status lay_near_view(const op_shape_rec *sh, sss_shape *ss, const cam_
                    ss->n - fine);
         }
     } else {
-        /* the radii prepare_shape sets */
-        double step = centred_step(m, ss->width, ss->height, sx, sy, ss->a_pix,
-                                   ss->desc->density);
+        /* a measured material: its finest layout (the pixel centres, else area-uniform) near
+         * the view, else the first coarser area-uniform level (4^l times fewer points) whose
+         * points near the view fit; a level as coarse as maxPoints over the whole shape is
+         * left to the caller */
+        double step = ss->plan->coarse ? 0.0 : centred_step(m, ss->width, ss->height, sx, sy,
+                                                            ss->a_pix, ss->desc->density);
         int half = ss->kernel / 2;
-        if (step > 0.0) {
-            ss->h = 2.0f * ss->spacing;
-            ss->radius = ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
-        } else {
-            ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
-            ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+        /* a level whose points on the surface seen are over twice maxPoints is not tried (the
+         * window holds that surface; twice: for a surface seen twice, in a sheen) */
+        double seen = seen_area(scene, rows, gh, sh->sss) / (double)m->area;
+        got = 0;
+        for (int l = 0; got == 0; l++) {
+            long long n = level_points(ss->plan->finest, l);
+            if (l > 0 && n <= ss->desc->max_points)
+                break;
+            if ((double)n * seen > 2.0 * ss->desc->max_points)
+                continue;
+            int centred = l == 0 && step > 0.0;
+            /* the radii prepare_shape sets */
+            ss->a_i = m->area / (float)n;
+            ss->spacing = sqrtf(ss->a_i);
+            if (centred) {
+                ss->h = 2.0f * ss->spacing;
+                ss->radius = ((float)half + 1.0f) * (float)M_SQRT2 * fmaxf(ss->px, ss->py);
+            } else {
+                ss->h = 2.0f * fmaxf(ss->spacing, fmaxf(ss->px, ss->py));
+                ss->radius = ((float)half + 1.5f) * fmaxf(ss->px, ss->py);
+            }
+            level_plan_free(&lp);
+            lp.nregions = 1;
+            got = hit_window(rows, gh, sh->sss, window_reach(ss, sh->sss, rows, gh, pix), 0,
+                             &lp.win[0]);
+            lp.lo = lp.win[0].lo;
+            lp.hi = lp.win[0].hi;
+            if (got > 0) {
+                free(ss->pts);
+                free(ss->gid);
+                ss->pts = NULL;
+                ss->gid = NULL;
+                got = centred ? lay_window(m, ss, sx, sy, step, &lp.win[0])
+                              : lay_levels(m, ss, sx, sy, n, &lp);
+            }
+            ss->centred = got > 0 && centred;
+            if (got > 0 && l > 0) {
+                ss->nfull = (int)n;
+                ss->coarse = l;
+                coarse_note(sh, ss, rows, gh, pix);
+            }
         }
-        lp.nregions = 1;
-        got = hit_window(rows, gh, sh->sss, window_reach(ss, sh->sss, rows, gh, pix), 0, &lp.win[0]);
-        lp.lo = lp.win[0].lo;
-        lp.hi = lp.win[0].hi;
-        if (got > 0)
-            got = step > 0.0 ? lay_window(m, ss, sx, sy, step, &lp.win[0])
-                             : lay_levels(m, ss, sx, sy, ss->plan->finest, &lp);
-        ss->centred = got > 0 && step > 0.0;
     }
     level_plan_free(&lp);
     if (got < 0)
@@ -848,18 +931,12 @@ op_status op_sss_lay_points(const op_scene *scene, const op_shape_rec *sh, sss_s
     if (ss->plan->windowed) {
         int laid = 0;
         if (rows) {
-            op_status st = lay_near_view(sh, ss, rows, gh, pix, sx, sy, &laid, err);
+            op_status st = lay_near_view(scene, sh, ss, rows, gh, pix, sx, sy, &laid, err);
             if (st)
                 return st;
         }
         if (laid)
             return ss->hier ? spatial_order(ss, scene->bmin, scene->bmax, err) : OP_OK;
-        op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance points "
-               "(%s) than maxPoints; capped at %d (coarser than the material: raise maxPoints "
-               "or lower scale)", sh->label, ss->hier ? ss->plan->finest : n,
-               ss->hier ? "at the profile's spacing" :
-               "one per material pixel", ss->desc->max_points);
-        ss->capped = 1;
         free(ss->pts);
         free(ss->gid);
         ss->pts = NULL;
@@ -867,6 +944,15 @@ op_status op_sss_lay_points(const op_scene *scene, const op_shape_rec *sh, sss_s
         n = ss->n = ss->nfull = ss->desc->max_points;
         ss->a_i = m->area / (float)n;
         ss->spacing = sqrtf(ss->a_i);
+        if (ss->hier) {
+            op_log(OP_LOG_WARN, "%s: subsurface: the view needs more of its %d irradiance "
+                   "points (at the profile's spacing) than maxPoints; capped at %d (coarser "
+                   "than the profile): %s", sh->label, ss->plan->finest, ss->desc->max_points,
+                   OP_SSS_RAISE_CAP);
+            ss->capped = 1;
+        } else {
+            coarse_note(sh, ss, rows, gh, pix);
+        }
     }
     ss->pts = calloc((size_t)n, sizeof *ss->pts);
     if (!ss->pts)

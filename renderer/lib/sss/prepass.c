@@ -107,7 +107,8 @@ static int cam_hit_fn(void *user, const op_isect *it, float dist, float cosine)
     }
     cam_hit *h = &row->h[row->n++];
     h->p = it->p;
-    h->span = dist / fmaxf(cosine, 0.05f);
+    h->cosine = fmaxf(cosine, 0.05f);
+    h->span = dist / h->cosine;
     h->sss = a->scene->shapes[it->shape].sss;
     return 1;
 }
@@ -708,10 +709,15 @@ static op_status prepare_shape(const op_scene *scene, const op_shape_rec *sh, ss
     }
     op_sss_saved *sv = NULL;
     /* the store holds 25 bytes per point of the whole layout: a windowed shape of more than
-     * UNSAVED_FACTOR x maxPoints is computed without it */
+     * UNSAVED_FACTOR x maxPoints is computed without it, as is one laid at a level the view
+     * chose (its points' indices are that level's) */
     ss->unsaved = opt->store && ss->gid &&
-                  (long long)ss->nfull > UNSAVED_FACTOR * (long long)ss->desc->max_points;
-    if (ss->unsaved)
+                  ((long long)ss->nfull > UNSAVED_FACTOR * (long long)ss->desc->max_points ||
+                   ss->coarse);
+    if (ss->unsaved && ss->coarse)
+        op_log(OP_LOG_INFO, "%s: not kept in the pre-pass cache (laid coarser than its "
+               "material near the view)", sh->label);
+    else if (ss->unsaved)
         op_log(OP_LOG_INFO, "%s: not kept in the pre-pass cache (%d irradiance points in its "
                "whole layout, over %d x maxPoints)", sh->label, ss->nfull, UNSAVED_FACTOR);
     if (opt->store && !ss->unsaved) {

@@ -85,7 +85,8 @@ typedef struct op_sss_stats {
     long long receivers; /* points whose exitance was computed */
     long long sources_reused, receivers_reused; /* taken from the store instead */
     int shapes_reached;  /* translucent shapes a camera segment reaches */
-    int shapes_capped;   /* of those, shapes with fewer points than they need (maxPoints) */
+    int shapes_capped;   /* of those, shapes with fewer points than the image needs
+                            (maxPoints; each warned) */
     double seconds;      /* the build's wall time */
 } op_sss_stats;
 

@@ -400,11 +400,11 @@ static inline size_t keep_receiver(scratch *t, long q, v4f val, size_t nrec)
 }
 
 /* A source's normalization: its row's sum `want` over what its receivers got, clamped to
- * [1/2, 2]. */
-static float norm_gain(double want, double got)
+ * [lo, 2]. */
+static float norm_gain(double want, double got, double lo)
 {
     double q = got > 0.0 ? want / got : 1.0;
-    return (float)(q < 0.5 ? 0.5 : q > 2.0 ? 2.0 : q);
+    return (float)(q < lo ? lo : q > 2.0 ? 2.0 : q);
 }
 
 /* Scatters the irradiance of one chunk of source points into that chunk's own accumulator:
@@ -429,6 +429,10 @@ static void scatter_task(void *user, int task, int thread)
     v4f *acc = job->acc + (size_t)task * (size_t)ss->nrecv;
     int P = ss->kernel + 2;
     float expect = ss->centred ? 1.0f : ss->a_pix / ss->a_i; /* receivers per kernel pixel */
+    /* points sparser than the kernel's pixels: a receiver's value stands for the kernel over
+     * its whole area (its own centre value over an area of many pixels would multiply the
+     * source's energy by that area), so the source's share is not bounded below */
+    double lo = expect < 1.0f ? 0.0 : 0.5;
     int i;
     for (i = first; i < last; i++) {
         if ((i & 63) == 0 && job->cancel && atomic_load(job->cancel))
@@ -455,9 +459,9 @@ static void scatter_task(void *user, int task, int thread)
                 nrec += t->rj[q] >= 0;
             }
             float k = s->a / ss->a_pix;
-            e = v3(s->e.x * (norm_gain(total[0], got[0]) * k),
-                   s->e.y * (norm_gain(total[1], got[1]) * k),
-                   s->e.z * (norm_gain(total[2], got[2]) * k));
+            e = v3(s->e.x * (norm_gain(total[0], got[0], 0.5) * k),
+                   s->e.y * (norm_gain(total[1], got[1], 0.5) * k),
+                   s->e.z * (norm_gain(total[2], got[2], 0.5) * k));
         } else {
             /* four partial sums (by q mod 4) keep the adds apart */
             v4f p0 = {0, 0, 0, 0}, p1 = p0, p2 = p0, p3 = p0;
@@ -481,9 +485,9 @@ static void scatter_task(void *user, int task, int thread)
             }
             v4f part[4] = {p0, p1, p2, p3};
             v4f got = (part[0] + part[1]) + (part[2] + part[3]);
-            e = v3(s->e.x * norm_gain(total[0] * expect, got[0]),
-                   s->e.y * norm_gain(total[1] * expect, got[1]),
-                   s->e.z * norm_gain(total[2] * expect, got[2]));
+            e = v3(s->e.x * norm_gain(total[0] * expect, got[0], lo),
+                   s->e.y * norm_gain(total[1] * expect, got[1], lo),
+                   s->e.z * norm_gain(total[2] * expect, got[2], lo));
         }
         v4f e4 = {e.x, e.y, e.z, 0.0f};
         for (size_t k = 0; k < nrec; k++)

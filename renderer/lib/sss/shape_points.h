@@ -77,7 +77,10 @@ typedef struct sss_shape {
     unsigned char *near_recv; /* hier: per point: a computed receiver lies within the
                                  profile's ball (its normalization is needed) */
     int reached;           /* some camera segment reaches the shape: points are laid */
-    int capped;            /* the view needed more than max_points: coarsened (and warned) */
+    int capped;            /* coarsened where the image shows it (and warned) */
+    int coarse;            /* a windowed measured shape laid near the view at its layout's
+                              level `coarse` (4^coarse times fewer points, nfull of them): its
+                              exitance depends on the view, so the store does not keep it */
     unsigned char *recv;   /* per point: the view needs its exitance (a receiver) */
     int32_t *rmap;         /* per point: its index among the receivers whose exitance is
                               computed (those the store lacks), or -1 */
@@ -103,6 +106,7 @@ static inline int point_index(const sss_shape *ss, int i)
 typedef struct cam_hit {
     op_v3 p;
     float span;
+    float cosine; /* |cos| at the hit, at least 0.05 (as span takes it) */
     int sss;
 } cam_hit;
 
