@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Time to equal noise on the same exported Lambertian scene: opaline-render against Cycles
-# (Debian's Blender, headless). See bench/bench_cycles_noise.py for the method.
+# Time to equal error on the same exported scenes: opaline-render against Cycles (Debian's
+# Blender, headless). See bench/bench_cycles_noise.py for the method and the scenes.
 # Usage: bash bench/bench_cycles_noise.sh [BUILD_DIR] [THREADS] [OUT_DIR]   (a Release build)
-# REPEAT=N (default 3) runs per sample count, timings are medians; results in
-# OUT_DIR/cycles_noise.json
+# REPEAT=N (default 3) runs per sample count, timings are medians; SCENE=lambert (default),
+# mixed, cbox, manylights or all; RES=N (default 128) the image width; results in
+# OUT_DIR/SCENE/cycles_noise.json and a table on stdout
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
@@ -15,5 +16,6 @@ command -v blender >/dev/null || { echo "skip: blender is absent (apt-get instal
 mkdir -p "$out"
 OPALINE_BIN_DIR=$build/bin blender --background --factory-startup --python-exit-code 1 \
   --python "$root/bench/bench_cycles_noise.py" -- --renderer "$render" --out "$out" \
-  --threads "$threads" --repeats "${REPEAT:-3}" 2>&1 |
+  --threads "$threads" --repeats "${REPEAT:-3}" --scene "${SCENE:-lambert}" \
+  --res "${RES:-128}" 2>&1 |
   grep -vE "^ *(Fra:|Blender quit|Read prefs|Saved:|Time:|Info:|$)"
