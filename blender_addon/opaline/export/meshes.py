@@ -110,11 +110,12 @@ def read_mesh(mesh):
     d.tri_loops = _get(np, mesh.loop_triangles, "loops", np.int32, ntri, 3)
     d.tri_material = _get(np, mesh.loop_triangles, "material_index", np.int32, ntri)
     h = hashlib.sha1(b"uv" if d.has_uv else b"no uv")
-    sources = [d.co, d.loop_vertex, d.uv, d.tri_loops, d.tri_material,
-               _get(np, mesh.loops, "edge_index", np.int32, nl),
+    sharp = _get(np, mesh.edges, "use_edge_sharp", np.bool_, ne)
+    sources = [d.co, d.loop_vertex, d.uv, d.tri_loops, d.tri_material, sharp,
                _get(np, mesh.polygons, "loop_start", np.int32, npoly),
-               _get(np, mesh.polygons, "use_smooth", np.bool_, npoly),
-               _get(np, mesh.edges, "use_edge_sharp", np.bool_, ne)]
+               _get(np, mesh.polygons, "use_smooth", np.bool_, npoly)]
+    if sharp.any():  # which loops the sharp edges part
+        sources.append(_get(np, mesh.loops, "edge_index", np.int32, nl))
     if getattr(mesh, "has_custom_normals", False):
         read_normals(mesh, d)
         sources.append(d.loop_normal)
@@ -153,14 +154,17 @@ def _hash_rows(np, keys, seed):
     return h
 
 
-def _weld(np, keys, corners):
+def _weld(np, keys, hashes, corners):
     """(first, group) for the corners (loop indices) of a part: first[k] the loop of the k-th
     distinct key in first-corner order, group[i] the index k of corner i's key. keys: one row
-    of uint32 a loop (vertex index and the bits of its normal and UV)."""
+    of uint32 a loop (vertex index and the bits of its normal and UV); hashes: {seed: the
+    loops' _hash_rows}, filled as needed."""
     n = len(corners)
     with np.errstate(over="ignore"):
         for seed in range(len(_MIX)):
-            hc = _hash_rows(np, keys, seed)[corners]
+            if seed not in hashes:
+                hashes[seed] = _hash_rows(np, keys, seed)
+            hc = hashes[seed][corners]
             order = np.argsort(hc)
             hs = hc[order]
             new = np.empty(n, bool)
@@ -183,9 +187,9 @@ def _weld(np, keys, corners):
     return corners[first_corner[by_first]], rank[gid]
 
 
-def _part(np, data, keys, normals, uv, corners):
+def _part(np, data, keys, hashes, normals, uv, corners):
     """The Part of the triangles whose corners are the loop indices `corners`."""
-    first, group = _weld(np, keys, corners)
+    first, group = _weld(np, keys, hashes, corners)
     width = 8 if uv is not None else 6
     v = np.empty((len(first), width), "<f4")
     v[:, 0:3] = data.co[data.loop_vertex[first]]
@@ -217,12 +221,13 @@ def mesh_parts(data, progress=None):
     report(0.2)
     materials = np.unique(data.tri_material)
     parts = {}
+    hashes = {}
     for i, m in enumerate(materials):
         if len(materials) == 1:
             corners = data.tri_loops.ravel()
         else:
             corners = data.tri_loops[data.tri_material == m].ravel()
-        parts[int(m)] = _part(np, data, keys, normals, uv, corners)
+        parts[int(m)] = _part(np, data, keys, hashes, normals, uv, corners)
         report(0.2 + 0.8 * (i + 1) / len(materials))
     return parts
 
