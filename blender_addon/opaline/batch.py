@@ -71,7 +71,7 @@ def main(argv):
         for w in res.warnings:
             print("opaline batch: frame %d: warning: %s" % (f, w), file=sys.stderr)
         print("opaline batch: frame %d -> %s (%d shapes, %d lights, meshes %d written, %d "
-              "reused, %d of them as the previous frame's)" % (
+              "unchanged, %d of them not converted again)" % (
                   f, path, res.shapes, res.lights, res.meshes_written, res.meshes_reused,
                   res.meshes_unchanged))
     return 0

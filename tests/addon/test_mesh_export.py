@@ -233,7 +233,7 @@ class TestUnchangedAcrossFrames(unittest.TestCase):
         out = p.stdout.decode(errors="replace")
         self.assertEqual(p.returncode, 0, p.stderr.decode(errors="replace"))
         counts = [tuple(int(x) for x in m) for m in re.findall(
-            r"meshes (\d+) written, (\d+) reused, (\d+) of them as the previous frame's", out)]
+            r"meshes (\d+) written, (\d+) unchanged, (\d+) of them not converted again", out)]
         self.assertEqual(counts, [(3, 0, 0), (1, 2, 2), (1, 2, 2)], out)
 
     def test_animation_render(self):
