@@ -180,7 +180,7 @@ def _weld(np, keys, hashes, corners):
             if np.array_equal(keys[corners], rep[gid]):
                 break
         else:
-            raise OpalineError("mesh export: no collision-free key hash")  # not reached
+            raise OpalineError("mesh export: every key hash collided")  # 8 in a row
     by_first = np.argsort(first_corner)
     rank = np.empty(len(start), np.int64)
     rank[by_first] = np.arange(len(start))
