@@ -145,10 +145,10 @@ _MIX = (0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB, 0xC2B2AE3D27
 
 
 def _hash_rows(np, keys, seed):
-    """A uint64 hash of each row of the uint32 matrix keys (rows x columns)."""
+    """A uint64 hash of each row of the uint64 matrix keys (rows x columns)."""
     h = np.full(len(keys), _MIX[seed % len(_MIX)], np.uint64)
     for c in range(keys.shape[1]):
-        h ^= keys[:, c].astype(np.uint64)
+        h ^= keys[:, c]
         h *= np.uint64(_MIX[(seed + c + 1) % len(_MIX)])
         h ^= h >> np.uint64(29)
     return h
@@ -157,8 +157,8 @@ def _hash_rows(np, keys, seed):
 def _weld(np, keys, hashes, corners):
     """(first, group) for the corners (loop indices) of a part: first[k] the loop of the k-th
     distinct key in first-corner order, group[i] the index k of corner i's key. keys: one row
-    of uint32 a loop (vertex index and the bits of its normal and UV); hashes: {seed: the
-    loops' _hash_rows}, filled as needed."""
+    of uint64 a loop (the bits of its vertex index, normal and UV); hashes: {seed: the loops'
+    _hash_rows}, filled as needed."""
     n = len(corners)
     with np.errstate(over="ignore"):
         for seed in range(len(_MIX)):
@@ -175,9 +175,12 @@ def _weld(np, keys, hashes, corners):
             gid = np.empty(n, np.int64)
             gid[order] = gid_sorted
             first_corner = np.minimum.reduceat(order, start)
-            # Every loop of a group has its first corner's key, unless two keys shared a hash.
-            rep = keys[corners[first_corner]]
-            if np.array_equal(keys[corners], rep[gid]):
+            # Every loop of a group has its first corner's key, unless two keys shared a hash
+            # (the corners of one loop share its group: any of them may set group_of_loop).
+            group_of_loop = np.full(len(keys), -1, np.int64)
+            group_of_loop[corners] = gid
+            rep = keys[corners[first_corner]][np.maximum(group_of_loop, 0)]
+            if not np.any((keys != rep).any(axis=1) & (group_of_loop >= 0)):
                 break
         else:
             raise OpalineError("mesh export: every key hash collided")  # 8 in a row
@@ -217,7 +220,7 @@ def mesh_parts(data, progress=None):
     cols = [data.loop_vertex.view(np.uint32)[:, None], normals.view(np.uint32)]
     if uv is not None:
         cols.append(uv.view(np.uint32))
-    keys = np.ascontiguousarray(np.hstack(cols))
+    keys = np.ascontiguousarray(np.hstack(cols)).view(np.uint64)  # 4 or 6 uint32 a row
     report(0.2)
     materials = np.unique(data.tri_material)
     parts = {}
