@@ -40,7 +40,7 @@ class ExportResult:
         self.lights = 0
         self.meshes_written = 0
         self.meshes_reused = 0
-        self.meshes_unchanged = 0   # of the reused: same data as the previous export, not converted
+        self.meshes_unchanged = 0   # of the reused: data as at an earlier export, not converted
         self.textures_written = 0
         self.textures_reused = 0
         self.warnings = []
