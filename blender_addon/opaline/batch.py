@@ -4,9 +4,9 @@
         [--scene NAME] [--samples N]
 
 Writes DIR/<blend name>_<frame, 4 digits>.xml per frame, with the meshes in DIR/meshes/
-(content-addressed: a mesh that does not change between frames is written once). Then render
-each file with `opaline-render DIR/x_0001.xml`. Exit status: 0 ok, 2 bad arguments or a scene
-problem (message on stderr), 1 other failures.
+(content-addressed: a mesh that does not change between frames is written once, and converted
+once: export/meshes.py). Then render each file with `opaline-render DIR/x_0001.xml`. Exit
+status: 0 ok, 2 bad arguments or a scene problem (message on stderr), 1 other failures.
 """
 
 import argparse
@@ -71,8 +71,9 @@ def main(argv):
         for w in res.warnings:
             print("opaline batch: frame %d: warning: %s" % (f, w), file=sys.stderr)
         print("opaline batch: frame %d -> %s (%d shapes, %d lights, meshes %d written, %d "
-              "unchanged)" % (f, path, res.shapes, res.lights, res.meshes_written,
-                              res.meshes_reused))
+              "unchanged, %d of them not converted again)" % (
+                  f, path, res.shapes, res.lights, res.meshes_written, res.meshes_reused,
+                  res.meshes_unchanged))
     return 0
 
 

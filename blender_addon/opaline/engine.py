@@ -252,7 +252,8 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
                         "folder when done\n")
         self._status("opaline: exporting")
         xml = os.path.join(tmp, "scene.xml")
-        res = scene_export.export_scene(depsgraph, xml, bpy.context, renderer)
+        res = scene_export.export_scene(depsgraph, xml, bpy.context, renderer,
+                                        progress=self._export_progress)
         last_export = res
         for w in res.warnings:
             self._report('WARNING', "opaline: " + w)
@@ -276,6 +277,11 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         self._run(cmd, env, out, width, height, progress)
         if keep:
             self._report('INFO', "opaline: exported files kept in %s" % tmp)
+
+    def _export_progress(self, fraction, name):
+        """export_scene's progress: the share of the faces exported, in the status text."""
+        self._status("opaline: exporting meshes %d %%%s" % (
+            int(100 * fraction), " (%s)" % name if name else ""))
 
     def _log(self, level, text):
         """A renderer's LOG record: warnings and errors to the reports, the rest to the

@@ -40,6 +40,7 @@ class ExportResult:
         self.lights = 0
         self.meshes_written = 0
         self.meshes_reused = 0
+        self.meshes_unchanged = 0   # of the reused: data as at an earlier export, not converted
         self.textures_written = 0
         self.textures_reused = 0
         self.warnings = []
@@ -210,15 +211,38 @@ def _selected(inst):
         return False
 
 
+def mesh_weight(ob):
+    """The share of an evaluated geometry object in the mesh export's progress: its face count
+    (1 for other geometry)."""
+    return max(1, len(ob.data.polygons)) if ob.type == 'MESH' and ob.data is not None else 1
+
+
+def progress_reporter(progress, interval=0.1):
+    """A report(fraction, object_name) that passes progress(fraction, object_name) on at most
+    every `interval` seconds, and always at the end (fraction 1); a no-op for progress None."""
+    import time
+    if progress is None:
+        return lambda fraction, name: None
+    last = [-interval]
+
+    def report(fraction, name):
+        now = time.monotonic()
+        if now - last[0] >= interval or fraction >= 1.0:
+            last[0] = now
+            progress(min(1.0, fraction), name)
+    return report
+
+
 def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=None,
-                 selected_only=False, collect_materials=False):
+                 selected_only=False, collect_materials=False, progress=None):
     """Writes the scene of `depsgraph` to `xml_path`; returns an ExportResult.
 
     renderer_path: the opaline-render the file is meant for (decides whether presets are
     written by name or by path); samples: overrides the scene's sample count; selected_only:
     only the selected objects (the camera is always written); collect_materials: copy the
     material files into materials/ beside the XML and name them relatively
-    (MaterialCollector)."""
+    (MaterialCollector); progress: progress(fraction, object name) hears how far the mesh
+    export got (fraction of the faces, a few times a second at most)."""
     res = ExportResult()
     res.xml_path = os.path.abspath(xml_path)
     warn = res.warnings.append
@@ -274,6 +298,9 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     no_uv_keys = set()  # keys of meshes without a UV map
     bsdf_ids = {}       # material name -> id of its shared <bsdf>
     shapes = []
+    report = progress_reporter(progress)
+    total = max(1, sum(mesh_weight(ob) for ob in depsgraph.objects if ob.type in GEOMETRY_TYPES))
+    converted = 0
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type not in GEOMETRY_TYPES and ob.type != 'LIGHT':
@@ -305,18 +332,16 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
             except RuntimeError:
                 me = None
             if me is not None:
-                has_uv = len(me.uv_layers) > 0
                 try:
-                    for mi, (verts, faces) in sorted(meshes_mod.mesh_parts(me).items()):
-                        fname, written = meshes_mod.write_ply(
-                            mesh_dir, "%s_m%d" % (key[3:], mi), verts, faces, has_uv)
-                        parts[mi] = fname
-                        if written:
-                            res.meshes_written += 1
-                        else:
-                            res.meshes_reused += 1
+                    done = meshes_mod.export_mesh(me, mesh_dir, key[3:], lambda f: report(
+                        (converted + f * mesh_weight(ob)) / total, orig.name))
                 finally:
                     ob.to_mesh_clear()
+                parts, has_uv = done.files, done.has_uv
+                res.meshes_written += done.written
+                res.meshes_reused += done.reused
+                res.meshes_unchanged += len(parts) if done.unchanged else 0
+            converted += mesh_weight(ob)
             mesh_cache[key] = parts
             if not has_uv:
                 no_uv_keys.add(key)
@@ -365,6 +390,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
                     s.add(bsdf)
                     s.add(emitter)
             shapes.append(s)
+    report(1.0, None)
     for s in shapes:
         root.add(s)
     res.shapes = len(shapes)
