@@ -180,6 +180,14 @@ class TestEnvExport(unittest.TestCase):
         self.assertEqual([list(r) for r in W.envmap_to_world()], [list(r) for r in m])
         self.assertIn('name="visibleToCamera" value="false"', open(xml).read())
 
+    def test_mapping_without_vector_warned(self):
+        env_world(self.sc, self.hdr, rotation=(0, 0, 30))
+        nt = self.sc.world.node_tree
+        mp = [n for n in nt.nodes if n.bl_idname == "ShaderNodeMapping"][0]
+        nt.links.remove(mp.inputs["Vector"].links[0])
+        res = S.export(os.path.join(self.dir, "scene.xml"))
+        self.assertTrue(any("no Vector input" in w for w in res.warnings), res.warnings)
+
     def test_sky_texture_warned(self):
         nt = self.sc.world.node_tree
         sky = nt.nodes.new("ShaderNodeTexSky")

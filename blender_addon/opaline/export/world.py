@@ -93,12 +93,17 @@ def _mapping_rotation(node, warn):
     return (float(r[0]), float(r[1]), float(r[2])), vt == 'TEXTURE'
 
 
-def _direction_source(socket, warn):
-    """Whether the Environment Texture's Vector input gives the view direction (unlinked, or a
-    Texture Coordinate's Generated or Object output)."""
+def _direction_source(socket, warn, unlinked_ok=True):
+    """Whether `socket` (the Environment Texture's Vector input, or its Mapping node's) gives
+    the view direction: a Texture Coordinate's Generated or Object output, or nothing when
+    unlinked_ok (the texture's own default; a Mapping node's is the point 0, warned)."""
     node, out = textures_mod.linked_source(socket)
     if node is None:
-        return True
+        if not unlinked_ok:
+            warn("world: the Mapping node before the environment texture has no Vector input "
+                 "(Cycles then looks up one point of the map); the map is exported as looked "
+                 "up by direction")
+        return unlinked_ok
     if node.bl_idname == "ShaderNodeTexCoord" and out is not None and out.name in (
             "Generated", "Object"):
         return True
@@ -128,7 +133,7 @@ def _envmap(env, strength, textures, warn):
         m = _mapping_rotation(node, warn)
         if m is not None:
             rotation, inverse = m
-        _direction_source(node.inputs.get("Vector"), warn)
+        _direction_source(node.inputs.get("Vector"), warn, unlinked_ok=False)
     else:
         _direction_source(env.inputs.get("Vector"), warn)
     e = Element("emitter", {"type": "envmap"}, comment="world: environment texture %s"
