@@ -180,6 +180,19 @@ class TestEnvExport(unittest.TestCase):
         self.assertEqual([list(r) for r in W.envmap_to_world()], [list(r) for r in m])
         self.assertIn('name="visibleToCamera" value="false"', open(xml).read())
 
+    def test_packed_image(self):
+        """A packed map is written from the .blend's copy: the source file may be gone."""
+        env = env_world(self.sc, self.hdr)
+        env.image.pack()
+        with open(self.hdr, "rb") as f:
+            original = f.read()
+        os.remove(self.hdr)
+        xml = os.path.join(self.dir, "packed", "scene.xml")
+        self.assertEqual(S.export(xml).warnings, [])
+        props, _ = self.envmap(xml)
+        with open(os.path.join(self.dir, "packed", props["filename"].get("value")), "rb") as f:
+            self.assertEqual(f.read(), original)
+
     def test_mapping_without_vector_warned(self):
         env_world(self.sc, self.hdr, rotation=(0, 0, 30))
         nt = self.sc.world.node_tree
