@@ -20,7 +20,7 @@ row (the top row is +Z). opaline's envmap (Mitsuba's): u = atan2(x, -z) / 2 pi, 
 from the top row (+Y up) in the map's frame. The map frame of a world direction d is therefore
 (d.y, d.z, d.x), i.e. toWorld = BLENDER_AXES; a Mapping node looks the map up at R d (Point and
 Vector types) or R^-1 d (Texture type), R its Euler rotation, so toWorld = R^T BLENDER_AXES or
-R BLENDER_AXES.
+R BLENDER_AXES. (Type Normal rotates as Vector: it only differs for a non-uniform scale.)
 """
 
 import math
@@ -79,8 +79,6 @@ def _mapping_rotation(node, warn):
         warn("world: the Mapping node '%s' has linked inputs; only a constant rotation is "
              "exported, the map is not rotated" % node.name)
         return None
-    if vt == 'NORMAL':
-        warn("world: the Mapping node '%s' is of type Normal; exported as Vector" % node.name)
     s = [float(x) for x in scl.default_value] if scl is not None else [1.0, 1.0, 1.0]
     if not (s[0] > 0.0 and abs(s[1] - s[0]) <= 1e-6 * s[0] and abs(s[2] - s[0]) <= 1e-6 * s[0]):
         warn("world: the Mapping node '%s' scales directions by (%g, %g, %g), which bends the "
