@@ -477,14 +477,30 @@ op_status op_image_write_exr_attr(const char *path, const op_image *img, int hal
     return op_output_commit(io.out, err);
 }
 
+/* Whether the linked OpenEXR C library decodes compression comp: DWAA and DWAB only since
+ * OpenEXR 3.1.8 (before, its C core reports them not implemented; Debian 12 has 3.1.5). */
+static int exr_core_decodes(exr_compression_t comp)
+{
+    if (comp != EXR_COMPRESSION_DWAA && comp != EXR_COMPRESSION_DWAB)
+        return 1;
+    int maj = 0, min = 0, patch = 0;
+    const char *extra = NULL;
+    exr_get_library_version(&maj, &min, &patch, &extra);
+    return maj > 3 || (maj == 3 && (min > 1 || (min == 1 && patch >= 8)));
+}
+
 /* Reads a flat (not deep) scanline or tiled OpenEXR file, any pixel type converted to float:
  * the channels R, G, B and A (or Y, else R, and A) of the layer named (layer.R ..., or R ... of
  * the part named layer; NULL or "" the default layer), from the first part that has them. Its
  * own reader, on OpenEXR's C API: OpenImageIO 2.4's (OpenEXR's C++ library) takes 2 GB and 5 s
- * to refuse a 200-byte header declaring a huge data window. */
+ * to refuse a 200-byte header declaring a huge data window. A file whose pixels that library
+ * cannot decode (exr_core_decodes), its header read and its size checked, is left to the
+ * caller: *compression gets the compression's name, nothing else is set; else it gets NULL. */
 static op_status read_exr(const char *path, const char *layer, int fd, int64_t size,
-                          uint64_t max_pixels, int header_only, op_image *img, op_error *err)
+                          uint64_t max_pixels, int header_only, op_image *img,
+                          const char **compression, op_error *err)
 {
+    *compression = NULL;
     exr_io io;
     exr_context_t ctx = NULL;
     op_status st = OP_OK;
@@ -560,6 +576,15 @@ static op_status read_exr(const char *path, const char *layer, int fd, int64_t s
     }
     if ((st = check_pixels(path, "OpenEXR", (uint64_t)w, (uint64_t)h, max_pixels, err)) != OP_OK)
         goto done;
+    exr_compression_t comp = EXR_COMPRESSION_NONE;
+    if ((rv = exr_get_compression(ctx, part, &comp)) != EXR_ERR_SUCCESS) {
+        st = op_error_set(err, OP_ERR_FORMAT, "%s: bad OpenEXR header: %s", path, exr_msg(&io, rv));
+        goto done;
+    }
+    if (!header_only && !exr_core_decodes(comp)) {
+        *compression = comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB";
+        goto done;
+    }
     /* Slots: R G B A, or Y (else R) for grey; grey with alpha is read as RGBA. */
     int c, slot_of[5] = {-1, -1, -1, -1, -1};
     if (has[0] && has[1] && has[2]) {
@@ -1075,9 +1100,21 @@ static op_status read_any(const char *path, const char *layer, int decode, uint6
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0) {
-        st = read_exr(path, layer, fd, (int64_t)size, max_pixels, header_only, img, err);
+        const char *compression;
+        st = read_exr(path, layer, fd, (int64_t)size, max_pixels, header_only, img, &compression,
+                      err);
         close(fd);
-        return st;
+        if (st != OP_OK || !compression)
+            return st;
+        /* OpenImageIO's OpenEXR reader (OpenEXR's C++ library) decodes every compression;
+         * it reads the default layer */
+        char kind[64];
+        snprintf(kind, sizeof kind, "%s-compressed OpenEXR", compression);
+        if (layer && *layer)
+            return op_error_set(err, OP_ERR_INPUT, "%s: the layer \"%s\" of a %s file cannot be "
+                                "read with this OpenEXR library (3.1.8 or later reads it)", path,
+                                layer, kind);
+        return read_oiio(path, "openexr", kind, decode, max_pixels, 0, img, encoded, err);
     }
     if (layer && *layer) {
         close(fd);

@@ -34,12 +34,14 @@ typedef struct op_image_host {
 } op_image_host;
 
 /* The OpenImageIO module: opaline-oiio.so (image_oiio.cpp), loaded by image.c when it first
- * reads a format other than PNG, OpenEXR and PFM, since OpenImageIO and the libraries it loads take Debian's
+ * reads a format other than PNG, OpenEXR and PFM (or an OpenEXR compression image.c's
+ * OpenEXR library cannot decode), since OpenImageIO and the libraries it loads take Debian's
  * programs 0.7 s and 130 MB to start; its one entry point is OP_IMAGE_OIIO_ENTRY. */
 #define OP_IMAGE_OIIO_MODULE "opaline-oiio.so"
 #define OP_IMAGE_OIIO_ENTRY "op_image_oiio_read"
 /* Reads path through OpenImageIO's reader of format ("jpeg", "tiff", "hdr", "bmp", "pnm",
- * "targa"; kind names it in messages): the RGB(A) or grey(+alpha) channels of the first
+ * "targa", and "openexr" for the compressions OpenEXR's C library cannot decode; kind names it
+ * in messages): the RGB(A) or grey(+alpha) channels of the first
  * subimage (TIFF page). Integer pixels (8, 16 or 32 bits) are sRGB-encoded unless the file
  * declares another transfer curve: decoded to linear light when decode is set, else returned
  * as sRGB-encoded values in [0, 1] with *encoded = 1. Float pixels are linear, returned as

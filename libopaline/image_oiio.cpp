@@ -1,5 +1,6 @@
 /* image_oiio.cpp - the module opaline-oiio.so: the image formats read through OpenImageIO
- * (JPEG, TIFF, Radiance HDR, BMP, PNM, TGA), the channels a renderer uses, as
+ * (JPEG, TIFF, Radiance HDR, BMP, PNM, TGA, and OpenEXR files of a compression the OpenEXR C
+ * library that image.c uses cannot decode), the channels a renderer uses, as
  * op_image floats (op_image_oiio_read_fn in image_internal.h). It calls libopaline only
  * through the op_image_host it is given. Only API that OpenImageIO 2.4 to 3.x share is used.
  * No exception leaves this file. */

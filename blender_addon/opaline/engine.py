@@ -178,6 +178,14 @@ def flip_rows(a, w, h):
     return out
 
 
+def opaque(a):
+    """A copy of the flat RGBA array `a` with every alpha 1: Film > Transparent is off, so the
+    world counts as covering every pixel (the renderer's alpha is the coverage of surfaces)."""
+    out = array.array('f', a)
+    out[3::4] = array.array('f', [1.0]) * (len(a) // 4)
+    return out
+
+
 def _set_rect(rpass, a, w, h):
     """Fills a render pass from a flat RGBA array (bottom row first)."""
     rpass.rect = [a[4 * i:4 * i + 4] for i in range(w * h)]
@@ -231,6 +239,7 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         last_stats[0] = None
         last_status[0] = ""
         scene = depsgraph.scene
+        self._transparent = bool(scene.render.film_transparent)
         full_w, full_h, cx, cy, width, height = render_region(scene.render)
         probe = self.begin_result(0, 0, full_w, full_h)  # clamped to Blender's result
         if probe is not None:
@@ -311,8 +320,8 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
         if result is None:
             raise OpalineError("Blender refused the tile %dx%d at %d,%d of the %dx%d result" %
                                (tile.width, tile.height, tile.x, by, width, height))
-        _set_rect(result.layers[0].passes["Combined"], flip_rows(tile.rgba, tile.width,
-                                                                 tile.height),
+        rgba = tile.rgba if self._transparent else opaque(tile.rgba)
+        _set_rect(result.layers[0].passes["Combined"], flip_rows(rgba, tile.width, tile.height),
                   tile.width, tile.height)
         self.end_result(result)
 
@@ -414,6 +423,9 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
             result = self.begin_result(0, 0, width, height)
             try:
                 result.load_from_file(out_path)
+                if not self._transparent:
+                    rpass = result.layers[0].passes["Combined"]
+                    rpass.rect = [(p[0], p[1], p[2], 1.0) for p in rpass.rect]
             finally:
                 self.end_result(result)
         self.update_progress(1.0)
@@ -421,16 +433,18 @@ class OpalineRenderEngine(bpy.types.RenderEngine):
 
 def compatible_panels():
     """The standard property panels whose settings opaline uses (lights, world colour, camera,
-    output format, frame range, colour management; the material slots, Surface and Preview are
-    the add-on's own panels). One panel per setting: the EEVEE panels, which
-    exist in every supported version; not Cycles' (their settings are Cycles' own, and they
+    output format, frame range, colour management, Film > Transparent; the material slots,
+    Surface and Preview are the add-on's own panels). One panel per setting: the EEVEE panels,
+    which exist in every supported version, and Workbench's Film panel, which holds only
+    Transparent; not Cycles' (their settings are Cycles' own, and they
     share one COMPAT_ENGINES set). The names are the same in Blender 3.4 (BLENDER_EEVEE), 4.2 to
     4.5 (EEVEE Next, BLENDER_EEVEE_NEXT, whose panels kept the EEVEE_ / DATA_PT_EEVEE_ names)
     and 5.x (BLENDER_EEVEE again)."""
     want = {"DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot",
             "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface",
             "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
-            "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management"}
+            "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_color_management",
+            "RENDER_PT_opengl_film"}
     out = []
     for p in bpy.types.Panel.__subclasses__():
         if getattr(p, "COMPAT_ENGINES", None) is not None and p.__name__ in want:

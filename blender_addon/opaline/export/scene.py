@@ -9,8 +9,8 @@ hidden for render, not in a collection hidden for render, instancers only when t
 themselves); lights (lights.py); meshes, curves, surfaces, text and metaballs as triangle
 meshes with modifiers applied (meshes.py), shared between instances of one data block; each
 material slot's BSDF or opaline subsurface (materials.py) with its image textures in a
-`textures/` folder (textures.py); the world background as a constant
-emitter; samples, bounces and the subsurface pre-pass settings from the scene's opaline render
+`textures/` folder (textures.py); the world as a constant or environment-map emitter
+(world.py); samples, bounces and the subsurface pre-pass settings from the scene's opaline render
 settings (Scene.opaline). Options: selected objects only, collected material files
 (MaterialCollector), a frame range (export_frames).
 """
@@ -24,6 +24,7 @@ from . import lights as lights_mod
 from . import materials as materials_mod
 from . import meshes as meshes_mod
 from . import textures as textures_mod
+from . import world as world_mod
 from .xml_writer import Element, scene_element, serialize, transform_matrix, write_file
 from .. import chooser, compat, presets
 from ..errors import OpalineError
@@ -88,38 +89,6 @@ def _renders(inst, hidden_cols):
     if cols and all(c.name in hidden_cols for c in cols):
         return False
     return True
-
-
-def world_radiance(world, warn):
-    """(r, g, b) constant radiance of the world background, or None when black/absent."""
-    if world is None:
-        return None
-    col, strength = (world.color[0], world.color[1], world.color[2]), 1.0
-    if compat.uses_nodes(world):
-        out = None
-        for n in world.node_tree.nodes:
-            if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output:
-                out = n
-        if out is None or not out.inputs["Surface"].is_linked:
-            return None
-        node = out.inputs["Surface"].links[0].from_node
-        if node.bl_idname != "ShaderNodeBackground":
-            warn("world: shader node '%s' is not supported; the world is exported black" %
-                 node.bl_idname)
-            return None
-        c = node.inputs["Color"]
-        if c.is_linked:
-            warn("world: the background colour is linked (sky or environment texture); only "
-                 "its default colour is exported")
-        col = (c.default_value[0], c.default_value[1], c.default_value[2])
-        s = node.inputs["Strength"]
-        if s.is_linked:
-            warn("world: the background strength is linked; its default value is used")
-        strength = s.default_value
-    rad = lights_mod.world_radiance(col, strength)
-    if max(rad) <= 0.0:
-        return None
-    return rad
 
 
 def render_samples(scene):
@@ -269,10 +238,10 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     res.width, res.height = camera_mod.render_size(r.resolution_x, r.resolution_y,
                                                    r.resolution_percentage)
 
-    rad = world_radiance(scene.world, warn)
-    if rad is not None:
-        e = root.add(Element("emitter", {"type": "constant"}, comment="world background"))
-        e.rgb("radiance", rad)
+    textures = textures_mod.TextureWriter(xml_dir)
+    world = world_mod.export_world(scene.world, textures, bool(r.film_transparent), warn)
+    if world is not None:
+        root.add(world)
 
     # Preset lookups (and whether the renderer finds them by name) are shared by every
     # material of the export.
@@ -293,7 +262,6 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
     collector = MaterialCollector(xml_dir) if collect_materials else None
     uvless = set()      # objects warned for a measured material without UVs
     hidden_cols = _hidden_collections(scene_orig, getattr(depsgraph, "view_layer", None))
-    textures = textures_mod.TextureWriter(xml_dir)
     mesh_cache = {}     # key -> {material_index: file name}
     no_uv_keys = set()  # keys of meshes without a UV map
     bsdf_ids = {}       # material name -> id of its shared <bsdf>
@@ -395,7 +363,7 @@ def export_scene(depsgraph, xml_path, context=None, renderer_path=None, samples=
         root.add(s)
     res.shapes = len(shapes)
     res.textures_written, res.textures_reused = textures.written, textures.reused
-    if res.shapes == 0 and res.lights == 0 and rad is None:
+    if res.shapes == 0 and res.lights == 0 and world is None:
         warn("nothing to render: no visible shapes, lights or world light")
     text = serialize(root, "opaline scene exported from Blender %s, file %s, frame %d" % (
         bpy.app.version_string, os.path.basename(bpy.data.filepath) or "(unsaved)",

@@ -40,7 +40,7 @@ LINEAR_SPACES = {"Non-Color", "Linear", "Linear Rec.709", "Raw", "Linear ACES", 
                  "Linear CIE-XYZ E", "Linear CIE-XYZ D65", "XYZ"}
 
 
-def _follow(socket):
+def linked_source(socket):
     """(node, output socket) feeding `socket`, through reroutes; (None, None) if unlinked."""
     if socket is None or not socket.is_linked:
         return None, None
@@ -157,7 +157,7 @@ class TextureWriter:
 
 def _mapping(node, tex, warn, label):
     """Adds uscale/vscale/uoffset/voffset for the Image Texture node's Vector input."""
-    src, out = _follow(node.inputs.get("Vector"))
+    src, out = linked_source(node.inputs.get("Vector"))
     if src is None:
         return
     if src.bl_idname == "ShaderNodeMapping":
@@ -180,7 +180,7 @@ def _mapping(node, tex, warn, label):
                 tex.float("uoffset", lx)
             if abs(1.0 - sy - ly) > 1e-9:
                 tex.float("voffset", 1.0 - sy - ly)
-            src, out = _follow(src.inputs.get("Vector"))
+            src, out = linked_source(src.inputs.get("Vector"))
             if src is None:
                 return
         else:
@@ -200,7 +200,7 @@ def texture_for(socket, param, writer, warn, label):
     """A <texture type="bitmap" name=param> for a colour socket linked to an Image Texture
     node's Color output, or None (with a warning) when it is linked to anything else or the
     image cannot be exported."""
-    node, out = _follow(socket)
+    node, out = linked_source(socket)
     if node is None:
         return None
     if node.bl_idname != "ShaderNodeTexImage" or (out is not None and out.name != "Color"):

@@ -119,8 +119,8 @@ static op_v3 trace(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, fl
             op_ray_hit hit;
             op_v3 d = w.dir;
             if (!walk_intersect(s, &w, &hit)) {
-                if (s->env >= 0 && !(depth == 0 && ig->hide_emitters && !start)) {
-                    const op_emitter *e = &s->emitters[s->env];
+                const op_emitter *e = s->env >= 0 ? &s->emitters[s->env] : NULL;
+                if (e && !(depth == 0 && !start && (ig->hide_emitters || e->camera_hidden))) {
                     op_v3 le = op_emitter_env_le(e, d);
                     float mis = 1.0f;
                     if (!prev_delta && !env_bsdf_only(e, 1))
@@ -259,7 +259,7 @@ static op_v3 direct(const op_trace_ctx *ctx, op_v3 org, op_v3 dir, float tmin, f
     for (;;) {
         op_ray_hit hit;
         if (!walk_intersect(s, &w, &hit)) {
-            if (s->env >= 0 && !ig->hide_emitters)
+            if (s->env >= 0 && !ig->hide_emitters && !s->emitters[s->env].camera_hidden)
                 L = v3_add(L, v3_mul(beta, op_emitter_env_le(&s->emitters[s->env], dir)));
             return L;
         }

@@ -119,8 +119,8 @@ op_v3 op_volpath_li(const op_scene *s, op_v3 org, op_v3 dir, float tmin, float t
             v.p = v3_add(w.org, v3_scale(w.dir, t));
         }
         if (!scattered && !found) {
-            if (s->env >= 0 && !(depth == 0 && ig->hide_emitters)) {
-                const op_emitter *e = &s->emitters[s->env];
+            const op_emitter *e = s->env >= 0 ? &s->emitters[s->env] : NULL;
+            if (e && !(depth == 0 && (ig->hide_emitters || e->camera_hidden))) {
                 float mis = 1.0f;
                 if (!prev_delta && !env_bsdf_only(e, 1))
                     mis = op_mis(prev_pdf, op_emitter_env_pdf(e, w.dir));

@@ -189,6 +189,16 @@ static op_status build_texture(op_node *node, op_node *tex, op_tex_cache *textur
     return OP_OK;
 }
 
+/* Reads the opaline extension visibleToCamera (default true) of an area or environment
+ * emitter: false hides the emission from camera rays (it still lights the scene). */
+static op_status read_camera_visibility(op_node *node, op_emitter *e, op_error *err)
+{
+    int visible;
+    GET_OR_FAIL(op_node_bool(node, "visibleToCamera", 1, &visible, err));
+    e->camera_hidden = !visible;
+    return OP_OK;
+}
+
 /* The unit axes of toWorld xf into f (s = +X, t = +Y, n = +Z); 0 when one is degenerate. */
 static int unit_axes(const op_matrix4 *xf, op_frame *f)
 {
@@ -270,9 +280,7 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         e->type = OP_EM_AREA;
         e->mesh = mesh;
         e->shape = shape;
-        int visible;
-        GET_OR_FAIL(op_node_bool(node, "visibleToCamera", 1, &visible, err));
-        e->camera_hidden = !visible;
+        GET_OR_FAIL(read_camera_visibility(node, e, err));
         return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
     }
     if (strcmp(t, "directional") == 0) {
@@ -341,12 +349,14 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
     }
     if (strcmp(t, "sky") == 0) {
         e->type = OP_EM_ENVMAP;
+        GET_OR_FAIL(read_camera_visibility(node, e, err));
         op_sky_model sky;
         GET_OR_FAIL(op_sky_build(node, &xf, max_pixels, &sky, &e->env, err));
         return env_place(node, &xf, 1.0, e, err); /* tabulated at pixel centres */
     }
     if (strcmp(t, "constant") == 0) {
         e->type = OP_EM_CONSTANT;
+        GET_OR_FAIL(read_camera_visibility(node, e, err));
         return read_nonneg_color(node, "radiance", 1.0, &e->value, err);
     }
     if (strcmp(t, "envmap") == 0) {
@@ -354,6 +364,7 @@ op_status op_emitter_build(op_node *node, const op_trimesh *mesh, int shape,
         double scale;
         GET_OR_FAIL(op_node_string(node, "filename", NULL, &fn, err));
         GET_OR_FAIL(op_node_float(node, "scale", 1.0, &scale, err));
+        GET_OR_FAIL(read_camera_visibility(node, e, err));
         if (!fn)
             return op_error_set(err, OP_ERR_INPUT, "%s:%d: <emitter type=\"envmap\"> needs a "
                                 "filename", node->file, node->line);

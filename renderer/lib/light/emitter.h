@@ -43,8 +43,9 @@ typedef struct op_emitter {
     float cos_cutoff, cos_beam, cutoff, beam;
     const op_trimesh *mesh; /* area: the shape's mesh (owned by the scene) */
     int shape;              /* area: the shape's index */
-    int camera_hidden;      /* area: visibleToCamera=false, its emission is not seen by the
-                               camera segment of a path (before any bounce) */
+    int camera_hidden;      /* area, constant, envmap, sky: visibleToCamera=false, its
+                               emission is not seen by the camera segment of a path (before
+                               any bounce) */
     op_v3 dir;              /* directional, collimated: the direction the light travels */
     op_image env;           /* envmap */
     op_frame env_to_world;  /* envmap: columns of the map-to-world rotation (toWorld's) */
