@@ -445,8 +445,9 @@ class TestMaterials(Base):
         self.assertClose(value(b, "float", "intIOR"), [1.5], 1e-4)
         pr.inputs["Metallic"].default_value = 1.0
         s, b = self.shape()
-        self.assertEqual(b.get("type"), "conductor")
-        self.assertClose(value(b, "rgb", "specularReflectance"), [0.1, 0.2, 0.3])
+        self.assertEqual(b.get("type"), "principled")
+        self.assertClose(value(b, "rgb", "baseColor"), [0.1, 0.2, 0.3])
+        self.assertClose(value(b, "float", "roughness"), [0.4])
         pr.inputs["Metallic"].default_value = 0.0
         tr = pr.inputs.get("Transmission") or pr.inputs.get("Transmission Weight")
         tr.default_value = 1.0

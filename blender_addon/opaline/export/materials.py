@@ -2,11 +2,16 @@
 
 Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-addon.md):
 - Diffuse BSDF                -> diffuse (reflectance = Color, or its Image Texture)
-- Glass BSDF                  -> dielectric (intIOR = IOR; opaline has no rough dielectric, so
-                                 roughness is dropped with a warning)
-- Principled BSDF             -> transmission >= 0.5: dielectric (IOR);
-                                 metallic >= 0.5: conductor, material "none" (a mirror tinted by
-                                 specularReflectance = Base Color; roughness dropped, warned);
+- Glass BSDF                  -> dielectric (intIOR = IOR), or when rough roughdielectric
+                                 (alpha = Roughness^2, Cycles' squaring; GGX, or Beckmann
+                                 for Blender's Beckmann distribution)
+- Principled BSDF             -> transmission >= 0.5: as the Glass BSDF (Blender < 4.0 also
+                                 roughens refraction by Transmission Roughness t: roughness
+                                 1 - (1 - r)(1 - t));
+                                 metallic >= 0.5: Mitsuba 3's principled with metallic 1
+                                 (baseColor = Base Color, roughness = Roughness, each a
+                                 number or its Image Texture: a GGX metal of alpha r^2
+                                 whose Fresnel rises from Base Color to 1 at grazing);
                                  otherwise roughplastic (diffuseReflectance = Base Color or
                                  its Image Texture, alpha = roughness^2, intIOR from Specular:
                                  F0 = 0.08 specular)
@@ -18,9 +23,9 @@ A material with opaline subsurface gets, beside its <subsurface>, the surface re
 sheen_for (from its Principled BSDF, or the "Surface sheen" setting): dielectric or a GGX
 roughdielectric.
 Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
-A Diffuse Color / Base Color linked to an Image Texture node exports a bitmap texture
-(textures.py); other linked inputs are not followed: the default value is used and a warning
-names the socket.
+A Diffuse Color / Base Color (and a metal's Roughness) linked to an Image Texture node exports
+a bitmap texture (textures.py); other linked inputs are not followed: the default value is
+used and a warning names the socket.
 """
 
 import math
@@ -102,13 +107,61 @@ def ior_from_f0(f0):
     return (1.0 + s) / (1.0 - s)
 
 
-def _dielectric(ior, roughness, warn, label):
-    if roughness >= 0.02:
-        warn("%s: rough glass is rendered smooth (opaline has no rough dielectric)" % label)
-    b = Element("bsdf", {"type": "dielectric"})
+def microfacet_alpha(roughness):
+    """GGX alpha of a Blender roughness r: r^2, as Cycles squares every microfacet roughness."""
+    r = min(max(float(roughness), 0.0), 1.0)
+    return r * r
+
+
+SMOOTH_ALPHA = 1e-4  # below it a microfacet BSDF is written as its smooth form
+
+
+def _distribution(node):
+    """The Mitsuba microfacet distribution of a Glass or Principled node: beckmann for
+    Beckmann, else ggx (GGX and Multiscatter GGX); None for Sharp (Blender < 4.0's Glass)."""
+    d = getattr(node, "distribution", "GGX")
+    if d == 'SHARP':
+        return None
+    return "beckmann" if d == 'BECKMANN' else "ggx"
+
+
+def _dielectric(ior, alpha, distribution):
+    if distribution is None or alpha < SMOOTH_ALPHA:
+        b = Element("bsdf", {"type": "dielectric"})
+    else:
+        b = Element("bsdf", {"type": "roughdielectric"})
+        b.string("distribution", distribution)
+        b.float("alpha", alpha)
     b.float("intIOR", max(ior, 1.0001))
     b.float("extIOR", 1.0)
     return b
+
+
+def _metal(node, warn, label, textures):
+    """The metal of a Principled BSDF with Metallic >= 0.5: Mitsuba 3's `principled` with
+    metallic 1 (a GGX conductor of alpha = Roughness^2 whose Fresnel rises from Base Color at
+    normal incidence to 1 at grazing, Schlick's, as Cycles' metallic Fresnel does); Base Color
+    and Roughness may be Image Textures."""
+    b = Element("bsdf", {"type": "principled"})
+    _reflectance(b, "baseColor", node, ["Base Color"], warn, label, textures)
+    b.float("metallic", 1.0)
+    _weight(b, "roughness", node, "Roughness", warn, label, textures)
+    return b
+
+
+def _weight(b, param, node, name, warn, label, textures):
+    """Adds the value of input `name` as float `param` of b, or the Image Texture linked to it
+    (read as stored: a grey map in Non-Color) when textures (a TextureWriter) is given."""
+    s = node.inputs.get(name)
+    if s.is_linked and textures is not None:
+        tex = textures_mod.texture_for(s, param, textures, warn, label)
+        if tex is not None:
+            b.add(tex)
+            return
+    elif s.is_linked:
+        warn("%s: input '%s' is linked; its texture is not exported, the default value is "
+             "used" % (label, name))
+    b.float(param, min(max(float(s.default_value), 0.0), 1.0))
 
 
 def _twosided(b):
@@ -134,36 +187,31 @@ def bsdf_for(mat, warn, textures=None):
     if kind == "ShaderNodeBsdfGlass":
         ior = float(_input(node, ["IOR"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
-        return _dielectric(ior, rough, warn, label), None
+        return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), None
     if kind == "ShaderNodeBsdfPrincipled":
-        base_sock = node.inputs.get("Base Color")
-        base = _rgb(base_sock.default_value)
         metallic = float(_input(node, ["Metallic"], warn, label))
-        rough = float(_input(node, ["Roughness"], warn, label))
         trans = float(_input(node, [compat.principled_transmission_input()], warn, label) or
                       0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
         f0 = principled_f0(node, warn, label)
         if trans >= 0.5:
-            return _dielectric(ior, rough, warn, label), None
+            rough = float(_input(node, ["Roughness"], warn, label))
+            # Principled v1 (Blender < 4.0) roughens refraction further by its own input
+            t_rough = node.inputs.get("Transmission Roughness")
+            if t_rough is not None:
+                rough = 1.0 - (1.0 - rough) * (1.0 - float(_input(
+                    node, ["Transmission Roughness"], warn, label)))
+            return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), None
         if metallic >= 0.5:
-            if rough >= 0.02:
-                warn("%s: rough metal is rendered as a smooth mirror (opaline has no rough "
-                     "conductor)" % label)
-            if base_sock.is_linked:
-                warn("%s: input 'Base Color' of a metal is linked; its texture is not exported, "
-                     "the default value is used" % label)
-            b = Element("bsdf", {"type": "conductor"})
-            b.string("material", "none")
-            b.rgb("specularReflectance", base)
-            return _twosided(b), None
+            return _twosided(_metal(node, warn, label, textures)), None
         if f0 <= 8e-6:
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
             return _twosided(b), None
+        rough = float(_input(node, ["Roughness"], warn, label))
         b = Element("bsdf", {"type": "roughplastic"})
         b.string("distribution", "ggx")
-        b.float("alpha", max(rough * rough, 1e-4))
+        b.float("alpha", max(microfacet_alpha(rough), SMOOTH_ALPHA))
         b.float("intIOR", ior_from_f0(f0))
         _reflectance(b, "diffuseReflectance", node, ["Base Color"], warn, label, textures)
         return _twosided(b), None
