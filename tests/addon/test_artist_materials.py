@@ -1,7 +1,8 @@
-"""An artist's materials (export/materials.py): rough metals and rough glass, metal maps. The
-XML each mapping writes (checked by opaline-render --check), and the proof that the rough ones
-are right: a rough metal sphere and a rough glass sphere rendered by Cycles and by opaline from
-the export agree in mean over the sphere's image within TOL."""
+"""An artist's materials (export/materials.py): rough metals and rough glass, metal maps,
+Principled emission. The XML each mapping writes (checked by opaline-render --check), and the
+proof that the mappings are right: a rough metal sphere, a rough glass sphere and an emissive
+one rendered by Cycles and by opaline from the export agree in mean over the sphere's image
+within TOL."""
 
 import math
 import os
@@ -185,6 +186,20 @@ class TestRoughExport(Base):
         self.assertNoRoughWarning()
         S.check_xml(self, self.xml)
 
+    def test_principled_emission(self):
+        mat, pr = principled("lamp")
+        pr.inputs[compat.principled_emission_input()].default_value = (1.0, 0.5, 0.25, 1.0)
+        pr.inputs["Emission Strength"].default_value = 3.0
+        self.sphere(mat)
+        s, b = self.sphere_el()
+        self.assertEqual(b.get("type"), "roughplastic")  # the surface keeps its BSDF
+        self.assertEqual(s.find("emitter").get("type"), "area")
+        self.assertEqual(value(s.find("emitter"), "rgb", "radiance"), [3.0, 1.5, 0.75])
+        S.check_xml(self, self.xml)
+        pr.inputs["Emission Strength"].default_value = 0.0
+        s, b = self.sphere_el()
+        self.assertIsNone(s.find("emitter"))
+
     def test_conversions(self):
         self.assertEqual(M.microfacet_alpha(0.5), 0.25)
         self.assertEqual(M.microfacet_alpha(1.5), 1.0)
@@ -251,6 +266,14 @@ class TestRoughCycles(Base):
     def test_rough_glass(self):
         self.build(glass("frosted", 0.3, 1.45))
         self.compare("rough glass")
+
+    def test_principled_emission(self):
+        mat, pr = principled("lamp")
+        pr.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1)
+        pr.inputs[compat.principled_emission_input()].default_value = (1.0, 0.6, 0.3, 1.0)
+        pr.inputs["Emission Strength"].default_value = 2.0
+        self.build(mat)
+        self.compare("emission")
 
 
 if __name__ == "__main__":

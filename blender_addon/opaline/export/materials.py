@@ -14,7 +14,9 @@ Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-add
                                  whose Fresnel rises from Base Color to 1 at grazing);
                                  otherwise roughplastic (diffuseReflectance = Base Color or
                                  its Image Texture, alpha = roughness^2, intIOR from Specular:
-                                 F0 = 0.08 specular)
+                                 F0 = 0.08 specular);
+                                 Emission colour x Emission Strength > 0: also an area
+                                 emitter on the shape (as the Emission shader)
 - Emission                    -> an area emitter on the shape (radiance = Color * Strength;
                                  Cycles' emission strength is radiance) over a black diffuse
 - anything else / no nodes    -> diffuse with the material's viewport colour (with a warning)
@@ -164,6 +166,22 @@ def _weight(b, param, node, name, warn, label, textures):
     b.float(param, min(max(float(s.default_value), 0.0), 1.0))
 
 
+def _principled_emitter(node, warn, label):
+    """The area emitter of a Principled BSDF's emission (radiance = Emission colour x Emission
+    Strength, as for the Emission shader), or None when it is black."""
+    col = _input(node, [compat.principled_emission_input()], warn, label)
+    strength = _input(node, ["Emission Strength"], warn, label)
+    if col is None:
+        return None
+    k = 1.0 if strength is None else float(strength)
+    rad = tuple(k * c for c in _rgb(col))
+    if max(rad) <= 0.0:
+        return None
+    e = Element("emitter", {"type": "area"})
+    e.rgb("radiance", rad)
+    return e
+
+
 def _twosided(b):
     t = Element("bsdf", {"type": "twosided"})
     t.add(b)
@@ -194,6 +212,7 @@ def bsdf_for(mat, warn, textures=None):
                       0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
         f0 = principled_f0(node, warn, label)
+        emitter = _principled_emitter(node, warn, label)
         if trans >= 0.5:
             rough = float(_input(node, ["Roughness"], warn, label))
             # Principled v1 (Blender < 4.0) roughens refraction further by its own input
@@ -201,20 +220,20 @@ def bsdf_for(mat, warn, textures=None):
             if t_rough is not None:
                 rough = 1.0 - (1.0 - rough) * (1.0 - float(_input(
                     node, ["Transmission Roughness"], warn, label)))
-            return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), None
+            return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), emitter
         if metallic >= 0.5:
-            return _twosided(_metal(node, warn, label, textures)), None
+            return _twosided(_metal(node, warn, label, textures)), emitter
         if f0 <= 8e-6:
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
-            return _twosided(b), None
+            return _twosided(b), emitter
         rough = float(_input(node, ["Roughness"], warn, label))
         b = Element("bsdf", {"type": "roughplastic"})
         b.string("distribution", "ggx")
         b.float("alpha", max(microfacet_alpha(rough), SMOOTH_ALPHA))
         b.float("intIOR", ior_from_f0(f0))
         _reflectance(b, "diffuseReflectance", node, ["Base Color"], warn, label, textures)
-        return _twosided(b), None
+        return _twosided(b), emitter
     if kind == "ShaderNodeEmission":
         col = _rgb(_input(node, ["Color"], warn, label))
         strength = float(_input(node, ["Strength"], warn, label))
