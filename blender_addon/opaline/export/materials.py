@@ -8,13 +8,10 @@ Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-add
 - Principled BSDF             -> transmission >= 0.5: as the Glass BSDF (Blender < 4.0 also
                                  roughens refraction by Transmission Roughness t: roughness
                                  1 - (1 - r)(1 - t));
-                                 metallic >= 0.5: Mitsuba 3's principled with metallic 1
-                                 (baseColor = Base Color, roughness = Roughness, each a
-                                 number or its Image Texture: a GGX metal of alpha r^2
-                                 whose Fresnel rises from Base Color to 1 at grazing);
-                                 otherwise roughplastic (diffuseReflectance = Base Color or
-                                 its Image Texture, alpha = roughness^2, intIOR from Specular:
-                                 F0 = 0.08 specular);
+                                 otherwise Mitsuba 3's principled (Burley's BSDF, which
+                                 Cycles' follows: baseColor, metallic, roughness, each a
+                                 number or its Image Texture, GGX alpha = r^2; eta from
+                                 the specular F0), or diffuse without specular and metal;
                                  Emission colour x Emission Strength > 0: also an area
                                  emitter on the shape (as the Emission shader)
 - Emission                    -> an area emitter on the shape (radiance = Color * Strength;
@@ -25,9 +22,9 @@ A material with opaline subsurface gets, beside its <subsurface>, the surface re
 sheen_for (from its Principled BSDF, or the "Surface sheen" setting): dielectric or a GGX
 roughdielectric.
 Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
-A Diffuse Color / Base Color (and a metal's Roughness) linked to an Image Texture node exports
-a bitmap texture (textures.py); other linked inputs are not followed: the default value is
-used and a warning names the socket.
+A Diffuse Color / Base Color (and a Principled Roughness, Metallic) linked to an Image Texture
+node exports a bitmap texture (textures.py); other linked inputs are not followed: the default
+value is used and a warning names the socket.
 """
 
 import math
@@ -139,15 +136,17 @@ def _dielectric(ior, alpha, distribution):
     return b
 
 
-def _metal(node, warn, label, textures):
-    """The metal of a Principled BSDF with Metallic >= 0.5: Mitsuba 3's `principled` with
-    metallic 1 (a GGX conductor of alpha = Roughness^2 whose Fresnel rises from Base Color at
-    normal incidence to 1 at grazing, Schlick's, as Cycles' metallic Fresnel does); Base Color
-    and Roughness may be Image Textures."""
+def _principled(node, f0, warn, label, textures):
+    """Mitsuba 3's `principled` (Burley's Disney BSDF, which Cycles' Principled BSDF follows)
+    for an opaque Principled BSDF: baseColor, metallic and roughness (each a number or its
+    Image Texture; the BSDF squares roughness into GGX alpha = r^2, as Cycles does, and a metal's
+    Fresnel rises from Base Color at normal incidence to 1 at grazing, Schlick's), and eta from
+    the specular F0."""
     b = Element("bsdf", {"type": "principled"})
     _reflectance(b, "baseColor", node, ["Base Color"], warn, label, textures)
-    b.float("metallic", 1.0)
+    _weight(b, "metallic", node, "Metallic", warn, label, textures)
     _weight(b, "roughness", node, "Roughness", warn, label, textures)
+    b.float("eta", max(ior_from_f0(f0), 1.0001))
     return b
 
 
@@ -207,7 +206,6 @@ def bsdf_for(mat, warn, textures=None):
         rough = float(_input(node, ["Roughness"], warn, label))
         return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), None
     if kind == "ShaderNodeBsdfPrincipled":
-        metallic = float(_input(node, ["Metallic"], warn, label))
         trans = float(_input(node, [compat.principled_transmission_input()], warn, label) or
                       0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
@@ -221,19 +219,12 @@ def bsdf_for(mat, warn, textures=None):
                 rough = 1.0 - (1.0 - rough) * (1.0 - float(_input(
                     node, ["Transmission Roughness"], warn, label)))
             return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), emitter
-        if metallic >= 0.5:
-            return _twosided(_metal(node, warn, label, textures)), emitter
-        if f0 <= 8e-6:
+        metal = node.inputs.get("Metallic")
+        if f0 <= 8e-6 and not metal.is_linked and metal.default_value <= 0.0:
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
             return _twosided(b), emitter
-        rough = float(_input(node, ["Roughness"], warn, label))
-        b = Element("bsdf", {"type": "roughplastic"})
-        b.string("distribution", "ggx")
-        b.float("alpha", max(microfacet_alpha(rough), SMOOTH_ALPHA))
-        b.float("intIOR", ior_from_f0(f0))
-        _reflectance(b, "diffuseReflectance", node, ["Base Color"], warn, label, textures)
-        return _twosided(b), emitter
+        return _twosided(_principled(node, f0, warn, label, textures)), emitter
     if kind == "ShaderNodeEmission":
         col = _rgb(_input(node, ["Color"], warn, label))
         strength = float(_input(node, ["Strength"], warn, label))
