@@ -188,6 +188,14 @@ class TestRoughExport(Base):
         self.assertNoRoughWarning()
         S.check_xml(self, self.xml)
 
+    def test_alpha(self):
+        mat, pr = principled("veil")
+        pr.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1)
+        pr.inputs["Alpha"].default_value = 0.4
+        self.build(mat)
+        # the opaque part is the plastic's BSDF (test_principled_plastic): Lambert since 4.0
+        self.compare("alpha 0.4", TOL if bpy.app.version < (4, 0, 0) else 0.07)
+
     def test_principled_emission(self):
         mat, pr = principled("lamp")
         pr.inputs[compat.principled_emission_input()].default_value = (1.0, 0.5, 0.25, 1.0)
@@ -201,6 +209,31 @@ class TestRoughExport(Base):
         pr.inputs["Emission Strength"].default_value = 0.0
         s, b = self.sphere_el()
         self.assertIsNone(s.find("emitter"))
+
+    def test_alpha(self):
+        mat, pr = principled("leaf")
+        pr.inputs["Alpha"].default_value = 0.25
+        self.sphere(mat)
+        s, b = self.sphere_el()
+        self.assertEqual(b.get("type"), "mask")
+        self.assertEqual(value(b, "float", "opacity"), [0.25])
+        self.assertEqual(b.find("bsdf").get("type"), "twosided")
+        S.check_xml(self, self.xml)
+        path = os.path.join(self.dir, "cutout.png")
+        grey_png(path, 4, 4, 255)
+        tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+        tex.image = bpy.data.images.load(path)
+        tex.image.colorspace_settings.name = "Non-Color"
+        mat.node_tree.links.new(tex.outputs["Color"], pr.inputs["Alpha"])
+        s, b = self.sphere_el()
+        self.assertEqual(b.get("type"), "mask")
+        t = b.find("texture")
+        self.assertEqual((t.get("name"), value(t, "float", "gamma")), ("opacity", [1.0]))
+        S.check_xml(self, self.xml)
+        pr.inputs["Alpha"].default_value = 1.0
+        mat.node_tree.links.remove(pr.inputs["Alpha"].links[0])
+        s, b = self.sphere_el()
+        self.assertEqual(b.get("type"), "principled")  # opaque: no mask
 
     def test_conversions(self):
         self.assertEqual(M.microfacet_alpha(0.5), 0.25)
@@ -277,6 +310,14 @@ class TestRoughCycles(Base):
         # Blender 3.4: 1.000 of Cycles (both Burley's diffuse); Principled v2 (4.0 on) diffuses
         # as Lambert, without Burley's retro-reflection: 1.048 of Cycles 4.3
         self.compare("plastic", TOL if bpy.app.version < (4, 0, 0) else 0.07)
+
+    def test_alpha(self):
+        mat, pr = principled("veil")
+        pr.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1)
+        pr.inputs["Alpha"].default_value = 0.4
+        self.build(mat)
+        # the opaque part is the plastic's BSDF (test_principled_plastic): Lambert since 4.0
+        self.compare("alpha 0.4", TOL if bpy.app.version < (4, 0, 0) else 0.07)
 
     def test_principled_emission(self):
         mat, pr = principled("lamp")

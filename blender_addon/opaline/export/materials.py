@@ -13,7 +13,9 @@ Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-add
                                  number or its Image Texture, GGX alpha = r^2; eta from
                                  the specular F0), or diffuse without specular and metal;
                                  Emission colour x Emission Strength > 0: also an area
-                                 emitter on the shape (as the Emission shader)
+                                 emitter on the shape (as the Emission shader);
+                                 Alpha < 1 or linked to an Image Texture: inside a mask
+                                 (opacity = Alpha)
 - Emission                    -> an area emitter on the shape (radiance = Color * Strength;
                                  Cycles' emission strength is radiance) over a black diffuse
 - anything else / no nodes    -> diffuse with the material's viewport colour (with a warning)
@@ -22,9 +24,9 @@ A material with opaline subsurface gets, beside its <subsurface>, the surface re
 sheen_for (from its Principled BSDF, or the "Surface sheen" setting): dielectric or a GGX
 roughdielectric.
 Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
-A Diffuse Color / Base Color (and a Principled Roughness, Metallic) linked to an Image Texture
-node exports a bitmap texture (textures.py); other linked inputs are not followed: the default
-value is used and a warning names the socket.
+A Diffuse Color / Base Color (and a Principled Roughness, Metallic, Alpha) linked to an Image
+Texture node exports a bitmap texture (textures.py); other linked inputs are not followed: the
+default value is used and a warning names the socket.
 """
 
 import math
@@ -165,6 +167,31 @@ def _weight(b, param, node, name, warn, label, textures):
     b.float(param, min(max(float(s.default_value), 0.0), 1.0))
 
 
+def _alpha_mask(b, node, warn, label, textures):
+    """b, or a `mask` around it when the Principled BSDF's Alpha is below 1 or linked to an
+    Image Texture's Color (a grey cut-out map; Cycles mixes in a transparent BSDF of weight
+    1 - Alpha, which is the mask's opacity = Alpha)."""
+    s = node.inputs.get("Alpha")
+    if s is None:
+        return b
+    m = Element("bsdf", {"type": "mask"})
+    if s.is_linked and textures is not None:
+        tex = textures_mod.texture_for(s, "opacity", textures, warn, label)
+        if tex is None:
+            return b
+        m.add(tex)
+    else:
+        if s.is_linked:
+            warn("%s: input 'Alpha' is linked; its texture is not exported, the default value "
+                 "is used" % label)
+        a = min(max(float(s.default_value), 0.0), 1.0)
+        if a >= 1.0:
+            return b
+        m.float("opacity", a)
+    m.add(b)
+    return m
+
+
 def _principled_emitter(node, warn, label):
     """The area emitter of a Principled BSDF's emission (radiance = Emission colour x Emission
     Strength, as for the Emission shader), or None when it is black."""
@@ -223,8 +250,9 @@ def bsdf_for(mat, warn, textures=None):
         if f0 <= 8e-6 and not metal.is_linked and metal.default_value <= 0.0:
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
-            return _twosided(b), emitter
-        return _twosided(_principled(node, f0, warn, label, textures)), emitter
+            return _alpha_mask(_twosided(b), node, warn, label, textures), emitter
+        b = _twosided(_principled(node, f0, warn, label, textures))
+        return _alpha_mask(b, node, warn, label, textures), emitter
     if kind == "ShaderNodeEmission":
         col = _rgb(_input(node, ["Color"], warn, label))
         strength = float(_input(node, ["Strength"], warn, label))
