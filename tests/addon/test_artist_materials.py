@@ -237,6 +237,16 @@ class TestRoughExport(Base):
         s, b = self.sphere_el()
         self.assertEqual(b.get("type"), "principled")  # opaque: no mask
 
+    def test_normal_map_warned(self):
+        mat, pr = principled("bumpy")
+        nm = mat.node_tree.nodes.new("ShaderNodeNormalMap")
+        mat.node_tree.links.new(nm.outputs["Normal"], pr.inputs["Normal"])
+        self.sphere(mat)
+        s, b = self.sphere_el()
+        self.assertEqual(b.get("type"), "principled")
+        self.assertTrue([w for w in self.res.warnings if "'Normal' is linked" in w],
+                        self.res.warnings)
+
     def test_sun_angle_warned(self):
         S.add_light('SUN', (0, 0, 5), energy=2.0, angle=math.radians(5.0))
         self.export()

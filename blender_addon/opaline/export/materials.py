@@ -167,6 +167,15 @@ def _weight(b, param, node, name, warn, label, textures):
     b.float(param, min(max(float(s.default_value), 0.0), 1.0))
 
 
+def _warn_normal(node, warn, label):
+    """Warns when the node's Normal input is linked (a normal or bump map), which is not
+    exported."""
+    s = node.inputs.get("Normal")
+    if s is not None and s.is_linked:
+        warn("%s: input 'Normal' is linked (a normal or bump map); it is not exported, the "
+             "surface is rendered with the mesh's own normals" % label)
+
+
 def _alpha_mask(b, node, warn, label, textures):
     """b, or a `mask` around it when the Principled BSDF's Alpha is below 1 or linked to an
     Image Texture's Color (a grey cut-out map; Cycles mixes in a transparent BSDF of weight
@@ -251,6 +260,7 @@ def bsdf_for(mat, warn, textures=None):
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
             return _alpha_mask(_twosided(b), node, warn, label, textures), emitter
+        _warn_normal(node, warn, label)
         b = _twosided(_principled(node, f0, warn, label, textures))
         return _alpha_mask(b, node, warn, label, textures), emitter
     if kind == "ShaderNodeEmission":
