@@ -19,6 +19,7 @@ import bpy  # noqa: E402
 
 from opaline import compat  # noqa: E402
 from opaline.export import materials as M  # noqa: E402
+from opaline.export.xml_writer import serialize  # noqa: E402
 
 RES = 64
 SPP = 32
@@ -236,6 +237,16 @@ class TestRoughExport(Base):
         mat.node_tree.links.remove(pr.inputs["Alpha"].links[0])
         s, b = self.sphere_el()
         self.assertEqual(b.get("type"), "principled")  # opaque: no mask
+
+    def test_large_ior_clamped(self):
+        # Blender 4.0 on: IOR 50 at Specular IOR Level 1 gives F0 0.92 (3.4's Specular stops
+        # at F0 0.08, so the F0 is given here directly)
+        mat, pr = principled("mirrorish")
+        warnings = []
+        b = ET.fromstring(serialize(M._principled(pr, 0.92, warnings.append,
+                                                  "material mirrorish", None)).encode())
+        self.assertEqual(value(b, "float", "eta"), [M.MAX_ETA])
+        self.assertTrue([w for w in warnings if "index of refraction" in w], warnings)
 
     def test_normal_map_warned(self):
         mat, pr = principled("bumpy")

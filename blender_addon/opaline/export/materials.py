@@ -115,6 +115,7 @@ def microfacet_alpha(roughness):
 
 
 SMOOTH_ALPHA = 1e-4  # below it a microfacet BSDF is written as its smooth form
+MAX_ETA = 9.99  # principled's eta lies in (0, 10)
 
 
 def _distribution(node):
@@ -148,7 +149,11 @@ def _principled(node, f0, warn, label, textures):
     _reflectance(b, "baseColor", node, ["Base Color"], warn, label, textures)
     _weight(b, "metallic", node, "Metallic", warn, label, textures)
     _weight(b, "roughness", node, "Roughness", warn, label, textures)
-    b.float("eta", max(ior_from_f0(f0), 1.0001))
+    eta = ior_from_f0(f0)
+    if eta > MAX_ETA:
+        warn("%s: the specular layer's index of refraction %.4g is rendered as %g (the "
+             "largest opaline's principled takes)" % (label, eta, MAX_ETA))
+    b.float("eta", min(max(eta, 1.0001), MAX_ETA))
     return b
 
 
