@@ -247,6 +247,11 @@ class TestRoughExport(Base):
                                                   "material mirrorish", None)).encode())
         self.assertEqual(value(b, "float", "eta"), [M.MAX_ETA])
         self.assertTrue([w for w in warnings if "index of refraction" in w], warnings)
+        self.sphere(glass("dense", 0.0, 40.0))
+        s, b = self.sphere_el()
+        self.assertEqual(value(b, "float", "intIOR"), [M.MAX_ETA])
+        self.assertTrue([w for w in self.res.warnings if "index of refraction 40" in w])
+        S.check_xml(self, self.xml)
 
     def test_normal_map_warned(self):
         mat, pr = principled("bumpy")

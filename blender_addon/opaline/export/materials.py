@@ -115,7 +115,7 @@ def microfacet_alpha(roughness):
 
 
 SMOOTH_ALPHA = 1e-4  # below it a microfacet BSDF is written as its smooth form
-MAX_ETA = 9.99  # principled's eta lies in (0, 10)
+MAX_ETA = 9.99  # indices of refraction lie in (0, 10)
 
 
 def _distribution(node):
@@ -127,14 +127,22 @@ def _distribution(node):
     return "beckmann" if d == 'BECKMANN' else "ggx"
 
 
-def _dielectric(ior, alpha, distribution):
+def _clamped_ior(ior, warn, label):
+    """ior within what opaline's BSDFs take ((1, 10)), warned when it was larger."""
+    if ior > MAX_ETA:
+        warn("%s: the index of refraction %.4g is rendered as %g (the largest opaline's BSDFs "
+             "take)" % (label, ior, MAX_ETA))
+    return min(max(ior, 1.0001), MAX_ETA)
+
+
+def _dielectric(ior, alpha, distribution, warn, label):
     if distribution is None or alpha < SMOOTH_ALPHA:
         b = Element("bsdf", {"type": "dielectric"})
     else:
         b = Element("bsdf", {"type": "roughdielectric"})
         b.string("distribution", distribution)
         b.float("alpha", alpha)
-    b.float("intIOR", max(ior, 1.0001))
+    b.float("intIOR", _clamped_ior(ior, warn, label))
     b.float("extIOR", 1.0)
     return b
 
@@ -149,11 +157,7 @@ def _principled(node, f0, warn, label, textures):
     _reflectance(b, "baseColor", node, ["Base Color"], warn, label, textures)
     _weight(b, "metallic", node, "Metallic", warn, label, textures)
     _weight(b, "roughness", node, "Roughness", warn, label, textures)
-    eta = ior_from_f0(f0)
-    if eta > MAX_ETA:
-        warn("%s: the specular layer's index of refraction %.4g is rendered as %g (the "
-             "largest opaline's principled takes)" % (label, eta, MAX_ETA))
-    b.float("eta", min(max(eta, 1.0001), MAX_ETA))
+    b.float("eta", _clamped_ior(ior_from_f0(f0), warn, label))
     return b
 
 
@@ -245,7 +249,7 @@ def bsdf_for(mat, warn, textures=None):
     if kind == "ShaderNodeBsdfGlass":
         ior = float(_input(node, ["IOR"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
-        return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), None
+        return _dielectric(ior, microfacet_alpha(rough), _distribution(node), warn, label), None
     if kind == "ShaderNodeBsdfPrincipled":
         trans = float(_input(node, [compat.principled_transmission_input()], warn, label) or
                       0.0)
@@ -259,7 +263,8 @@ def bsdf_for(mat, warn, textures=None):
             if t_rough is not None:
                 rough = 1.0 - (1.0 - rough) * (1.0 - float(_input(
                     node, ["Transmission Roughness"], warn, label)))
-            return _dielectric(ior, microfacet_alpha(rough), _distribution(node)), emitter
+            return _dielectric(ior, microfacet_alpha(rough), _distribution(node), warn,
+                               label), emitter
         metal = node.inputs.get("Metallic")
         if f0 <= 8e-6 and not metal.is_linked and metal.default_value <= 0.0:
             b = Element("bsdf", {"type": "diffuse"})
