@@ -247,6 +247,11 @@ class TestRoughExport(Base):
                                                   "material mirrorish", None)).encode())
         self.assertEqual(value(b, "float", "eta"), [M.MAX_ETA])
         self.assertTrue([w for w in warnings if "index of refraction" in w], warnings)
+        S.set_specular(pr, 200.0)  # F0 16: the sheen of a translucent material from it
+        warnings = []
+        sheen = ET.fromstring(serialize(M.sheen_for(mat, warnings.append)).encode())
+        self.assertEqual(value(sheen, "float", "intIOR"), [M.MAX_ETA])
+        self.assertTrue([w for w in warnings if "index of refraction" in w], warnings)
         self.sphere(glass("dense", 0.0, 40.0))
         s, b = self.sphere_el()
         self.assertEqual(value(b, "float", "intIOR"), [M.MAX_ETA])

@@ -369,7 +369,7 @@ def sheen_for(mat, warn):
         b = Element("bsdf", {"type": "roughdielectric"})
         b.string("distribution", "ggx")
         b.float("alpha", min(alpha, 1.0))
-    b.float("intIOR", max(ior, 1.0001))
+    b.float("intIOR", _clamped_ior(ior, warn, "material %s" % mat.name))
     b.float("extIOR", 1.0)
     return b
 
