@@ -33,6 +33,12 @@ def principled_transmission_input():
     return "Transmission Weight" if VERSION >= (4, 0, 0) else "Transmission"
 
 
+def principled_emission_input():
+    """The name of the Principled BSDF's emission colour input: "Emission Color" since Blender
+    4.0 (Principled v2, whose Emission Strength defaults to 0), "Emission" before."""
+    return "Emission Color" if VERSION >= (4, 0, 0) else "Emission"
+
+
 def principled_f0(read):
     """The normal-incidence reflectance F0 of a Principled BSDF's dielectric layer, read(name)
     giving an input's value (None when the node has none): since Blender 4.0 (Principled v2)

@@ -439,14 +439,15 @@ class TestMaterials(Base):
         pr.inputs["Base Color"].default_value = (0.1, 0.2, 0.3, 1)
         pr.inputs["Roughness"].default_value = 0.4
         s, b = self.shape()
-        self.assertEqual(b.get("type"), "roughplastic")
-        self.assertClose(value(b, "float", "alpha"), [0.16])
-        self.assertClose(value(b, "rgb", "diffuseReflectance"), [0.1, 0.2, 0.3])
-        self.assertClose(value(b, "float", "intIOR"), [1.5], 1e-4)
+        self.assertEqual(b.get("type"), "principled")
+        self.assertClose(value(b, "float", "roughness"), [0.4])
+        self.assertClose(value(b, "rgb", "baseColor"), [0.1, 0.2, 0.3])
+        self.assertClose(value(b, "float", "eta"), [1.5], 1e-4)
+        self.assertClose(value(b, "float", "metallic"), [0.0])
         pr.inputs["Metallic"].default_value = 1.0
         s, b = self.shape()
-        self.assertEqual(b.get("type"), "conductor")
-        self.assertClose(value(b, "rgb", "specularReflectance"), [0.1, 0.2, 0.3])
+        self.assertEqual(b.get("type"), "principled")
+        self.assertClose(value(b, "float", "metallic"), [1.0])
         pr.inputs["Metallic"].default_value = 0.0
         tr = pr.inputs.get("Transmission") or pr.inputs.get("Transmission Weight")
         tr.default_value = 1.0

@@ -188,13 +188,13 @@ class TestTextureExport(unittest.TestCase):
         self.assertAlmostEqual(float(p["uoffset"]), 0.25)
         self.assertAlmostEqual(float(p["voffset"]), 1.0 - 3.0 - 0.5)
         self.assertTrue(any("cubic" in w for w in self.res.warnings), self.res.warnings)
-        # the roughplastic of a Principled BSDF takes it as diffuseReflectance
+        # the principled of a Principled BSDF takes it as baseColor
         self.sc = S.empty_scene((RES, RES))
         S.add_camera((0.0, 0.0, 4.0))
         ob = textured_plane(make_image("r"), principled=True)
         S.set_specular(ob.data.materials[0].node_tree.nodes["Principled BSDF"], 0.5)
         root = self.export()
-        self.assertEqual(texture_el(root).get("name"), "diffuseReflectance")
+        self.assertEqual(texture_el(root).get("name"), "baseColor")
         S.check_xml(self, self.xml)
 
     def test_not_an_image_texture(self):

@@ -149,7 +149,10 @@ def export_light(light, matrix, area_divisor, warn, visible_camera=True):
         e.vector("direction", down)
         e.rgb("irradiance", sun_irradiance(light.energy, color))
         if getattr(light, "angle", 0.0) > math.radians(1.0):
-            warn("sun %s: angular diameter ignored (opaline's sun is a directional light)" % name)
+            warn("sun %s: its Angle (%.2f degrees, the soft shadows of a sun of that size) is "
+                 "not rendered: opaline has no sun of angular size, so it renders a directional "
+                 "light of sharp shadows (below 1 degree: no warning)" %
+                 (name, math.degrees(light.angle)))
         return e
     if kind == 'AREA':
         shape = light.shape

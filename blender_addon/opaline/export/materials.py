@@ -2,14 +2,20 @@
 
 Node mapping (the closest of opaline's Mitsuba-style BSDFs; see docs/blender-addon.md):
 - Diffuse BSDF                -> diffuse (reflectance = Color, or its Image Texture)
-- Glass BSDF                  -> dielectric (intIOR = IOR; opaline has no rough dielectric, so
-                                 roughness is dropped with a warning)
-- Principled BSDF             -> transmission >= 0.5: dielectric (IOR);
-                                 metallic >= 0.5: conductor, material "none" (a mirror tinted by
-                                 specularReflectance = Base Color; roughness dropped, warned);
-                                 otherwise roughplastic (diffuseReflectance = Base Color or
-                                 its Image Texture, alpha = roughness^2, intIOR from Specular:
-                                 F0 = 0.08 specular)
+- Glass BSDF                  -> dielectric (intIOR = IOR), or when rough roughdielectric
+                                 (alpha = Roughness^2, Cycles' squaring; GGX, or Beckmann
+                                 for Blender's Beckmann distribution)
+- Principled BSDF             -> transmission >= 0.5: as the Glass BSDF (Blender < 4.0 also
+                                 roughens refraction by Transmission Roughness t: roughness
+                                 1 - (1 - r)(1 - t));
+                                 otherwise Mitsuba 3's principled (Burley's BSDF, which
+                                 Cycles' follows: baseColor, metallic, roughness, each a
+                                 number or its Image Texture, GGX alpha = r^2; eta from
+                                 the specular F0), or diffuse without specular and metal;
+                                 Emission colour x Emission Strength > 0: also an area
+                                 emitter on the shape (as the Emission shader);
+                                 Alpha < 1 or linked to an Image Texture: inside a mask
+                                 (opacity = Alpha)
 - Emission                    -> an area emitter on the shape (radiance = Color * Strength;
                                  Cycles' emission strength is radiance) over a black diffuse
 - anything else / no nodes    -> diffuse with the material's viewport colour (with a warning)
@@ -18,9 +24,9 @@ A material with opaline subsurface gets, beside its <subsurface>, the surface re
 sheen_for (from its Principled BSDF, or the "Surface sheen" setting): dielectric or a GGX
 roughdielectric.
 Reflective BSDFs are wrapped in `twosided`, as Cycles shades both sides of a surface.
-A Diffuse Color / Base Color linked to an Image Texture node exports a bitmap texture
-(textures.py); other linked inputs are not followed: the default value is used and a warning
-names the socket.
+A Diffuse Color / Base Color (and a Principled Roughness, Metallic, Alpha) linked to an Image
+Texture node exports a bitmap texture (textures.py); other linked inputs are not followed: the
+default value is used and a warning names the socket.
 """
 
 import math
@@ -102,13 +108,122 @@ def ior_from_f0(f0):
     return (1.0 + s) / (1.0 - s)
 
 
-def _dielectric(ior, roughness, warn, label):
-    if roughness >= 0.02:
-        warn("%s: rough glass is rendered smooth (opaline has no rough dielectric)" % label)
-    b = Element("bsdf", {"type": "dielectric"})
-    b.float("intIOR", max(ior, 1.0001))
+def microfacet_alpha(roughness):
+    """GGX alpha of a Blender roughness r: r^2, as Cycles squares every microfacet roughness."""
+    r = min(max(float(roughness), 0.0), 1.0)
+    return r * r
+
+
+SMOOTH_ALPHA = 1e-4  # below it a microfacet BSDF is written as its smooth form
+MAX_ETA = 9.99  # indices of refraction lie in (0, 10)
+
+
+def _distribution(node):
+    """The Mitsuba microfacet distribution of a Glass or Principled node: beckmann for
+    Beckmann, else ggx (GGX and Multiscatter GGX); None for Sharp (Blender < 4.0's Glass)."""
+    d = getattr(node, "distribution", "GGX")
+    if d == 'SHARP':
+        return None
+    return "beckmann" if d == 'BECKMANN' else "ggx"
+
+
+def _clamped_ior(ior, warn, label):
+    """ior within what opaline's BSDFs take ((1, 10)), warned when it was larger."""
+    if ior > MAX_ETA:
+        warn("%s: the index of refraction %.4g is rendered as %g (the largest opaline's BSDFs "
+             "take)" % (label, ior, MAX_ETA))
+    return min(max(ior, 1.0001), MAX_ETA)
+
+
+def _dielectric(ior, alpha, distribution, warn, label):
+    if distribution is None or alpha < SMOOTH_ALPHA:
+        b = Element("bsdf", {"type": "dielectric"})
+    else:
+        b = Element("bsdf", {"type": "roughdielectric"})
+        b.string("distribution", distribution)
+        b.float("alpha", alpha)
+    b.float("intIOR", _clamped_ior(ior, warn, label))
     b.float("extIOR", 1.0)
     return b
+
+
+def _principled(node, f0, warn, label, textures):
+    """Mitsuba 3's `principled` (Burley's Disney BSDF, which Cycles' Principled BSDF follows)
+    for an opaque Principled BSDF: baseColor, metallic and roughness (each a number or its
+    Image Texture; the BSDF squares roughness into GGX alpha = r^2, as Cycles does, and a metal's
+    Fresnel rises from Base Color at normal incidence to 1 at grazing, Schlick's), and eta from
+    the specular F0."""
+    b = Element("bsdf", {"type": "principled"})
+    _reflectance(b, "baseColor", node, ["Base Color"], warn, label, textures)
+    _weight(b, "metallic", node, "Metallic", warn, label, textures)
+    _weight(b, "roughness", node, "Roughness", warn, label, textures)
+    b.float("eta", _clamped_ior(ior_from_f0(f0), warn, label))
+    return b
+
+
+def _weight(b, param, node, name, warn, label, textures):
+    """Adds the value of input `name` as float `param` of b, or the Image Texture linked to it
+    (read as stored: a grey map in Non-Color) when textures (a TextureWriter) is given."""
+    s = node.inputs.get(name)
+    if s.is_linked and textures is not None:
+        tex = textures_mod.texture_for(s, param, textures, warn, label)
+        if tex is not None:
+            b.add(tex)
+            return
+    elif s.is_linked:
+        warn("%s: input '%s' is linked; its texture is not exported, the default value is "
+             "used" % (label, name))
+    b.float(param, min(max(float(s.default_value), 0.0), 1.0))
+
+
+def _warn_normal(node, warn, label):
+    """Warns when the node's Normal input is linked (a normal or bump map), which is not
+    exported."""
+    s = node.inputs.get("Normal")
+    if s is not None and s.is_linked:
+        warn("%s: input 'Normal' is linked (a normal or bump map); it is not exported, the "
+             "surface is rendered with the mesh's own normals" % label)
+
+
+def _alpha_mask(b, node, warn, label, textures):
+    """b, or a `mask` around it when the Principled BSDF's Alpha is below 1 or linked to an
+    Image Texture's Color (a grey cut-out map; Cycles mixes in a transparent BSDF of weight
+    1 - Alpha, which is the mask's opacity = Alpha)."""
+    s = node.inputs.get("Alpha")
+    if s is None:
+        return b
+    m = Element("bsdf", {"type": "mask"})
+    if s.is_linked and textures is not None:
+        tex = textures_mod.texture_for(s, "opacity", textures, warn, label)
+        if tex is None:
+            return b
+        m.add(tex)
+    else:
+        if s.is_linked:
+            warn("%s: input 'Alpha' is linked; its texture is not exported, the default value "
+                 "is used" % label)
+        a = min(max(float(s.default_value), 0.0), 1.0)
+        if a >= 1.0:
+            return b
+        m.float("opacity", a)
+    m.add(b)
+    return m
+
+
+def _principled_emitter(node, warn, label):
+    """The area emitter of a Principled BSDF's emission (radiance = Emission colour x Emission
+    Strength, as for the Emission shader), or None when it is black."""
+    col = _input(node, [compat.principled_emission_input()], warn, label)
+    strength = _input(node, ["Emission Strength"], warn, label)
+    if col is None:
+        return None
+    k = 1.0 if strength is None else float(strength)
+    rad = tuple(k * c for c in _rgb(col))
+    if max(rad) <= 0.0:
+        return None
+    e = Element("emitter", {"type": "area"})
+    e.rgb("radiance", rad)
+    return e
 
 
 def _twosided(b):
@@ -134,39 +249,30 @@ def bsdf_for(mat, warn, textures=None):
     if kind == "ShaderNodeBsdfGlass":
         ior = float(_input(node, ["IOR"], warn, label))
         rough = float(_input(node, ["Roughness"], warn, label))
-        return _dielectric(ior, rough, warn, label), None
+        return _dielectric(ior, microfacet_alpha(rough), _distribution(node), warn, label), None
     if kind == "ShaderNodeBsdfPrincipled":
-        base_sock = node.inputs.get("Base Color")
-        base = _rgb(base_sock.default_value)
-        metallic = float(_input(node, ["Metallic"], warn, label))
-        rough = float(_input(node, ["Roughness"], warn, label))
         trans = float(_input(node, [compat.principled_transmission_input()], warn, label) or
                       0.0)
         ior = float(_input(node, ["IOR"], warn, label) or 1.45)
         f0 = principled_f0(node, warn, label)
+        emitter = _principled_emitter(node, warn, label)
         if trans >= 0.5:
-            return _dielectric(ior, rough, warn, label), None
-        if metallic >= 0.5:
-            if rough >= 0.02:
-                warn("%s: rough metal is rendered as a smooth mirror (opaline has no rough "
-                     "conductor)" % label)
-            if base_sock.is_linked:
-                warn("%s: input 'Base Color' of a metal is linked; its texture is not exported, "
-                     "the default value is used" % label)
-            b = Element("bsdf", {"type": "conductor"})
-            b.string("material", "none")
-            b.rgb("specularReflectance", base)
-            return _twosided(b), None
-        if f0 <= 8e-6:
+            rough = float(_input(node, ["Roughness"], warn, label))
+            # Principled v1 (Blender < 4.0) roughens refraction further by its own input
+            t_rough = node.inputs.get("Transmission Roughness")
+            if t_rough is not None:
+                rough = 1.0 - (1.0 - rough) * (1.0 - float(_input(
+                    node, ["Transmission Roughness"], warn, label)))
+            return _dielectric(ior, microfacet_alpha(rough), _distribution(node), warn,
+                               label), emitter
+        metal = node.inputs.get("Metallic")
+        if f0 <= 8e-6 and not metal.is_linked and metal.default_value <= 0.0:
             b = Element("bsdf", {"type": "diffuse"})
             _reflectance(b, "reflectance", node, ["Base Color"], warn, label, textures)
-            return _twosided(b), None
-        b = Element("bsdf", {"type": "roughplastic"})
-        b.string("distribution", "ggx")
-        b.float("alpha", max(rough * rough, 1e-4))
-        b.float("intIOR", ior_from_f0(f0))
-        _reflectance(b, "diffuseReflectance", node, ["Base Color"], warn, label, textures)
-        return _twosided(b), None
+            return _alpha_mask(_twosided(b), node, warn, label, textures), emitter
+        _warn_normal(node, warn, label)
+        b = _twosided(_principled(node, f0, warn, label, textures))
+        return _alpha_mask(b, node, warn, label, textures), emitter
     if kind == "ShaderNodeEmission":
         col = _rgb(_input(node, ["Color"], warn, label))
         strength = float(_input(node, ["Strength"], warn, label))
@@ -263,7 +369,7 @@ def sheen_for(mat, warn):
         b = Element("bsdf", {"type": "roughdielectric"})
         b.string("distribution", "ggx")
         b.float("alpha", min(alpha, 1.0))
-    b.float("intIOR", max(ior, 1.0001))
+    b.float("intIOR", _clamped_ior(ior, warn, "material %s" % mat.name))
     b.float("extIOR", 1.0)
     return b
 
