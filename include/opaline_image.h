@@ -1,7 +1,7 @@
 /*
  * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM,
- * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
- * opaline.h.
+ * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA;
+ * view transforms (OpenColorIO's) for display-referred output. Errors and conventions: opaline.h.
  */
 #ifndef OPALINE_IMAGE_H
 #define OPALINE_IMAGE_H
