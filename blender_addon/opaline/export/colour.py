@@ -47,5 +47,6 @@ def film_view(scene, warn):
         warn("Color Management > Curves is not exported: PNG outputs are without it")
     if getattr(vs, "use_white_balance", False):
         warn("Color Management > White Balance is not exported: PNG outputs are without it")
+    # Blender raises a gamma of 0 to FLT_EPSILON, as the renderer needs it above 0
     return view_params(config, ds.display_device, vs.view_transform, vs.look, vs.exposure,
-                       vs.gamma)
+                       max(vs.gamma, 1.1920929e-07))
