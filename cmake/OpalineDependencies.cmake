@@ -31,6 +31,8 @@ target_link_libraries(op_openexr_core INTERFACE ${OP_OPENEXR_CORE_LIBRARY})
 opaline_require_pkg(OP_LIBPNG libpng libpng-dev)
 # Image reading (every format but PFM): OpenImageIO 2.4 (Debian 12) to 3.x, through its C++ API.
 opaline_require_pkg(OP_OIIO OpenImageIO libopenimageio-dev)
+# View transforms (Blender's colour management): OpenColorIO 2.1 (Debian 12) to 2.4, its C++ API.
+opaline_require_pkg(OP_OCIO OpenColorIO libopencolorio-dev)
 opaline_require_pkg(OP_ZLIB zlib zlib1g-dev)
 # CRC-32 with carry-less multiplication (the .opm checksums: ~10x zlib's crc32)
 opaline_require_pkg(OP_LIBDEFLATE libdeflate libdeflate-dev)

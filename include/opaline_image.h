@@ -1,7 +1,7 @@
 /*
  * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM,
- * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA. Errors and conventions:
- * opaline.h.
+ * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA;
+ * view transforms (OpenColorIO's) for display-referred output. Errors and conventions: opaline.h.
  */
 #ifndef OPALINE_IMAGE_H
 #define OPALINE_IMAGE_H
@@ -93,6 +93,27 @@ op_status op_image_read_layer(const char *path, const char *layer, int decode,
  * errors for a file they refuse before decoding; 0, 0, 0 then. */
 op_status op_image_read_size(const char *path, int *width, int *height, int *channels,
                              op_error *err);
+
+/* A view transform of an OpenColorIO configuration, as Blender applies its scene's colour
+ * management (view settings, display device) to a render it saves display-referred: 2^exposure
+ * in the scene-linear role, then the look (NULL, "" or "None": none), then the display's view,
+ * then the power 1 / gamma. */
+typedef struct op_view_transform {
+    const char *config;         /* the config.ocio file */
+    const char *display;        /* NULL or "": the config's default display */
+    const char *view;
+    const char *look;
+    double exposure;            /* stops */
+    double gamma;               /* > 0; 1: none */
+} op_view_transform;
+/* Whether OpenColorIO reads vt's config and knows its display, view and look: OP_ERR_INPUT
+ * naming what it lacks (the names it has), or when OpenColorIO's module (opaline-ocio.so) is
+ * missing. */
+op_status op_view_transform_check(const op_view_transform *vt, op_error *err);
+/* Applies vt to the scene-linear RGB of img (3 or 4 channels) in place, leaving display-encoded
+ * values; RGBA pixels are premultiplied: their colour is divided by alpha (when it is in (0, 1))
+ * before and multiplied after, as Blender does. */
+op_status op_view_transform_apply(const op_view_transform *vt, op_image *img, op_error *err);
 
 #ifdef __cplusplus
 }

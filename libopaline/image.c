@@ -6,8 +6,8 @@
 #include "opaline.h"
 #include "opaline_image.h"
 #include "image_internal.h"
+#include "module_internal.h"
 
-#include <dlfcn.h>
 #include <errno.h>
 #include <math.h>
 #include <png.h>
@@ -1031,35 +1031,17 @@ static const char *oiio_format(const char *path, const unsigned char *m, size_t 
     return NULL;
 }
 
-/* The OpenImageIO module's entry point, loaded once: from <program's folder>/../lib/opaline/
- * (the installed layout, and the build tree's bin/), else from where this build put it. */
+/* The OpenImageIO module's entry point, loaded once (op_module_entry). */
 static pthread_once_t oiio_once = PTHREAD_ONCE_INIT;
 static op_image_oiio_read_fn oiio_read;
 static char oiio_failure[1100];
 
 static void oiio_load(void)
 {
-    char exe[4096], tried[2][4200];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    exe[len > 0 ? len : 0] = '\0';
-    char *slash = strrchr(exe, '/');
-    if (slash)
-        *slash = '\0';
-    snprintf(tried[0], sizeof tried[0], "%s/../lib/opaline/%s", exe, OP_IMAGE_OIIO_MODULE);
-    snprintf(tried[1], sizeof tried[1], "%s", OPALINE_OIIO_MODULE_BUILT);
-    for (int i = 0; i < 2 && !oiio_read; i++) {
-        if (access(tried[i], F_OK) != 0)
-            continue;
-        void *module = dlopen(tried[i], RTLD_NOW | RTLD_LOCAL);
-        void *entry = module ? dlsym(module, OP_IMAGE_OIIO_ENTRY) : NULL;
-        if (entry)
-            memcpy(&oiio_read, &entry, sizeof entry); /* POSIX: a function's address */
-        else
-            snprintf(oiio_failure, sizeof oiio_failure, "%.1000s", dlerror());
-    }
-    if (!oiio_read && !oiio_failure[0])
-        snprintf(oiio_failure, sizeof oiio_failure, "neither %.500s nor %.500s exists", tried[0],
-                 tried[1]);
+    void *entry = op_module_entry(OP_IMAGE_OIIO_MODULE, OPALINE_OIIO_MODULE_BUILT,
+                                  OP_IMAGE_OIIO_ENTRY, oiio_failure, sizeof oiio_failure);
+    if (entry)
+        memcpy(&oiio_read, &entry, sizeof entry); /* POSIX: a function's address */
 }
 
 /* Reads path through the OpenImageIO module: op_image_oiio_read_fn (image_internal.h). */

@@ -20,7 +20,8 @@ group() {
   case $1 in
     core) echo build-essential cmake pkg-config libembree-dev liblapacke-dev libopenblas-dev \
                libxml2-dev libcmocka-dev libopenexr-dev libpng-dev zlib1g-dev libxxhash-dev \
-               libdeflate-dev libopenimageio-dev blender python3 python3-numpy acl ;;
+               libdeflate-dev libopenimageio-dev libopencolorio-dev blender python3 python3-numpy \
+               acl ;;
     fuzz) echo clang libclang-rt-dev ;;
     platforms) echo debootstrap ;;
     cluster) echo slurm-wlm munge ;;

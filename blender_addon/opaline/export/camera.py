@@ -1,4 +1,5 @@
-"""Blender camera + render settings -> opaline <sensor> (with its film and sampler).
+"""Blender camera + render settings -> opaline <sensor> (with its film, its view transform
+(colour.py), and its sampler).
 
 Pure functions first (tested without bpy):
 - `render_size(res_x, res_y, percentage)`: the output resolution Blender renders.
@@ -92,4 +93,7 @@ def export_camera(scene, cam_obj, matrix, samples, warn):
     f = s.add(Element("film", {"type": "hdrfilm"}))
     f.integer("width", width)
     f.integer("height", height)
+    from .colour import film_view
+    for kind, name, value in film_view(scene, warn):
+        getattr(f, kind)(name, value)
     return s

@@ -3,8 +3,10 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 #include "math/vec.h"
 #include "scene/scene_color.h"
@@ -162,6 +164,64 @@ op_status op_film_set_crop(op_film *film, long long x, long long y, long long w,
     return OP_OK;
 }
 
+/* The view transform film names (viewTransform, viewConfig, viewDisplay, viewLook,
+ * viewExposure, viewGamma), checked; none when it names no viewTransform. A config that is not
+ * there is replaced by $OCIO's, as a farm's nodes name theirs. */
+static op_status build_view(op_node *film, op_film *out, op_error *err)
+{
+    static const char *const params[] = {"viewConfig", "viewDisplay", "viewLook", "viewExposure",
+                                         "viewGamma"};
+    out->view_gamma = 1.0;
+    if (!op_node_has(film, "viewTransform")) {
+        for (size_t i = 0; i < sizeof params / sizeof params[0]; i++)
+            if (op_node_has(film, params[i]))
+                return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: %s without viewTransform",
+                                    film->file, film->line, params[i]);
+        return OP_OK;
+    }
+    if (out->mfilm)
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"mfilm\">: a measurement has "
+                            "no viewTransform", film->file, film->line);
+    static const char *const tonemap[] = {"gamma", "exposure", "tonemapMethod", "key", "burn"};
+    for (size_t i = 0; out->ldr && i < sizeof tonemap / sizeof tonemap[0]; i++)
+        if (op_node_has(film, tonemap[i]))
+            return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: %s and viewTransform both "
+                                "develop the PNG: give one", film->file, film->line, tonemap[i]);
+    const char *view, *config, *display, *look;
+    GET_OR_FAIL(op_node_string(film, "viewTransform", NULL, &view, err));
+    GET_OR_FAIL(op_node_string(film, "viewConfig", NULL, &config, err));
+    GET_OR_FAIL(op_node_string(film, "viewDisplay", "", &display, err));
+    GET_OR_FAIL(op_node_string(film, "viewLook", "", &look, err));
+    GET_OR_FAIL(op_node_float(film, "viewExposure", 0.0, &out->view_exposure, err));
+    GET_OR_FAIL(op_node_float(film, "viewGamma", 1.0, &out->view_gamma, err));
+    const char *env = getenv("OCIO");
+    char *path = config ? op_node_resolve(film, config) : NULL;
+    if (config && !path)
+        return op_error_set(err, OP_ERR_NOMEM, "out of memory");
+    if (path && access(path, R_OK) != 0 && env && env[0]) {
+        op_log(OP_LOG_WARN, "%s:%d: <film>: viewConfig %s is not there: using $OCIO (%s)",
+               film->file, film->line, path, env);
+        free(path);
+        path = NULL;
+    }
+    if (!path && !(env && env[0]))
+        return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film>: viewTransform \"%s\" names no "
+                            "viewConfig and $OCIO is not set", film->file, film->line, view);
+    snprintf(out->view_config, sizeof out->view_config, "%s", path ? path : env);
+    free(path);
+    snprintf(out->view, sizeof out->view, "%s", view);
+    snprintf(out->view_display, sizeof out->view_display, "%s", display);
+    snprintf(out->view_look, sizeof out->view_look, "%s", look);
+    op_view_transform vt;
+    op_film_view_transform(out, &vt);
+    op_error why = {0};
+    op_status st = op_view_transform_check(&vt, &why);
+    if (st)
+        return op_error_set(err, st, "%s:%d: <film>: viewTransform: %s", film->file, film->line,
+                            why.message);
+    return OP_OK;
+}
+
 op_status op_film_build(op_node *film, op_film *out, op_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -288,6 +348,7 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
                 op_log(OP_LOG_WARN, "%s:%d: <film>: key and burn apply to tonemapMethod "
                        "\"reinhard\" only", film->file, film->line);
         }
+        GET_OR_FAIL(build_view(film, out, err));
         for (int i = 0; i < film->nchildren; i++) {
             op_node *c = film->children[i];
             if (strcmp(c->tag, "rfilter") != 0)
@@ -298,6 +359,7 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
     } else {
         out->width = out->full_width;
         out->height = out->full_height;
+        out->view_gamma = 1.0;
     }
     GET_OR_FAIL(build_filter(filter, out, err));
     if (out->mfilm && !filter) { /* Mitsuba's mfilm: a box filter unless it names one */
@@ -392,6 +454,16 @@ float op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, 
     return 1.0f;
 }
 
+void op_film_view_transform(const op_film *film, op_view_transform *vt)
+{
+    vt->config = film->view_config;
+    vt->display = film->view_display;
+    vt->view = film->view;
+    vt->look = film->view_look;
+    vt->exposure = film->view_exposure;
+    vt->gamma = film->view_gamma;
+}
+
 static int has_ext(const char *path, const char *ext)
 {
     size_t n = strlen(path), e = strlen(ext);
@@ -422,24 +494,42 @@ op_status op_film_write_image(const op_film *film, const op_image *img, const ch
     int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
     if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
         oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */
-    op_image out;
-    op_status st = op_image_alloc(&out, img->width, img->height, oc, err);
-    if (st)
+    op_image out, viewed = {0};
+    op_status st;
+    if (is_png && film->view[0]) { /* displayed values, stored as the sRGB encoder's inverse */
+        op_view_transform vt;
+        op_film_view_transform(film, &vt);
+        if ((st = op_image_alloc(&viewed, img->width, img->height, 4, err)) != OP_OK)
+            return st;
+        memcpy(viewed.pixels, img->pixels, (size_t)img->width * img->height * 4 * sizeof(float));
+        if ((st = op_view_transform_apply(&vt, &viewed, err)) != OP_OK) {
+            op_image_free(&viewed);
+            return st;
+        }
+        for (size_t i = 0; i < (size_t)img->width * img->height; i++)
+            for (int c = 0; c < 3; c++)
+                viewed.pixels[4 * i + c] = (float)op_srgb_to_linear(viewed.pixels[4 * i + c]);
+        img = &viewed;
+    }
+    st = op_image_alloc(&out, img->width, img->height, oc, err);
+    if (st) {
+        op_image_free(&viewed);
         return st;
+    }
     size_t n = (size_t)img->width * img->height;
-    int reinhard = is_png && film->ldr && film->reinhard;
+    int reinhard = is_png && film->ldr && film->reinhard && !film->view[0];
     reinhard_op rh;
     if (reinhard)
         reinhard_prepare(film, img->pixels, n, &rh);
     /* Reinhard replaces the exposure */
-    double exposure = film->ldr && !reinhard ? film->exposure : 0.0;
+    double exposure = film->ldr && !reinhard && !film->view[0] ? film->exposure : 0.0;
     for (size_t i = 0; i < n; i++) {
         const float *p = img->pixels + 4 * i;
         float *q = out.pixels + (size_t)oc * i;
         float rgb[3] = {p[0], p[1], p[2]};
         if (reinhard)
             reinhard_apply(&rh, rgb);
-        if (is_png && film->ldr && film->gamma > 0.0) {
+        if (is_png && film->ldr && film->gamma > 0.0 && !film->view[0]) {
             /* op_image_write_png encodes sRGB; pre-warp so the stored value is x^(1/gamma) */
             float sc = (float)exp2(exposure);
             for (int c = 0; c < 3; c++) {
@@ -468,5 +558,6 @@ op_status op_film_write_image(const op_film *film, const op_image *img, const ch
     else
         st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
     op_image_free(&out);
+    op_image_free(&viewed);
     return st;
 }

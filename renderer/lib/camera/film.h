@@ -52,10 +52,15 @@ typedef struct op_film {
                                    mitchell/catmullrom 2 (or radius), lanczos lobes */
     float stddev;
     op_filter_table table;      /* OP_FILTER_TABLE's */
+    /* opaline's view transform (viewTransform ...): a PNG developed through an OpenColorIO
+     * config's display and view, as Blender saves a render; view[0] == '\0': none */
+    char view_config[4096], view_display[256], view[256], view_look[256];
+    double view_exposure, view_gamma;
 } op_film;
 
 /* Reads a <film> (NULL: hdrfilm 768 x 576 with a gaussian filter; an mfilm is 1 x 1 with a box
- * filter and luminance pixels unless it says otherwise). */
+ * filter and luminance pixels unless it says otherwise). A view transform it names is checked
+ * (its config, display, view and look known to OpenColorIO). */
 op_status op_film_build(op_node *film, op_film *out, op_error *err);
 /* Sets the crop window (Mitsuba's cropOffsetX/Y, cropWidth/Height: the pixels rendered, a
  * rectangle of the full_width x full_height film, top-left origin). A window not inside the
@@ -67,14 +72,17 @@ op_status op_film_set_crop(op_film *film, long long x, long long y, long long w,
  * f(dx) f(dy) / (pdf * integral of f squared), whose mean over samples is 1). */
 float op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, float *dy);
 
+/* The film's view transform (pointing into film); view "" when it names none. */
+void op_film_view_transform(const op_film *film, op_view_transform *vt);
 /* The image format of an output path (".exr", ".png", ".pfm", ".hdr" or ".m", a text matrix):
  * by its extension, else the film's when the file name has no dot; NULL for an unknown
  * extension. */
 const char *op_film_image_format(const op_film *film, const char *path);
 /* Develops the RGBA image under the film's settings and writes it to path in its format
  * (op_film_image_format): hdrfilm's pixelFormat and componentFormat; ldrfilm's tonemapMethod
- * (gamma with exposure, or reinhard), gamma and pixelFormat. PFM, RGBE and an hdrfilm's PNG
- * (a preview, opaque) drop alpha. */
+ * (gamma with exposure, or reinhard), gamma and pixelFormat; a PNG through the film's view
+ * transform when it names one (the float formats stay scene-linear). PFM, RGBE and an
+ * hdrfilm's PNG (a preview, opaque) drop alpha. */
 op_status op_film_write_image(const op_film *film, const op_image *img, const char *path,
                               op_error *err);
 
