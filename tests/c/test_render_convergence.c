@@ -98,7 +98,23 @@ static void test_threads_bit_identical(void **state)
     check_threads_bit_identical(cornell);
     char *ld = cornell_with_sampler("sobol");
     check_threads_bit_identical(ld);
+    /* Mitsuba 3's multijitter and orthogonal samplers select the same low-discrepancy sampler */
+    const char *path = op_test_write_temp("cornell.xml", ld);
+    char keep[1024];
+    snprintf(keep, sizeof keep, "%s", path);
+    op_image a = op_test_render_image(keep, 8, 1, 0);
     free(ld);
+    const char *mitsuba3[] = {"multijitter", "orthogonal"};
+    for (int k = 0; k < 2; k++) {
+        ld = cornell_with_sampler(mitsuba3[k]);
+        path = op_test_write_temp("cornell.xml", ld);
+        snprintf(keep, sizeof keep, "%s", path);
+        op_image b = op_test_render_image(keep, 8, 1, 0);
+        assert_memory_equal(a.pixels, b.pixels, (size_t)a.width * a.height * 4 * sizeof(float));
+        op_image_free(&b);
+        free(ld);
+    }
+    op_image_free(&a);
 }
 
 static void test_error_falls_as_inverse_sqrt_spp(void **state)

@@ -494,6 +494,9 @@ static void errors(void **state)
     expect_error(HEAD "  <shape type=\"obj\">\n    <boolean name=\"b\" value=\"True\"/>\n"
                       "  </shape>\n</scene>\n",
                  4, "bad boolean 'True'");
+    expect_error("<scene version=\"3.0.0\">\n  <shape type=\"obj\">\n"
+                 "    <boolean name=\"b\" value=\"no\"/>\n  </shape>\n</scene>\n",
+                 3, "bad boolean 'no'");
     expect_error(HEAD "  <shape type=\"obj\">\n    <float name=\"f\" value=\"1.2.3\"/>\n"
                       "  </shape>\n</scene>\n",
                  4, "bad number '1.2.3'");
@@ -799,6 +802,38 @@ static void mitsuba3_dialect(void **state)
     rmdir(dir);
 }
 
+/* What Mitsuba 2/3 files written by exporters hold: booleans in any letter case (Mitsuba 2/3
+ * compare them ignoring case, Mitsuba 0.6 does not) and objects named with a label that is no
+ * parameter name ("mat-Material", kept as written in either dialect). */
+static void exporter_spellings(void **state)
+{
+    (void)state;
+    char path[1024];
+    op_error err = {0};
+    op_node *root;
+    OP_ASSERT_OK(parse_text("<scene version=\"2.1.0\">\n"
+                            "  <sampler type=\"stratified\">\n"
+                            "    <boolean name=\"jitter\" value=\"False\"/>\n"
+                            "    <boolean name=\"other\" value=\"TRUE\"/>\n"
+                            "  </sampler>\n"
+                            "  <bsdf type=\"twosided\" id=\"mat-Material\" name=\"mat-Material\">\n"
+                            "    <bsdf type=\"diffuse\" name=\"bsdf\"/>\n"
+                            "  </bsdf>\n"
+                            "</scene>\n", NULL, 0, &root, &err, path), err);
+    int b = -1;
+    OP_ASSERT_OK(op_node_bool(root->children[0], "jitter", 1, &b, &err), err);
+    assert_int_equal(b, 0);
+    OP_ASSERT_OK(op_node_bool(root->children[0], "other", 0, &b, &err), err);
+    assert_int_equal(b, 1);
+    assert_string_equal(op_node_child_name(root, 1), "mat-Material");
+    op_desc_free(root);
+    OP_ASSERT_OK(parse_text(HEAD "  <bsdf type=\"diffuse\" id=\"a\" name=\"mat-Old_one\"/>\n</scene>\n",
+                            NULL, 0, &root, &err, path), err);
+    assert_string_equal(op_node_child_name(root, 0), "mat-Old_one");
+    op_desc_free(root);
+    unlink(path);
+}
+
 static void array_grow(void **state)
 {
     (void)state;
@@ -838,6 +873,7 @@ int main(void)
         cmocka_unit_test(unused_report),
         cmocka_unit_test(realistic_scene),
         cmocka_unit_test(mitsuba3_dialect),
+        cmocka_unit_test(exporter_spellings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

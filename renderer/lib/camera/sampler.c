@@ -163,7 +163,8 @@ op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
     if (!sampler)
         return OP_OK;
     sampler->used = 1;
-    static const char *const ld[] = {"stratified", "ldsampler", "sobol", "halton", "hammersley"};
+    static const char *const ld[] = {"stratified", "ldsampler",   "sobol",     "halton",
+                                     "hammersley", "multijitter", "orthogonal"};
     int known = strcmp(sampler->type, "independent") == 0;
     for (size_t i = 0; i < sizeof ld / sizeof ld[0] && !known; i++)
         if (strcmp(sampler->type, ld[i]) == 0) {
@@ -172,7 +173,8 @@ op_status op_sampler_build(op_node *sampler, op_sampler *out, op_error *err)
         }
     if (!known)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <sampler type=\"%s\">: unknown sampler "
-                            "(independent, stratified, ldsampler, sobol, halton, hammersley)",
+                            "(independent, stratified, ldsampler, sobol, halton, hammersley, "
+                            "multijitter, orthogonal)",
                             sampler->file, sampler->line, sampler->type);
     long long n;
     GET_OR_FAIL(op_node_int(sampler, "sampleCount", 4, &n, err));

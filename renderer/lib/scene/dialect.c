@@ -78,6 +78,15 @@ static int to_snake(const char *s, char *out, size_t cap)
     return 0;
 }
 
+/* Whether s is letters, digits and underscores only, the form of every parameter name. */
+static int is_identifier(const char *s)
+{
+    for (; *s; s++)
+        if (!isalnum((unsigned char)*s) && *s != '_')
+            return 0;
+    return 1;
+}
+
 static int has_upper(const char *s)
 {
     for (; *s; s++)
@@ -91,6 +100,8 @@ int op_dialect_param_name(op_dialect d, const char *spelled, char *out, size_t c
 {
     if (hcap > 0)
         hint[0] = '\0';
+    if (!is_identifier(spelled)) /* "mat-Material", a Blender export's label: no one's parameter */
+        return snprintf(out, cap, "%s", spelled) < (int)cap ? 0 : -2;
     if (d == OP_DIALECT_MITSUBA_3) {
         if (has_upper(spelled)) {
             if (to_snake(spelled, hint, hcap) != 0 && hcap > 0)

@@ -28,7 +28,9 @@ const char *op_dialect_label(op_dialect d);
 /* The Mitsuba 0.6 name of the parameter spelled as written in dialect d, into out (cap
  * bytes). Returns 0 on success; -1 when the spelling belongs to the other dialect (a Mitsuba 3
  * file's camelCase name, a 0.x file's snake_case one), with *hint the name as the file's own
- * dialect spells it, in hint (hcap bytes); -2 when it does not fit. */
+ * dialect spells it, in hint (hcap bytes); -2 when it does not fit. A name that is not letters,
+ * digits and underscores (an exporter's label such as "mat-Material") is no parameter of either
+ * dialect and is kept as written. */
 int op_dialect_param_name(op_dialect d, const char *spelled, char *out, size_t cap, char *hint,
                           size_t hcap);
 

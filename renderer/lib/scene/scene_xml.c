@@ -24,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -680,10 +681,13 @@ static op_status value_element(xml_ctx *c, xmlNode *e, op_node *parent, elem_cla
                 st = elem_error(c, e, "bad integer '%s'", value);
             tmp.value.i = v;
         } else if (tag[0] == 'b') {
+            /* Mitsuba 0.6 takes only these spellings; Mitsuba 2/3 any letter case ("False") */
+            int (*same)(const char *, const char *) =
+                c->dialect == OP_DIALECT_MITSUBA_3 ? strcasecmp : strcmp;
             tmp.kind = OP_PROP_BOOLEAN;
-            if (strcmp(value, "true") == 0)
+            if (same(value, "true") == 0)
                 tmp.value.b = 1;
-            else if (strcmp(value, "false") == 0)
+            else if (same(value, "false") == 0)
                 tmp.value.b = 0;
             else
                 st = elem_error(c, e, "bad boolean '%s': expected true or false", value);
