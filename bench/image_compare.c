@@ -5,7 +5,6 @@
 #include "opaline.h"
 #include "opaline_image.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -71,28 +70,16 @@ typedef struct options {
     const char *render, *reference, *variance;
 } options;
 
-/* Parses a whole number in [lo, hi] into *out; 0 if s is not one. */
-static int parse_long(const char *s, long lo, long hi, long *out)
+/* Reads option a's value v (n comma-separated numbers, op_parse_numbers) into out; 0 when it is
+ * not such a value (said). */
+static int take_numbers(const char *a, const char *v, int n, double lo, double hi, int flags,
+                        double *out)
 {
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi)
-        return 0;
-    *out = v;
-    return 1;
-}
-
-/* Parses a finite number in (lo, hi) into *out; 0 if s is not one. */
-static int parse_double(const char *s, double lo, double hi, double *out)
-{
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || end == s || *end || !(v > lo && v < hi))
-        return 0;
-    *out = v;
-    return 1;
+    op_error err = {0};
+    if (op_parse_numbers(a, v, n, lo, hi, flags, out, &err) == OP_OK)
+        return 1;
+    op_log(OP_LOG_ERROR, "%s", err.message);
+    return 0;
 }
 
 /* 1 when a is an option that takes a value (all of them but --help). */
@@ -115,7 +102,6 @@ static int parse_options(int argc, char **argv, options *o)
     int nfiles = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        long x, y;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             usage(stdout);
             return -1;
@@ -128,38 +114,36 @@ static int parse_options(int argc, char **argv, options *o)
             op_log(OP_LOG_ERROR, "%s needs a value", a);
             return 0;
         }
+        double x[2];
         if (!strcmp(a, "--spp")) {
-            if (!parse_long(v, 1, 1L << 40, &o->spp))
-                goto bad_value;
+            if (!take_numbers(a, v, 1, 1, 0x1p40, OP_NUMBER_WHOLE, x))
+                return 0;
+            o->spp = (long)x[0];
         } else if (!strcmp(a, "--ref-spp")) {
-            if (!parse_long(v, 1, 1L << 40, &o->ref_spp))
-                goto bad_value;
+            if (!take_numbers(a, v, 1, 1, 0x1p40, OP_NUMBER_WHOLE, x))
+                return 0;
+            o->ref_spp = (long)x[0];
         } else if (!strcmp(a, "--block")) {
-            if (!parse_long(v, 1, 4096, &o->block))
-                goto bad_value;
+            if (!take_numbers(a, v, 1, 1, 4096, OP_NUMBER_WHOLE, x))
+                return 0;
+            o->block = (long)x[0];
         } else if (!strcmp(a, "--alpha")) {
-            if (!parse_double(v, 0, 1, &o->alpha))
-                goto bad_value;
+            if (!take_numbers(a, v, 1, 0, 1, OP_NUMBER_ABOVE_LO | OP_NUMBER_BELOW_HI, &o->alpha))
+                return 0;
         } else if (!strcmp(a, "--var-floor")) {
-            if (!parse_double(v, -1, 1e300, &o->var_floor) || o->var_floor < 0)
-                goto bad_value;
+            if (!take_numbers(a, v, 1, 0, 1e300, 0, &o->var_floor))
+                return 0;
         } else if (!strcmp(a, "--space")) {
-            if (strcmp(v, "xyz") && strcmp(v, "rgb"))
-                goto bad_value;
+            if (strcmp(v, "xyz") && strcmp(v, "rgb")) {
+                op_log(OP_LOG_ERROR, "--space %s: need xyz or rgb", v);
+                return 0;
+            }
             o->xyz = !strcmp(v, "xyz");
         } else if (!strcmp(a, "--crop")) {
-            char *comma = strchr(v, ',');
-            char head[32];
-            size_t len = comma ? (size_t)(comma - v) : 0;
-            if (!comma || len >= sizeof head)
-                goto bad_value;
-            memcpy(head, v, len);
-            head[len] = '\0';
-            if (!parse_long(head, 0, OP_IMAGE_MAX_SIDE, &x) ||
-                !parse_long(comma + 1, 0, OP_IMAGE_MAX_SIDE, &y))
-                goto bad_value;
-            o->crop_x = (int)x;
-            o->crop_y = (int)y;
+            if (!take_numbers(a, v, 2, 0, OP_IMAGE_MAX_SIDE, OP_NUMBER_WHOLE, x))
+                return 0;
+            o->crop_x = (int)x[0];
+            o->crop_y = (int)x[1];
             o->cropped = 1;
         } else {
             if (nfiles == 3) {
@@ -171,10 +155,6 @@ static int parse_options(int argc, char **argv, options *o)
             continue;
         }
         i++;
-        continue;
-    bad_value:
-        op_log(OP_LOG_ERROR, "%s %s: not a valid value (--help says which)", a, v);
-        return 0;
     }
     if (nfiles != 3 || !o->spp) {
         op_log(OP_LOG_ERROR, "need --spp N and the files RENDER REFERENCE VARIANCE "

@@ -1,10 +1,11 @@
 /*
  * opaline.h - the base of the opaline library: what every opaline program shares.
  *
- * Error reporting, logging, progress reporting, threads, input and crash-safe output files,
- * interruption, checksums and the table of scattering media. The rest of the library has a
- * header per audience: opaline_image.h (image files), opaline_material.h (reading and
- * evaluating materials) and opaline_material_write.h (writing them: the factorizer's).
+ * Error reporting, logging, progress reporting, command-line numbers, NumPy .npy headers,
+ * threads, input and crash-safe output files, interruption, checksums and the table of
+ * scattering media. The rest of the library has a header per audience: opaline_image.h (image
+ * files), opaline_material.h (reading and evaluating materials) and opaline_material_write.h
+ * (writing them: the factorizer's).
  *
  * Conventions (of every opaline header)
  *  - Every fallible function returns an op_status and, when it fails, fills the caller's
@@ -140,6 +141,52 @@ double op_monotonic_seconds(void);
 uint32_t op_crc32(uint32_t crc, const void *data, size_t n);
 /* The CRC-32 of A followed by B, from crc(A), crc(B) and B's length in bytes. */
 uint32_t op_crc32_combine(uint32_t crc_a, uint32_t crc_b, uint64_t bytes_b);
+
+/* ---------------------------------------------------------------- command-line numbers */
+
+/* op_parse_numbers' flags: a whole number (decimal digits after an optional sign; else any
+ * number strtod reads), and an interval open at lo or at hi. */
+enum { OP_NUMBER_WHOLE = 1, OP_NUMBER_ABOVE_LO = 2, OP_NUMBER_BELOW_HI = 4 };
+
+/* The one reader of the numbers given to command-line options: text, the value of option opt,
+ * is n comma-separated numbers (1 <= n <= 16), stored in out[0..n). The whole text is read (no
+ * blanks, nothing after), every number finite and within [lo, hi] (lo and hi within 2^53 of 0
+ * for whole numbers). Otherwise OP_ERR_INPUT "OPT TEXT: need a whole number in [LO, HI]" (or
+ * "need N comma-separated numbers in (LO, HI)", as the flags say), or "OPT needs a value" when
+ * text is NULL; out is then unchanged. */
+op_status op_parse_numbers(const char *opt, const char *text, int n, double lo, double hi,
+                           int flags, double *out, op_error *err);
+/* op_parse_numbers of one number. */
+op_status op_parse_number(const char *opt, const char *text, double lo, double hi, int flags,
+                          double *out, op_error *err);
+
+/* ---------------------------------------------------------------- NumPy .npy files */
+
+/* The most leading bytes of a file that op_npy_parse_header reads: the preamble and the
+ * largest header it accepts (64 KiB). */
+#define OP_NPY_MAX_HEADER (12 + 65536)
+/* The most bytes op_npy_write_header writes. */
+#define OP_NPY_HEADER_SIZE 256
+
+typedef struct op_npy_header {
+    int itemsize;         /* 4 or 8 (float32 or float64) */
+    int big_endian;
+    int ndim;             /* <= 8 */
+    long long shape[8];   /* each >= 0 */
+    uint64_t data_offset; /* where the array's bytes start */
+} op_npy_header;
+
+/* Parses the header at the start of buf, which holds the file's first n bytes (all of them, or
+ * at least OP_NPY_MAX_HEADER): magic, version (1 to 3), and the dict's descr (float32 or
+ * float64, any byte order), fortran_order (must be False) and shape. OP_ERR_FORMAT for a file
+ * that is no .npy or a malformed header, OP_ERR_INPUT for a valid header opaline does not take;
+ * messages start with path. */
+op_status op_npy_parse_header(const unsigned char *buf, size_t n, const char *path,
+                              op_npy_header *h, op_error *err);
+/* Writes into buf (OP_NPY_HEADER_SIZE bytes) the format 1.0 header of a little-endian float32
+ * array in C order of shape[0..ndim) (1 <= ndim <= 8, extents >= 0), padded as NumPy pads it
+ * (spaces, then a newline, the data starting at a multiple of 64 bytes); returns its length. */
+size_t op_npy_write_header(unsigned char *buf, int ndim, const long long *shape);
 
 /* ---------------------------------------------------------------- threads */
 

@@ -1,7 +1,8 @@
 /*
  * opaline_image.h - image files: linear-light float images, written as PNG, OpenEXR, PFM,
- * Radiance HDR or a text matrix (MATLAB, Mathematica), and read from those and JPEG, TIFF, BMP, PNM and TGA;
- * view transforms (OpenColorIO's) for display-referred output. Errors and conventions: opaline.h.
+ * Radiance HDR, a text matrix (MATLAB, Mathematica) or a NumPy array, and read from those and
+ * JPEG, TIFF, BMP, PNM and TGA; view transforms (OpenColorIO's) for display-referred output.
+ * Errors and conventions: opaline.h.
  */
 #ifndef OPALINE_IMAGE_H
 #define OPALINE_IMAGE_H
@@ -62,6 +63,10 @@ op_status op_image_write_matrix(const char *path, const op_image *img, op_matrix
                                 int digits, const char *variable, op_error *err);
 /* Whether name is a variable name op_image_write_matrix accepts. */
 int op_matrix_variable_valid(const char *name);
+/* The image as a NumPy .npy array (format 1.0, little-endian float32, C order) of shape
+ * (height, width) for one channel, (height, width, channels) for more, rows from the top: the
+ * layout of Mitsuba 0.6's mfilm with fileFormat numpy. */
+op_status op_image_write_npy(const char *path, const op_image *img, op_error *err);
 /* Reads an image file into linear floats: OpenEXR, PNG (8 or 16 bits), JPEG, TIFF, Radiance
  * HDR, BMP, PNM or PFM, chosen by content, or TGA (which has no signature) by the name's
  * extension .tga. PNG (libpng), OpenEXR (its C API) and PFM are read here, the others through

@@ -230,7 +230,7 @@ void op_renderer_get_stats(const op_renderer *r, op_render_stats *st);
 const op_image *op_renderer_image(const op_renderer *r);
 
 /* The image format path is written in: its extension (".exr", ".png", ".pfm", ".hdr",
- * ".m" (mfilm's text matrix), case-insensitive), or the film's own for a name without one (/dev/stdout, a FIFO); NULL for
+ * ".m" (mfilm's text matrix), ".npy" (a NumPy array), case-insensitive), or the film's own for a name without one (/dev/stdout, a FIFO); NULL for
  * another extension. */
 const char *op_scene_image_format(const op_scene *scene, const char *path);
 

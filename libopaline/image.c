@@ -890,6 +890,34 @@ op_status op_image_write_matrix(const char *path, const op_image *img, op_matrix
     return op_output_commit(out, err);
 }
 
+op_status op_image_write_npy(const char *path, const op_image *img, op_error *err)
+{
+    op_status st = check_image(path, img, err);
+    if (st != OP_OK)
+        return st;
+    op_output *out;
+    if ((st = op_output_open(path, &out, err)) != OP_OK)
+        return st;
+    long long shape[3] = {img->height, img->width, img->channels};
+    unsigned char header[OP_NPY_HEADER_SIZE];
+    op_output_write(out, header, op_npy_write_header(header, img->channels == 1 ? 2 : 3, shape));
+    size_t n = (size_t)img->width * (size_t)img->channels;
+    float *row = malloc(n * sizeof(float));
+    if (!row) {
+        op_output_abort(out);
+        return op_error_set(err, OP_ERR_NOMEM, "%s: out of memory", path);
+    }
+    int swap = !host_little_endian();
+    for (int y = 0; y < img->height; y++) {
+        memcpy(row, img->pixels + (size_t)y * n, n * sizeof(float));
+        for (size_t i = 0; swap && i < n; i++)
+            swap4(&row[i]);
+        op_output_write(out, row, n * sizeof(float));
+    }
+    free(row);
+    return op_output_commit(out, err);
+}
+
 /* Parses one whitespace-delimited token of a PFM header from buf[*pos..n). */
 static int pfm_token(const unsigned char *buf, size_t n, size_t *pos, char *tok, size_t cap)
 {

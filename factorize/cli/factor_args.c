@@ -4,9 +4,6 @@
 #include "opaline.h"
 #include "opaline_material.h"
 
-#include <errno.h>
-#include <math.h>
-#include <stdlib.h>
 #include <string.h>
 
 /* The arguments before any option is read: every method-specific option "not given" (-1). */
@@ -84,20 +81,6 @@ void op_factor_usage(FILE *f)
             names, terms);
 }
 
-
-static op_status parse_number(const char *opt, const char *val, double lo, double hi,
-                              double *out, op_error *err)
-{
-    char *end;
-    errno = 0;
-    double v = val ? strtod(val, &end) : 0;
-    if (!val || errno || end == val || *end || !(v >= lo && v <= hi))
-        return op_error_set(err, OP_ERR_INPUT, "%s needs a number in [%g, %g], got '%s'", opt, lo,
-                            hi, val ? val : "(nothing)");
-    *out = v;
-    return OP_OK;
-}
-
 op_status op_factor_parse_args(int argc, char **argv, factor_args *a, op_error *err)
 {
     args_blank(a);
@@ -129,15 +112,13 @@ op_status op_factor_parse_args(int argc, char **argv, factor_args *a, op_error *
             k++;
         if (k < sizeof num / sizeof num[0]) {
             double d = 0;
-            op_status st = parse_number(o, val, num[k].lo, num[k].hi, &d, err);
+            op_status st = op_parse_number(o, val, num[k].lo, num[k].hi,
+                                           num[k].ival ? OP_NUMBER_WHOLE : 0, &d, err);
             if (st != OP_OK)
                 return st;
             i++;
             if (num[k].dval)
                 *num[k].dval = d;
-            else if (d != floor(d))
-                return op_error_set(err, OP_ERR_INPUT, "%s needs a whole number, got '%s'", o,
-                                    val);
             else
                 *num[k].ival = (int)d;
             continue;

@@ -6,7 +6,6 @@
  * negative values (measurement noise) are clamped to 0 with a warning. */
 #include "commands.h"
 #include "dataset.h"
-#include "npy.h"
 #include "sidecar.h"
 
 #include <math.h>

@@ -60,29 +60,17 @@ static void usage(FILE *f)
             "  -q / -v        quieter / more verbose\n");
 }
 
-static int parse_int(const char *s, int lo, int hi, int *out)
+/* Reads option opt's value v, a whole number in [lo, hi], into *out; 0 when it is not one
+ * (said). */
+static int take_whole(const char *opt, const char *v, int lo, int hi, int *out)
 {
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi)
+    double x;
+    op_error err = {0};
+    if (op_parse_number(opt, v, lo, hi, OP_NUMBER_WHOLE, &x, &err) != OP_OK) {
+        op_log(OP_LOG_ERROR, "%s", err.message);
         return 0;
-    *out = (int)v;
-    return 1;
-}
-
-/* Parses "X,Y,W,H" (non-negative integers; the film checks they fit). */
-static int parse_crop(const char *s, int v[4])
-{
-    for (int i = 0; i < 4; i++) {
-        char *end;
-        errno = 0;
-        long x = strtol(s, &end, 10);
-        if (errno || end == s || x < 0 || x > 65536 || *end != (i < 3 ? ',' : '\0'))
-            return 0;
-        v[i] = (int)x;
-        s = end + 1;
     }
+    *out = (int)x;
     return 1;
 }
 
@@ -139,20 +127,14 @@ static int take(op_cli_options *o, const char *a, const char *v, int *check, int
         }
         o->outputs[o->noutputs++] = v;
     } else if (strcmp(a, "-t") == 0) {
-        if (!parse_int(v, 1, 1024, &o->threads)) {
-            op_log(OP_LOG_ERROR, "-t %s: need a thread count in 1..1024", v);
+        if (!take_whole(a, v, 1, 1024, &o->threads))
             return 0;
-        }
     } else if (strcmp(a, "-s") == 0) {
-        if (!parse_int(v, 1, 1 << 24, &o->spp)) {
-            op_log(OP_LOG_ERROR, "-s %s: need a sample count in 1..16777216", v);
+        if (!take_whole(a, v, 1, 1 << 24, &o->spp))
             return 0;
-        }
     } else if (strcmp(a, "--tile-size") == 0) {
-        if (!parse_int(v, 1, 4096, &o->tile_size)) {
-            op_log(OP_LOG_ERROR, "--tile-size %s: need a tile side in 1..4096 pixels", v);
+        if (!take_whole(a, v, 1, 4096, &o->tile_size))
             return 0;
-        }
     } else if (strcmp(a, "-D") == 0) {
         const char *eq = strchr(v, '=');
         if (!eq || eq == v || o->ndefines == OP_CLI_MAX_DEFINES) {
@@ -177,12 +159,16 @@ static int take(op_cli_options *o, const char *a, const char *v, int *check, int
             return 0;
         }
     } else if (strcmp(a, "--crop") == 0) {
-        o->has_crop = 1;
-        if (!parse_crop(v, o->crop)) {
-            op_log(OP_LOG_ERROR, "--crop %s: need X,Y,W,H (whole numbers, pixels of the film "
-                   "from its top-left corner)", v);
+        /* X,Y,W,H: the film checks they fit */
+        double xywh[4];
+        op_error err = {0};
+        if (op_parse_numbers(a, v, 4, 0, 65536, OP_NUMBER_WHOLE, xywh, &err) != OP_OK) {
+            op_log(OP_LOG_ERROR, "%s", err.message);
             return 0;
         }
+        o->has_crop = 1;
+        for (int i = 0; i < 4; i++)
+            o->crop[i] = (int)xywh[i];
     } else if (strcmp(a, "--sss-cache") == 0) {
         o->sss_cache = v;
         if (!*v) {

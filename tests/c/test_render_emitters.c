@@ -28,26 +28,6 @@
 #define RES 64
 #define ALBEDO 0.5
 
-/* An orthographic sensor over [-1, 1]^2 at height 3 looking down at a diffuse plane z = 0 lit
- * by `lights`. */
-static const char *plane_scene(const char *lights)
-{
-    char text[4096];
-    int n = snprintf(
-        text, sizeof text,
-        "<scene version=\"0.6.0\"><sensor type=\"orthographic\"><transform name=\"toWorld\">"
-        " <lookat origin=\"0,0,3\" target=\"0,0,0\" up=\"0,1,0\"/></transform>"
-        " <sampler type=\"ldsampler\"/><film type=\"hdrfilm\">"
-        " <integer name=\"width\" value=\"%d\"/><integer name=\"height\" value=\"%d\"/>"
-        " <rfilter type=\"box\"/></film></sensor>"
-        "<shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
-        " <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"%g\"/></bsdf></shape>"
-        "%s</scene>",
-        RES, RES, ALBEDO, lights);
-    assert_true(n > 0 && n < (int)sizeof text);
-    return op_test_write_temp("scene.xml", text);
-}
-
 static double image_mean(const op_image *img)
 {
     double s = 0.0;
@@ -77,7 +57,7 @@ static void check_spot(const char *params, double intensity, double cutoff, doub
              "target=\"0.2,0,0\" up=\"0,1,0\"/></transform><rgb name=\"intensity\" value=\"%g\"/>"
              "%s</emitter>",
              intensity, params);
-    op_image img = op_test_render_image(plane_scene(light), 16, 2, 0);
+    op_image img = op_test_render_image(op_test_plane_scene(RES, ALBEDO, light), 16, 2, 0);
     double power = image_mean(&img) * 4.0 * M_PI / ALBEDO;
     double expect = spot_power(intensity, cutoff, beam);
     /* the beam's centre, over x = 0.2: column 38 (x grows to the right, 1/32 per pixel) */
@@ -111,8 +91,8 @@ static void test_collimated(void **state)
              "<transform name=\"toWorld\"><lookat origin=\"0.1,0,2\" target=\"0.1,0,0\" "
              "up=\"0,1,0\"/></transform></emitter>",
              spot);
-    op_image a = op_test_render_image(plane_scene(spot), 4, 2, 0);
-    op_image b = op_test_render_image(plane_scene(both), 4, 2, 0);
+    op_image a = op_test_render_image(op_test_plane_scene(RES, ALBEDO, spot), 4, 2, 0);
+    op_image b = op_test_render_image(op_test_plane_scene(RES, ALBEDO, both), 4, 2, 0);
     double diff = op_test_image_rmse(&a, &b), mean = image_mean(&a);
     op_image_free(&a);
     op_image_free(&b);
@@ -148,7 +128,7 @@ static void test_sky(void **state)
                       "<float name=\"hour\" value=\"10\"/><float name=\"scale\" value=\"2\"/>"
                       "<transform name=\"toWorld\"><rotate x=\"1\" angle=\"90\"/></transform>"
                       "</emitter>"; /* the sky's +y up turned to the plane's +z */
-    op_image img = op_test_render_image(plane_scene(sky), 16, 2, 0);
+    op_image img = op_test_render_image(op_test_plane_scene(RES, ALBEDO, sky), 16, 2, 0);
     double got[3] = {0, 0, 0};
     for (size_t i = 0; i < (size_t)RES * RES; i++)
         for (int c = 0; c < 3; c++)
@@ -190,7 +170,7 @@ static void test_projector(void **state)
              "<transform name=\"toWorld\"><lookat origin=\"0.2,0,%g\" target=\"0.2,0,0\" "
              "up=\"0,1,0\"/></transform></emitter>",
              irr, scale, z);
-    op_image img = op_test_render_image(plane_scene(light), 16, 2, 0);
+    op_image img = op_test_render_image(op_test_plane_scene(RES, ALBEDO, light), 16, 2, 0);
     double lit = ALBEDO * scale * irr / (z * z); /* rho / pi * pi scale E / z^2 */
     double mean = image_mean(&img), expect = lit * (2.0 * half) * (2.0 * half) / 4.0;
     /* the footprint's centre (0.2, 0) is column 38, row 32 (x to the right, y up) */
@@ -209,7 +189,7 @@ static void expect_refused(const char *lights, const char *words)
 {
     op_scene *scene = NULL;
     op_error err = {0};
-    op_status st = op_scene_load(plane_scene(lights), NULL, 0, &scene, &err);
+    op_status st = op_scene_load(op_test_plane_scene(RES, ALBEDO, lights), NULL, 0, &scene, &err);
     op_scene_free(scene);
     if (st != OP_ERR_INPUT || !strstr(err.message, words))
         fail_msg("expected a refusal naming \"%s\", got %s: %s", words, op_status_name(st),

@@ -259,7 +259,7 @@ static void test_refused(void **state)
         {"<shape type=\"disk\"><bsdf type=\"null\"/><sensor type=\"irradiancemeter\"/></shape>",
          "index-matched"},
         {"<sensor type=\"radiancemeter\"><film type=\"mfilm\"><string name=\"fileFormat\" "
-         "value=\"numpy\"/></film></sensor>",
+         "value=\"csv\"/></film></sensor>",
          "fileFormat"},
         {"<sensor type=\"radiancemeter\"><film type=\"mfilm\"><string name=\"variable\" "
          "value=\"2x\"/></film></sensor>",

@@ -41,26 +41,6 @@ static const char *write_png(int w, int h, const unsigned char *bytes, double *t
     return path;
 }
 
-/* An orthographic sensor over [-1, 1]^2 at height 3 looking down (+x to the right, +y up) at
- * a diffuse plane z = 0 lit by `light`. */
-static const char *plane_scene(const char *light)
-{
-    char text[4096];
-    int n = snprintf(
-        text, sizeof text,
-        "<scene version=\"0.6.0\"><sensor type=\"orthographic\"><transform name=\"toWorld\">"
-        " <lookat origin=\"0,0,3\" target=\"0,0,0\" up=\"0,1,0\"/></transform>"
-        " <sampler type=\"ldsampler\"/><film type=\"hdrfilm\">"
-        " <integer name=\"width\" value=\"%d\"/><integer name=\"height\" value=\"%d\"/>"
-        " <rfilter type=\"box\"/></film></sensor>"
-        "<shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
-        " <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"%g\"/></bsdf></shape>"
-        "%s</scene>",
-        RES, RES, ALBEDO, light);
-    assert_true(n > 0 && n < (int)sizeof text);
-    return op_test_write_temp("scene.xml", text);
-}
-
 /* The centre of pixel (i, j) on the plane. */
 static void pixel_point(int i, int j, double *x, double *y)
 {
@@ -97,7 +77,7 @@ static void test_spot_texture(void **state)
              "<texture type=\"bitmap\" name=\"texture\"><string name=\"filename\" value=\"%s\"/>"
              "<string name=\"filterType\" value=\"nearest\"/></texture></emitter>",
              h, intensity, png);
-    op_image img = op_test_render_image(plane_scene(light), 16, 2, 0);
+    op_image img = op_test_render_image(op_test_plane_scene(RES, ALBEDO, light), 16, 2, 0);
     double worst = 0.0;
     int checked = 0, dark = 0;
     for (int j = 0; j < RES; j++)
@@ -157,7 +137,7 @@ static void test_projector_texture(void **state)
              "value=\"nearest\"/></texture><transform name=\"toWorld\"><lookat "
              "origin=\"%g,0,%g\" target=\"%g,0,0\" up=\"0,1,0\"/></transform></emitter>",
              scale, png, cx, z, cx);
-    op_image img = op_test_render_image(plane_scene(light), 16, 2, 0);
+    op_image img = op_test_render_image(op_test_plane_scene(RES, ALBEDO, light), 16, 2, 0);
     double sum[3] = {0, 0, 0}, worst = 0.0;
     int checked = 0, outside = 0;
     for (int j = 0; j < RES; j++)
@@ -208,7 +188,7 @@ static void test_refusals(void **state)
     (void)state;
     op_scene *scene = NULL;
     op_error err = {0};
-    const char *path = plane_scene(
+    const char *path = op_test_plane_scene(RES, ALBEDO, 
         "<emitter type=\"projector\"><rgb name=\"irradiance\" value=\"1\"/>"
         "<texture type=\"checkerboard\" name=\"irradiance\"/></emitter>");
     op_status st = op_scene_load(path, NULL, 0, &scene, &err);

@@ -85,6 +85,27 @@ const char *op_test_write_temp(const char *suffix, const char *text)
     return path;
 }
 
+const char *op_test_plane_scene(int res, double albedo, const char *lights)
+{
+    static const char form[] =
+        "<scene version=\"0.6.0\"><sensor type=\"orthographic\"><transform name=\"toWorld\">"
+        " <lookat origin=\"0,0,3\" target=\"0,0,0\" up=\"0,1,0\"/></transform>"
+        " <sampler type=\"ldsampler\"/><film type=\"hdrfilm\">"
+        " <integer name=\"width\" value=\"%d\"/><integer name=\"height\" value=\"%d\"/>"
+        " <rfilter type=\"box\"/></film></sensor>"
+        "<shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"10\"/></transform>"
+        " <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"%g\"/></bsdf></shape>"
+        "%s</scene>";
+    size_t cap = sizeof form + strlen(lights) + 64;
+    char *text = malloc(cap);
+    assert_non_null(text);
+    int n = snprintf(text, cap, form, res, res, albedo, lights);
+    assert_true(n > 0 && (size_t)n < cap);
+    const char *path = op_test_write_temp("scene.xml", text);
+    free(text);
+    return path;
+}
+
 op_renderer *op_test_render(const char *path, int spp, int threads, uint64_t seed)
 {
     op_error err = {0};

@@ -29,6 +29,10 @@ int op_test_count_prefix(const char *dir, const char *prefix);
 void op_test_write_text(const char *path, const char *text);
 /* Writes text to a fresh temporary file (op_test_tmp_path(suffix)) and returns its path. */
 const char *op_test_write_temp(const char *suffix, const char *text);
+/* Writes a scene and returns its path (op_test_write_temp): an orthographic sensor over
+ * [-1, 1]^2 at height 3 looking down (+x to the right, +y up; res x res pixels, box filter) at
+ * a diffuse plane z = 0 of reflectance albedo and side 20, lit by the XML lights. */
+const char *op_test_plane_scene(int res, double albedo, const char *lights);
 /* Loads and renders the scene at path, failing the test on any error; spp, threads and seed 0
  * keep the defaults. Tiles are 8 x 8. The caller frees the renderer (the scene is freed). */
 op_renderer *op_test_render(const char *path, int spp, int threads, uint64_t seed);

@@ -22,8 +22,9 @@ cat > "$T/scene.xml" <<XML
   <texture type="checkerboard" id="checks"/>
   <medium type="weird" id="weird"/>
   <medium type="homogeneous" id="fog"/>
-  <phase type="rayleigh"/>
+  <phase type="kkay"/>
   <phase type="hg"/>
+  <phase type="rayleigh"/>
   <shape type="sphere"><float name="radius" value="0.5"/></shape>
 </scene>
 XML
@@ -38,11 +39,12 @@ u=", of a type opaline does not render"
 line bsdf disneybsdf "$u (unknown bsdf type)"
 line texture foo "$u (unknown texture type)"
 line medium weird "$u (unknown medium type)"
-line phase rayleigh "$u (unknown phase type)"
+line phase kkay "$u (unknown phase type)"
 line bsdf roughplastic ""
 line bsdf thindielectric ""
 line texture checkerboard ""
 line medium homogeneous ""
 line phase hg ""
-[ "$(grep -c 'unused object' "$T/err")" -eq 9 ] || fail "not 9 unused objects"
+line phase rayleigh ""
+[ "$(grep -c 'unused object' "$T/err")" -eq 10 ] || fail "not 10 unused objects"
 echo "ok"

@@ -3,7 +3,7 @@
  * dimensions and data that starts inside what was read or right after it. */
 #include "fuzz_support.h"
 
-#include "npy.h"
+#include "opaline.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

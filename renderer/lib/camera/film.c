@@ -284,10 +284,12 @@ op_status op_film_build(op_node *film, op_film *out, op_error *err)
             GET_OR_FAIL(op_node_string(film, "fileFormat", "matlab", &ff, err));
             if (strcasecmp(ff, "mathematica") == 0)
                 out->matrix = OP_MATRIX_MATHEMATICA;
+            else if (strcasecmp(ff, "numpy") == 0)
+                out->extension = ".npy";
             else if (strcasecmp(ff, "matlab") != 0)
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"mfilm\">: fileFormat "
-                                    "\"%s\" is not matlab or mathematica (numpy is not written)",
-                                    film->file, film->line, ff);
+                                    "\"%s\" is not matlab, mathematica or numpy", film->file,
+                                    film->line, ff);
             GET_OR_FAIL(op_node_int(film, "digits", 4, &digits, err));
             if (digits < 1 || digits > 17)
                 return op_error_set(err, OP_ERR_INPUT, "%s:%d: <film type=\"mfilm\">: digits %lld "
@@ -472,7 +474,7 @@ static int has_ext(const char *path, const char *ext)
 
 const char *op_film_image_format(const op_film *film, const char *path)
 {
-    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr", ".m"};
+    static const char *const formats[] = {".exr", ".png", ".pfm", ".hdr", ".m", ".npy"};
     for (size_t i = 0; i < sizeof formats / sizeof formats[0]; i++)
         if (has_ext(path, formats[i]))
             return formats[i];
@@ -488,9 +490,10 @@ op_status op_film_write_image(const op_film *film, const op_image *img, const ch
     const char *ext = op_film_image_format(film, path);
     if (!ext)
         return op_error_set(err, OP_ERR_INPUT, "%s: unknown image format (use .exr, .png, .pfm, "
-                            ".hdr or .m)", path);
+                            ".hdr, .m or .npy)", path);
     int is_exr = !strcmp(ext, ".exr"), is_png = !strcmp(ext, ".png"), is_pfm = !strcmp(ext, ".pfm");
     int is_hdr = !strcmp(ext, ".hdr"), is_matrix = !strcmp(ext, ".m");
+    int is_npy = !strcmp(ext, ".npy");
     int oc = film->pixel_format == OP_PIXFMT_RGBA ? 4 : (film->pixel_format == OP_PIXFMT_RGB ? 3 : 1);
     if ((is_pfm || is_hdr || (is_png && !film->ldr)) && oc == 4)
         oc = 3; /* PFM and RGBE have no alpha; a PNG from an hdrfilm is a preview, opaque */
@@ -555,6 +558,8 @@ op_status op_film_write_image(const op_film *film, const op_image *img, const ch
         st = op_image_write_hdr(path, &out, err);
     else if (is_matrix)
         st = op_image_write_matrix(path, &out, film->matrix, film->digits, film->variable, err);
+    else if (is_npy)
+        st = op_image_write_npy(path, &out, err);
     else
         st = op_image_write_png(path, &out, film->gamma < 0.0 ? (float)exposure : 0.0f, err);
     op_image_free(&out);

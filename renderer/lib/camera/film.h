@@ -43,7 +43,8 @@ typedef struct op_film {
     double exposure;            /* ldrfilm: stops (tonemapMethod gamma) */
     int reinhard;               /* ldrfilm: tonemapMethod reinhard */
     double key, burn;           /* ldrfilm: Reinhard's key (0.18) and burn (0) */
-    int mfilm;                  /* mfilm: a measurement written as a text matrix (".m") */
+    int mfilm;                  /* mfilm: a measurement written as a text matrix (".m") or a
+                                   NumPy array (".npy", fileFormat numpy) */
     op_matrix_format matrix;    /* a ".m" output's format: mfilm's fileFormat (else MATLAB) */
     int digits;                 /* a ".m" output's significant digits (mfilm's digits, 4) */
     char variable[64];          /* a ".m" output's variable (mfilm's variable, "data") */
@@ -74,7 +75,8 @@ float op_film_sample_offset(const op_film *film, float u1, float u2, float *dx, 
 
 /* The film's view transform (pointing into film); view "" when it names none. */
 void op_film_view_transform(const op_film *film, op_view_transform *vt);
-/* The image format of an output path (".exr", ".png", ".pfm", ".hdr" or ".m", a text matrix):
+/* The image format of an output path (".exr", ".png", ".pfm", ".hdr", ".m" a text matrix or
+ * ".npy" a NumPy array):
  * by its extension, else the film's when the file name has no dot; NULL for an unknown
  * extension. */
 const char *op_film_image_format(const op_film *film, const char *path);

@@ -57,22 +57,51 @@ static float local_majorant(const op_pmedium *m, float bound)
     return fminf(m->majorant, fmaxf(m->scale * bound, 0.0f));
 }
 
+/* The bricks of a tracking walk along a segment: those of its tracked span whose majorant is
+ * positive, in order (empty bricks skipped). */
+typedef struct brick_walk {
+    const op_pmedium *m;
+    op_volume_walk walk;
+    int live;
+} brick_walk;
+
+/* Starts the walk along org + t dir, t in [0, tmax). */
+static void brick_walk_start(brick_walk *bw, const op_pmedium *m, op_v3 org, op_v3 dir, float tmax)
+{
+    float t0, t1;
+    bw->m = m;
+    bw->live = tracked_span(m, org, dir, tmax, &t0, &t1);
+    if (bw->live)
+        op_volume_walk_start(&bw->walk, m->extinction, org, dir, t0, t1);
+}
+
+/* The next brick: its piece [*a, *b) of the segment and its majorant *maj > 0; 0 at the end. */
+static int brick_walk_next(brick_walk *bw, float *a, float *b, float *maj)
+{
+    float bound;
+    while (bw->live) {
+        if (!op_volume_walk_next(&bw->walk, a, b, &bound)) {
+            bw->live = 0;
+            break;
+        }
+        *maj = local_majorant(bw->m, bound);
+        if (*maj > 0.0f)
+            return 1;
+    }
+    return 0;
+}
+
 /* Ratio tracking: each tentative collision at the rate of the local majorant (restarting at
  * every brick) multiplies the estimate by the null fraction 1 - sigma_t / majorant of each
  * channel; Russian roulette once it is small. */
 static op_v3 ratio_tracking(const op_pmedium *m, op_v3 org, op_v3 dir, float d, op_rng *rng)
 {
-    float t0, t1, a, b, bound;
+    float a, b, maj;
     op_v3 T = v3s(1.0f);
-    if (!tracked_span(m, org, dir, d, &t0, &t1))
-        return T;
-    op_volume_walk w;
-    op_volume_walk_start(&w, m->extinction, org, dir, t0, t1);
+    brick_walk bw;
+    brick_walk_start(&bw, m, org, dir, d);
     int k = 0;
-    while (op_volume_walk_next(&w, &a, &b, &bound)) {
-        float maj = local_majorant(m, bound);
-        if (!(maj > 0.0f))
-            continue;
+    while (brick_walk_next(&bw, &a, &b, &maj)) {
         float inv = 1.0f / maj, t = a;
         for (;;) {
             if (++k > OP_MAX_COLLISIONS)
@@ -122,18 +151,13 @@ static int homogeneous_sample(const op_pmedium *m, int c, float tmax, float u, f
 static int delta_tracking(const op_pmedium *m, int c, op_v3 org, op_v3 dir, float tmax, float u,
                           op_rng *rng, float *t, op_v3 *f, op_v3 *pdf)
 {
-    float t0, t1, a, b, bound;
+    float a, b, maj;
     *t = tmax;
     *f = *pdf = v3s(1.0f);
-    if (!tracked_span(m, org, dir, tmax, &t0, &t1))
-        return 0;
-    op_volume_walk w;
-    op_volume_walk_start(&w, m->extinction, org, dir, t0, t1);
+    brick_walk bw;
+    brick_walk_start(&bw, m, org, dir, tmax);
     int k = 0;
-    while (op_volume_walk_next(&w, &a, &b, &bound)) {
-        float maj = local_majorant(m, bound);
-        if (!(maj > 0.0f))
-            continue;
+    while (brick_walk_next(&bw, &a, &b, &maj)) {
         float inv = 1.0f / maj, x = a;
         for (;;) {
             if (++k > OP_MAX_COLLISIONS) {

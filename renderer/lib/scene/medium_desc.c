@@ -9,7 +9,7 @@
 #include "opaline.h"
 
 /* The types read_phase and op_medium_read render. */
-static const char *const phase_types[] = {"isotropic", "hg", NULL};
+static const char *const phase_types[] = {"isotropic", "hg", "rayleigh", NULL};
 static const char *const medium_types[] = {"homogeneous", "heterogeneous", NULL};
 
 int op_phase_type_known(const char *type) { return op_name_listed(phase_types, type); }
@@ -29,6 +29,10 @@ static op_status read_phase(op_node *n, op_phase *p, op_error *err)
                             n->line);
     if (strcmp(ph->type, "isotropic") == 0)
         return OP_OK;
+    if (strcmp(ph->type, "rayleigh") == 0) {
+        p->type = OP_PHASE_RAYLEIGH;
+        return OP_OK;
+    }
     char names[64];
     if (strcmp(ph->type, "hg") != 0)
         return op_error_set(err, OP_ERR_INPUT, "%s:%d: <phase type=\"%s\">: unknown phase "

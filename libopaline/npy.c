@@ -1,6 +1,7 @@
-/* npy.c - the .npy header parser (see npy.h). The header is a Python dict literal; only the
- * three keys NumPy always writes are read, by a tolerant scan rather than a Python parser. */
-#include "npy.h"
+/* npy.c - NumPy .npy headers, read and written (opaline.h): the datasets `opaline-factor import`
+ * reads, the arrays mfilm writes. The header is a Python dict literal; only the three keys NumPy
+ * always writes are read, by a tolerant scan rather than a Python parser. */
+#include "opaline.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -107,4 +108,22 @@ op_status op_npy_parse_header(const unsigned char *buf, size_t n, const char *pa
     op_status st = parse_dict(hdr, path, h, err);
     free(hdr);
     return st;
+}
+
+size_t op_npy_write_header(unsigned char *buf, int ndim, const long long *shape)
+{
+    /* the dict, its padding and newline after the 10 bytes of magic, version and length */
+    char *dict = (char *)buf + 10;
+    size_t cap = OP_NPY_HEADER_SIZE - 10, n;
+    n = (size_t)snprintf(dict, cap, "{'descr': '<f4', 'fortran_order': False, 'shape': (");
+    for (int i = 0; i < ndim; i++)
+        n += (size_t)snprintf(dict + n, cap - n, "%s%lld", i ? ", " : "", shape[i]);
+    n += (size_t)snprintf(dict + n, cap - n, "%s), }", ndim == 1 ? "," : "");
+    size_t total = (10 + n + 1 + 63) / 64 * 64;
+    memset(dict + n, ' ', total - 10 - n - 1);
+    buf[total - 1] = '\n';
+    memcpy(buf, "\x93NUMPY\x01\x00", 8);
+    buf[8] = (unsigned char)((total - 10) & 0xff);
+    buf[9] = (unsigned char)((total - 10) >> 8);
+    return total;
 }
