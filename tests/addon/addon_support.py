@@ -274,3 +274,25 @@ def look_down(height):
 def approx_rel(a, b):
     return abs(a - b) / max(abs(b), 1e-12)
 
+
+# ---------------------------------------------------------------------------------------------
+# Reading exported XML.
+
+def floats(s):
+    """The numbers of an XML value ("1, 2 3")."""
+    return [float(x) for x in s.replace(",", " ").split()]
+
+
+def prop(el, tag, name):
+    """el's child <tag name=name>, or None."""
+    for c in el:
+        if c.tag == tag and c.get("name") == name:
+            return c
+    return None
+
+
+def value(el, tag, name):
+    """The value of el's child <tag name=name> (numbers for rgb and float), asserting it exists."""
+    p = prop(el, tag, name)
+    assert p is not None, "no <%s name=%s> in <%s %s>" % (tag, name, el.tag, el.attrib)
+    return floats(p.get("value")) if tag in ("rgb", "float") else p.get("value")

@@ -14,6 +14,7 @@ import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_support as S  # noqa: E402
+from addon_support import value  # noqa: E402
 
 import bpy  # noqa: E402
 
@@ -33,21 +34,7 @@ RADIUS = 1.0
 DIST = 4.0
 
 
-def floats(s):
-    return [float(x) for x in s.replace(",", " ").split()]
 
-
-def prop(el, tag, name):
-    for c in el:
-        if c.tag == tag and c.get("name") == name:
-            return c
-    return None
-
-
-def value(el, tag, name):
-    p = prop(el, tag, name)
-    assert p is not None, "no <%s name=%s> in <%s %s>" % (tag, name, el.tag, el.attrib)
-    return floats(p.get("value")) if tag in ("rgb", "float") else p.get("value")
 
 
 def grey_png(path, w, h, level):

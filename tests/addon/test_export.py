@@ -10,6 +10,7 @@ import xml.etree.ElementTree as ET
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_support as S  # noqa: E402
+from addon_support import floats, prop, value  # noqa: E402
 
 import bpy  # noqa: E402
 from mathutils import Matrix, Vector  # noqa: E402
@@ -21,21 +22,7 @@ from opaline.export import lights as L  # noqa: E402
 from opaline.export import meshes as M  # noqa: E402
 
 
-def floats(s):
-    return [float(x) for x in s.replace(",", " ").split()]
 
-
-def prop(el, tag, name):
-    for c in el:
-        if c.tag == tag and c.get("name") == name:
-            return c
-    return None
-
-
-def value(el, tag, name):
-    p = prop(el, tag, name)
-    assert p is not None, "no <%s name=%s> in <%s>" % (tag, name, el.tag)
-    return floats(p.get("value")) if tag in ("rgb", "float") else p.get("value")
 
 
 def matrix_of(el):

@@ -10,15 +10,10 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_support as S  # noqa: E402
+from addon_support import prop  # noqa: E402
 
 import bpy  # noqa: E402
 
-
-def prop(el, tag, name):
-    for c in el.findall(tag):
-        if c.get("name") == name:
-            return c
-    return None
 
 
 class TestSheen(unittest.TestCase):
