@@ -296,3 +296,17 @@ def value(el, tag, name):
     p = prop(el, tag, name)
     assert p is not None, "no <%s name=%s> in <%s %s>" % (tag, name, el.tag, el.attrib)
     return floats(p.get("value")) if tag in ("rgb", "float") else p.get("value")
+
+
+def mesh_shape_bsdf(root):
+    """(shape, bsdf) of the one mesh (ply) shape of exported scene root: its bsdf, nested or
+    referenced, inside any twosided; bsdf None when it has none."""
+    (s,) = [s for s in root.iter("shape") if s.get("type") == "ply"]
+    ref = s.find("ref")
+    if ref is not None:
+        (b,) = [b for b in root.findall("bsdf") if b.get("id") == ref.get("id")]
+    else:
+        b = s.find("bsdf")
+    if b is not None and b.get("type") == "twosided":
+        b = b.find("bsdf")
+    return s, b

@@ -91,16 +91,7 @@ class Base(unittest.TestCase):
 
     def sphere_el(self):
         """(shape, its bsdf inside any twosided) of the exported sphere."""
-        root = self.export()
-        (s,) = [s for s in root.iter("shape") if s.get("type") == "ply"]
-        ref = s.find("ref")
-        if ref is not None:
-            (b,) = [b for b in root.findall("bsdf") if b.get("id") == ref.get("id")]
-        else:
-            b = s.find("bsdf")
-        if b.get("type") == "twosided":
-            b = b.find("bsdf")
-        return s, b
+        return S.mesh_shape_bsdf(self.export())
 
     def assertNoRoughWarning(self):
         for w in self.res.warnings:

@@ -400,16 +400,7 @@ class TestMaterials(Base):
         self.ob = bpy.context.object
 
     def shape(self):
-        root = self.export()
-        (s,) = [s for s in root.iter("shape") if s.get("type") == "ply"]
-        ref = s.find("ref")
-        if ref is not None:
-            (b,) = [b for b in root.findall("bsdf") if b.get("id") == ref.get("id")]
-        else:
-            b = s.find("bsdf")
-        if b is not None and b.get("type") == "twosided":
-            b = b.find("bsdf")
-        return s, b
+        return S.mesh_shape_bsdf(self.export())
 
     def set_mat(self, mat):
         self.ob.data.materials.clear()

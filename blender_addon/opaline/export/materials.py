@@ -56,23 +56,27 @@ def _input(node, names, warn, label):
     return None
 
 
+def _linked_texture(b, param, sock, warn, label, textures):
+    """Adds to element b, as `param`, the Image Texture linked to socket sock when textures (a
+    TextureWriter) is given and one is; True when it did. A linked socket it does not export is
+    warned (the caller writes its default value)."""
+    if sock.is_linked and textures is not None:
+        tex = textures_mod.texture_for(sock, param, textures, warn, label)
+        if tex is not None:
+            b.add(tex)
+            return True
+    elif sock.is_linked:
+        warn("%s: input '%s' is linked; its texture is not exported, the default value is "
+             "used" % (label, sock.name))
+    return False
+
+
 def _reflectance(b, param, node, names, warn, label, textures):
     """Adds reflectance `param` to bsdf element b: the Image Texture linked to the first
     existing input of `names` when textures (a TextureWriter) is given, else its colour."""
-    for n in names:
-        s = node.inputs.get(n)
-        if s is None:
-            continue
-        if s.is_linked and textures is not None:
-            tex = textures_mod.texture_for(s, param, textures, warn, label)
-            if tex is not None:
-                b.add(tex)
-                return
-        elif s.is_linked:
-            warn("%s: input '%s' is linked; its texture is not exported, the default value is "
-                 "used" % (label, n))
+    s = next((node.inputs.get(n) for n in names if node.inputs.get(n) is not None), None)
+    if s is not None and not _linked_texture(b, param, s, warn, label, textures):
         b.rgb(param, _rgb(s.default_value))
-        return
 
 
 def _surface_node(mat):
@@ -165,15 +169,8 @@ def _weight(b, param, node, name, warn, label, textures):
     """Adds the value of input `name` as float `param` of b, or the Image Texture linked to it
     (read as stored: a grey map in Non-Color) when textures (a TextureWriter) is given."""
     s = node.inputs.get(name)
-    if s.is_linked and textures is not None:
-        tex = textures_mod.texture_for(s, param, textures, warn, label)
-        if tex is not None:
-            b.add(tex)
-            return
-    elif s.is_linked:
-        warn("%s: input '%s' is linked; its texture is not exported, the default value is "
-             "used" % (label, name))
-    b.float(param, min(max(float(s.default_value), 0.0), 1.0))
+    if not _linked_texture(b, param, s, warn, label, textures):
+        b.float(param, min(max(float(s.default_value), 0.0), 1.0))
 
 
 def _warn_normal(node, warn, label):
